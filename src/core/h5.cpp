@@ -1,0 +1,210 @@
+#include "core/h5.hpp"
+
+#include <stdexcept>
+
+namespace grainbath {
+
+namespace {
+struct SilenceHdf5 {
+  SilenceHdf5() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+};
+const SilenceHdf5 silence_hdf5;
+
+struct Handle {  // closes any HDF5 id on scope exit
+  hid_t id;
+  herr_t (*closer)(hid_t);
+  ~Handle() {
+    if (id >= 0) closer(id);
+  }
+};
+}  // namespace
+
+H5File::H5File(const std::string& path, Mode mode) : path_(path) {
+  if (mode == Mode::create)
+    file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  else
+    file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file_ < 0)
+    throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : "open") + " HDF5 file");
+}
+
+H5File::~H5File() {
+  if (file_ >= 0) H5Fclose(file_);
+}
+
+void H5File::fail(const std::string& what) const { throw std::runtime_error(path_ + ": " + what); }
+
+void H5File::flush() {
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush failed (disk full?)");
+}
+
+bool H5File::exists(const std::string& name) const {
+  // Walk the path so a missing intermediate group is not an error.
+  std::string sofar;
+  std::size_t pos = 0;
+  while (pos < name.size()) {
+    std::size_t next = name.find('/', pos + 1);
+    sofar = name.substr(0, next == std::string::npos ? name.size() : next);
+    if (!sofar.empty() && sofar != "/" && H5Lexists(file_, sofar.c_str(), H5P_DEFAULT) <= 0) return false;
+    if (next == std::string::npos) break;
+    pos = next;
+  }
+  return true;
+}
+
+hid_t H5File::ensure_group(const std::string& name) {
+  if (name.empty() || name == "/") return H5Gopen2(file_, "/", H5P_DEFAULT);
+  ensure_parents(name);
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) return H5Oopen(file_, name.c_str(), H5P_DEFAULT);
+  hid_t g = H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) fail("cannot create group " + name);
+  return g;
+}
+
+void H5File::ensure_parents(const std::string& name) {
+  std::size_t pos = name.find('/', 1);
+  while (pos != std::string::npos) {
+    const std::string parent = name.substr(0, pos);
+    if (!parent.empty() && parent != "/" && H5Lexists(file_, parent.c_str(), H5P_DEFAULT) <= 0) {
+      hid_t g = H5Gcreate2(file_, parent.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      if (g < 0) fail("cannot create group " + parent);
+      H5Gclose(g);
+    }
+    pos = name.find('/', pos + 1);
+  }
+}
+
+template <class T>
+static void write_array(H5File& f, hid_t file, const std::string& name, const std::vector<T>& data,
+                        std::vector<hsize_t> dims, hid_t type) {
+  if (dims.empty()) dims = {static_cast<hsize_t>(data.size())};
+  Handle space{H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose};
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file, name.c_str(), H5P_DEFAULT);
+  Handle ds{H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create dataset " + name);
+  if (!data.empty() && H5Dwrite(ds.id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0)
+    throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+}
+
+void H5File::write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims) {
+  ensure_parents(name);
+  write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_DOUBLE);
+}
+void H5File::write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims) {
+  ensure_parents(name);
+  write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_UINT64);
+}
+void H5File::write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims) {
+  ensure_parents(name);
+  write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_INT64);
+}
+
+void H5File::write_scalar(const std::string& name, double value) {
+  ensure_parents(name);
+  write_array(*this, file_, name, std::vector<double>{value}, {1}, H5T_NATIVE_DOUBLE);
+}
+void H5File::write_scalar(const std::string& name, std::uint64_t value) {
+  ensure_parents(name);
+  write_array(*this, file_, name, std::vector<std::uint64_t>{value}, {1}, H5T_NATIVE_UINT64);
+}
+
+static hid_t string_type(std::size_t len) {
+  hid_t t = H5Tcopy(H5T_C_S1);
+  H5Tset_size(t, len == 0 ? 1 : len);
+  H5Tset_strpad(t, H5T_STR_NULLPAD);
+  return t;
+}
+
+void H5File::write_string(const std::string& name, const std::string& value) {
+  ensure_parents(name);
+  Handle type{string_type(value.size()), H5Tclose};
+  Handle space{H5Screate(H5S_SCALAR), H5Sclose};
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file_, name.c_str(), H5P_DEFAULT);
+  Handle ds{H5Dcreate2(file_, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) fail("cannot create dataset " + name);
+  const std::string buf = value.empty() ? std::string(1, '\0') : value;
+  if (H5Dwrite(ds.id, type.id, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail("cannot write " + name);
+}
+
+void H5File::attribute(const std::string& object, const std::string& name, const std::string& value) {
+  Handle obj{ensure_group(object), H5Oclose};
+  Handle type{string_type(value.size()), H5Tclose};
+  Handle space{H5Screate(H5S_SCALAR), H5Sclose};
+  if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
+  Handle a{H5Acreate2(obj.id, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+  if (a.id < 0) fail("cannot create attribute " + object + "@" + name);
+  const std::string buf = value.empty() ? std::string(1, '\0') : value;
+  if (H5Awrite(a.id, type.id, buf.data()) < 0) fail("cannot write attribute " + name);
+}
+
+void H5File::attribute(const std::string& object, const std::string& name, double value) {
+  Handle obj{ensure_group(object), H5Oclose};
+  Handle space{H5Screate(H5S_SCALAR), H5Sclose};
+  if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
+  Handle a{H5Acreate2(obj.id, name.c_str(), H5T_NATIVE_DOUBLE, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+  if (a.id < 0 || H5Awrite(a.id, H5T_NATIVE_DOUBLE, &value) < 0) fail("cannot write attribute " + name);
+}
+
+template <class T>
+static std::vector<T> read_array(const H5File& f, hid_t file, const std::string& name, hid_t type,
+                                 std::vector<hsize_t>* dims_out) {
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error(f.path() + ": missing dataset " + name);
+  Handle ds{H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot open dataset " + name);
+  Handle space{H5Dget_space(ds.id), H5Sclose};
+  const int rank = H5Sget_simple_extent_ndims(space.id);
+  std::vector<hsize_t> dims(rank > 0 ? rank : 0);
+  if (rank > 0) H5Sget_simple_extent_dims(space.id, dims.data(), nullptr);
+  hsize_t count = 1;
+  for (auto d : dims) count *= d;
+  std::vector<T> out(count);
+  if (count && H5Dread(ds.id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0)
+    throw std::runtime_error(f.path() + ": cannot read dataset " + name + " (wrong type or corrupt file)");
+  if (dims_out) *dims_out = dims;
+  return out;
+}
+
+std::vector<double> H5File::read_doubles(const std::string& name, std::vector<hsize_t>* dims) const {
+  return read_array<double>(*this, file_, name, H5T_NATIVE_DOUBLE, dims);
+}
+std::vector<std::uint64_t> H5File::read_u64(const std::string& name) const {
+  return read_array<std::uint64_t>(*this, file_, name, H5T_NATIVE_UINT64, nullptr);
+}
+std::vector<std::int64_t> H5File::read_i64(const std::string& name) const {
+  return read_array<std::int64_t>(*this, file_, name, H5T_NATIVE_INT64, nullptr);
+}
+double H5File::read_scalar(const std::string& name) const {
+  auto v = read_doubles(name);
+  if (v.size() != 1) fail(name + ": expected a scalar");
+  return v[0];
+}
+std::uint64_t H5File::read_scalar_u64(const std::string& name) const {
+  auto v = read_u64(name);
+  if (v.size() != 1) fail(name + ": expected a scalar");
+  return v[0];
+}
+
+std::string H5File::read_string(const std::string& name) const {
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) <= 0) fail("missing dataset " + name);
+  Handle ds{H5Dopen2(file_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle type{H5Dget_type(ds.id), H5Tclose};
+  const std::size_t size = H5Tget_size(type.id);
+  std::string buf(size, '\0');
+  if (H5Dread(ds.id, type.id, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail("cannot read " + name);
+  buf.resize(buf.find('\0') == std::string::npos ? buf.size() : buf.find('\0'));
+  return buf;
+}
+
+std::string H5File::read_attribute(const std::string& object, const std::string& name) const {
+  Handle obj{H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose};
+  if (obj.id < 0 || H5Aexists(obj.id, name.c_str()) <= 0) fail("missing attribute " + object + "@" + name);
+  Handle a{H5Aopen(obj.id, name.c_str(), H5P_DEFAULT), H5Aclose};
+  Handle type{H5Aget_type(a.id), H5Tclose};
+  const std::size_t size = H5Tget_size(type.id);
+  std::string buf(size, '\0');
+  if (H5Aread(a.id, type.id, buf.data()) < 0) fail("cannot read attribute " + name);
+  buf.resize(buf.find('\0') == std::string::npos ? buf.size() : buf.find('\0'));
+  return buf;
+}
+
+}  // namespace grainbath

@@ -1,0 +1,54 @@
+#pragma once
+// Minimal HDF5 (C API) writer/reader used for results.h5, checkpoints and background grids.
+// Errors throw std::runtime_error naming the file and the object; HDF5's own error stack
+// printing is switched off so a user sees one clear line.
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace grainbath {
+
+class H5File {
+ public:
+  enum class Mode { create, read };
+  H5File(const std::string& path, Mode mode);
+  ~H5File();
+  H5File(const H5File&) = delete;
+  H5File& operator=(const H5File&) = delete;
+
+  // Datasets; intermediate groups are created. dims empty: 1D of data.size().
+  void write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims = {});
+  void write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
+  void write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims = {});
+  void write_string(const std::string& name, const std::string& value);
+  void write_scalar(const std::string& name, double value);
+  void write_scalar(const std::string& name, std::uint64_t value);
+
+  // Attributes on an existing object ("/" for the file root); the object is created as a
+  // group if missing.
+  void attribute(const std::string& object, const std::string& name, const std::string& value);
+  void attribute(const std::string& object, const std::string& name, double value);
+
+  bool exists(const std::string& name) const;
+  std::vector<double> read_doubles(const std::string& name, std::vector<hsize_t>* dims = nullptr) const;
+  std::vector<std::uint64_t> read_u64(const std::string& name) const;
+  std::vector<std::int64_t> read_i64(const std::string& name) const;
+  std::string read_string(const std::string& name) const;
+  double read_scalar(const std::string& name) const;
+  std::uint64_t read_scalar_u64(const std::string& name) const;
+  std::string read_attribute(const std::string& object, const std::string& name) const;
+
+  void flush();
+  const std::string& path() const { return path_; }
+
+ private:
+  hid_t ensure_group(const std::string& name);
+  void ensure_parents(const std::string& name);
+  [[noreturn]] void fail(const std::string& what) const;
+  hid_t file_ = -1;
+  std::string path_;
+};
+
+}  // namespace grainbath

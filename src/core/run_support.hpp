@@ -1,0 +1,61 @@
+#pragma once
+// What every driver needs around its loop: a safe output directory, a progress line,
+// block-averaged statistics, wall-clock timing.
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace grainbath {
+
+// Results are written into a temporary sibling directory and moved into place only when
+// the run succeeded, so an existing output directory is never clobbered half-way. The
+// previous output, if any, is kept as OUT.previous.
+class OutputDirectory {
+ public:
+  explicit OutputDirectory(std::filesystem::path final_path);  // throws std::runtime_error
+  ~OutputDirectory();
+  OutputDirectory(const OutputDirectory&) = delete;
+  OutputDirectory& operator=(const OutputDirectory&) = delete;
+  const std::filesystem::path& tmp() const { return tmp_; }
+  const std::filesystem::path& final_path() const { return final_; }
+  void commit();
+
+ private:
+  std::filesystem::path final_, tmp_;
+  bool committed_ = false;
+};
+
+// Writes text to `path` via a temporary file and rename (atomic on POSIX).
+void write_file_atomic(const std::filesystem::path& path, const std::string& text);
+
+// A progress line with ETA: redrawn in place on a terminal, one line per 10% otherwise.
+class Progress {
+ public:
+  Progress(std::string label, double total, bool quiet = false);
+  void update(double done, const std::string& extra = "");
+  void finish();
+
+ private:
+  std::string label_;
+  double total_;
+  bool quiet_, tty_;
+  int last_decile_ = -1;
+  std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+struct MeanError {
+  double mean = 0.0;
+  double stderr_ = 0.0;  // standard error of the mean, corrected for correlations
+  std::size_t samples = 0;
+};
+
+// Flyvbjerg-Petersen blocking: the standard error is taken as the largest estimate over
+// blocking levels that keep at least 16 blocks (conservative for correlated series).
+MeanError block_average(const std::vector<double>& series);
+
+double wall_seconds_since(std::chrono::steady_clock::time_point start);
+std::string utc_timestamp();
+
+}  // namespace grainbath
