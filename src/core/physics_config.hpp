@@ -1,0 +1,37 @@
+#pragma once
+// Case sections shared by every solver: [restitution] and the uniform part of [background].
+// Units (scaled, Bisi-Spiga): lengths in grain-grain mean free paths (DSMC) or grain
+// diameters (EDMD), grain mass m, temperatures in energy units (k_B = 1).
+#include <string>
+#include <vector>
+
+#include "core/case_file.hpp"
+#include "operators/restitution.hpp"
+
+namespace grainbath {
+
+// Every restitution law a case may name, with its keys (for list-models and errors).
+struct ModelDescription {
+  std::string kind;   // "restitution", "heating", "boundary", "background profile", ...
+  std::string name;
+  std::string summary;
+  std::vector<std::string> keys;  // "key (default, unit): meaning"
+};
+const std::vector<ModelDescription>& restitution_models();
+
+// [restitution] law = "elastic" | "constant" | "power" | "bizon"; only the chosen law's keys
+// are valid (a key of another law is reported as unknown).
+RestitutionLaw read_restitution(CaseReader& reader);
+
+struct BackgroundParameters {
+  double mass_ratio = 0.5;   // alpha = mB / (m + mB), in (0, 1)
+  double density = 0.0;      // nB; 0 = no medium (free cooling)
+  double temperature = 1.0;  // TB, energy units
+  Vec3 velocity;             // uB
+  double knudsen = 1.0;      // eps = background mean free path / grain-grain one
+  bool present() const { return density > 0.0; }
+};
+// Reads mass_ratio, density, temperature, velocity, knudsen from [background].
+BackgroundParameters read_background(CaseReader& reader);
+
+}  // namespace grainbath
