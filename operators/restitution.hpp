@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string_view>
+#include <type_traits>
 #include <variant>
 
 namespace grainbath {
@@ -69,7 +70,7 @@ inline RestitutionOutcome restitution(const Law& law, double normal_speed) {
 }
 
 inline std::string_view restitution_name(const RestitutionLaw& law) {
-  return std::visit([](const auto& l) { return decltype(l)::name; }, law);
+  return std::visit([](const auto& l) { return std::decay_t<decltype(l)>::name; }, law);
 }
 
 }  // namespace grainbath
