@@ -1,0 +1,144 @@
+// The background operator against independent evaluations of its own collision integral:
+//  - the collision rate nu(v) = K Integral |v - w| M_B(w) d3w by GSL quadrature of the
+//    angle-averaged |v - w| (closed form) over the Maxwellian radial density;
+//  - the momentum and energy exchange rates by plain Monte Carlo over Maxwellian partners
+//    with the apse averages E[(g.n) n] = g/2, E[(g.n)^2] = |g|^2/2 (apse density
+//    |g.n|/(2 pi |g|)), independent of the code's thinning and apse sampling;
+//  - detailed balance: many collisions relax a grain population to a Maxwellian at TB.
+#include <gsl/gsl_integration.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "operators/background.hpp"
+#include "operators/random.hpp"
+
+using namespace grainbath;
+
+namespace {
+
+double rate_by_quadrature(double c, double sigma, double K) {
+  struct P {
+    double c, sigma;
+  } p{c, sigma};
+  gsl_function F;
+  F.function = [](double w, void* vp) {
+    const P& q = *static_cast<P*>(vp);
+    const double m = std::pow(2 * std::numbers::pi * q.sigma * q.sigma, -1.5) * std::exp(-w * w / (2 * q.sigma * q.sigma));
+    double avg;  // angle average of |c - w|
+    if (w < 1e-12) avg = q.c;
+    else if (q.c < 1e-12) avg = w;
+    else avg = (std::pow(q.c + w, 3) - std::pow(std::abs(q.c - w), 3)) / (6 * q.c * w);
+    return 4 * std::numbers::pi * w * w * m * avg;
+  };
+  F.params = &p;
+  gsl_integration_workspace* ws = gsl_integration_workspace_alloc(1000);
+  double result, err;
+  gsl_integration_qagiu(&F, 0.0, 1e-13, 1e-12, 1000, ws, &result, &err);
+  gsl_integration_workspace_free(ws);
+  return K * result;
+}
+
+struct Case {
+  double alpha, TB, nB, eps, m;
+  Vec3 uB, v;
+};
+
+}  // namespace
+
+class BackgroundIntegral : public ::testing::TestWithParam<Case> {};
+
+TEST_P(BackgroundIntegral, RateMomentumAndEnergyExchange) {
+  const Case k = GetParam();
+  const BackgroundState b = BackgroundState::make(k.nB, k.eps, k.uB, k.TB, k.alpha, k.m);
+  const double K = k.nB / k.eps;
+  const int trials = 2'000'000;
+
+  // operator: repeated thinning attempts from the same grain velocity
+  CounterRng rng(99, Stream::background_first_half, 0, 0);
+  const double majorant = background_majorant_rate(k.v, b);
+  double acc = 0, dvx = 0, dvy = 0, dvz = 0, de = 0, de2 = 0, dvx2 = 0;
+  for (int t = 0; t < trials; ++t) {
+    Vec3 v = k.v;
+    double gain = 0;
+    if (attempt_background_collision(v, b, k.m, rng, gain)) {
+      acc += 1;
+      const Vec3 d = v - k.v;
+      dvx += d.x;
+      dvy += d.y;
+      dvz += d.z;
+      dvx2 += d.x * d.x;
+      de += gain;
+      de2 += gain * gain;
+    }
+  }
+  const double f = acc / trials;
+  const double rate_op = majorant * f, rate_err = majorant * std::sqrt(f * (1 - f) / trials);
+  const double rate_ref = rate_by_quadrature(norm(k.v - k.uB), b.sigma, K);
+  EXPECT_NEAR(rate_op, rate_ref, 5 * rate_err) << "rate";
+
+  // reference: plain Monte Carlo over Maxwellian partners with exact apse averages
+  CounterRng ref(7, Stream::initial_velocities, 0, 0);
+  const int ref_trials = 2'000'000;
+  double mx = 0, mx2 = 0, my = 0, mz = 0, en = 0, en2 = 0;
+  for (int t = 0; t < ref_trials; ++t) {
+    const Vec3 w = k.uB + b.sigma * ref.normal3();
+    const Vec3 g = k.v - w;
+    const double gm = norm(g);
+    const Vec3 dv = (-k.alpha * K * gm) * g;  // K |g| (-2 alpha) E[(g.n) n]
+    const double e = K * gm * 0.5 * k.m * (-2 * k.alpha * dot(k.v, g) + 2 * k.alpha * k.alpha * gm * gm);
+    mx += dv.x;
+    mx2 += dv.x * dv.x;
+    my += dv.y;
+    mz += dv.z;
+    en += e;
+    en2 += e * e;
+  }
+  const double mom_ref = mx / ref_trials, mom_ref_err = std::sqrt((mx2 / ref_trials - mom_ref * mom_ref) / ref_trials);
+  const double mom_op = majorant * dvx / trials,
+               mom_op_err = majorant * std::sqrt((dvx2 / trials - (dvx / trials) * (dvx / trials)) / trials);
+  EXPECT_NEAR(mom_op, mom_ref, 5 * std::hypot(mom_op_err, mom_ref_err)) << "momentum exchange (x)";
+  const double en_ref = en / ref_trials, en_ref_err = std::sqrt((en2 / ref_trials - en_ref * en_ref) / ref_trials);
+  const double en_op = majorant * de / trials,
+               en_op_err = majorant * std::sqrt((de2 / trials - (de / trials) * (de / trials)) / trials);
+  EXPECT_NEAR(en_op, en_ref, 5 * std::hypot(en_op_err, en_ref_err)) << "energy exchange";
+  (void)my;
+  (void)mz;
+  (void)dvy;
+  (void)dvz;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, BackgroundIntegral,
+    ::testing::Values(Case{0.5, 1.0, 1.0, 1.0, 1.0, {0, 0, 0}, {1.0, 0.0, 0.0}},
+                      Case{0.2, 1.0, 2.0, 0.1, 1.0, {0.3, 0, 0}, {2.5, -1.0, 0.5}},
+                      Case{0.8, 2.0, 1.0, 0.5, 2.0, {0, 0, 1}, {-0.5, 0.2, 3.0}},
+                      Case{0.5, 0.5, 1.0, 1.0, 1.0, {0, 0, 0}, {0.0, 0.0, 0.0}}));
+
+// Detailed balance: the linear elastic operator's equilibrium is a Maxwellian at (uB, TB)
+// with the grain mass (Bisi-Spiga eq. 15), whatever the initial velocities.
+TEST(BackgroundEvolution, RelaxesToBackgroundMaxwellian) {
+  const double alpha = 0.3, TB = 1.7, m = 1.0;
+  const Vec3 uB{0.5, 0, -0.2};
+  const BackgroundState b = BackgroundState::make(1.0, 1.0, uB, TB, alpha, m);
+  const int grains = 200'000;
+  double sx = 0, s2 = 0, s4 = 0;
+  BackgroundCounters counters;
+  for (int i = 0; i < grains; ++i) {
+    CounterRng rng(1, Stream::background_first_half, i, 0);
+    Vec3 v{3.0, 0.0, 0.0};  // far from equilibrium
+    evolve_in_background(v, b, m, 30.0, rng, counters);
+    const Vec3 c = v - uB;
+    sx += c.x;
+    s2 += norm2(c);
+    s4 += norm2(c) * norm2(c);
+  }
+  const double th = TB / m;
+  EXPECT_NEAR(sx / grains, 0.0, 5 * std::sqrt(th / grains));
+  EXPECT_NEAR(m * s2 / grains / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / grains));
+  // <c^4> = 15 th^2 for a Maxwellian; relative std of c^4 is sqrt(945/225 - 1)
+  EXPECT_NEAR(s4 / grains / (15 * th * th), 1.0, 5 * std::sqrt(945.0 / 225 - 1) / std::sqrt(grains));
+  EXPECT_GT(counters.collisions, 20u * grains);
+  EXPECT_LE(counters.collisions, counters.candidates);
+}
