@@ -1,0 +1,14 @@
+#pragma once
+// Internal helpers shared by the closure sources (not part of the public API).
+#include <functional>
+#include <string>
+
+#include "closures/closures.hpp"
+
+namespace grainbath::closures {
+// GSL Brent on [lo, hi]; throws ClosureError(what + ...) without a sign change.
+double brent_root(const std::function<double(double)>& f, double lo, double hi, double rel_tol,
+                  const std::string& what);
+// T# of the maxwellian or grad closure (Bisi-Spiga eq. 27, docs eq. G11).
+double equilibrium_temperature_gaussian(Closure, const Parameters&);
+}  // namespace grainbath::closures
