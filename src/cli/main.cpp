@@ -1,2 +1,65 @@
-// placeholder replaced below
-int main() { return 0; }
+// grainbath command-line interface: run / check / theory / list-models / report.
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "cli/commands.hpp"
+
+namespace {
+const char* kUnits = R"(Units (scaled, Bisi & Spiga):
+  DSMC:  lengths in grain-grain mean free paths (both collision cross-sections = 1),
+         grain mass m ([grains] mass, default 1), temperatures in energy units (k_B = 1),
+         velocities in sqrt(energy/mass), time in length/velocity.
+         Background mass mB = alpha m / (1 - alpha), alpha = [background] mass_ratio;
+         background collision rate (nB/eps)|v-w|, eps = [background] knudsen.
+  EDMD:  lengths in grain diameters (sigma = 1), m = 1, temperatures in energy units.
+See docs/CASE_FILE.md for every key, its default and its unit.)";
+}
+
+int main(int argc, char** argv) {
+  CLI::App app{"grainbath: kinetic theory and simulation of granular gases in a background medium"};
+  app.footer(kUnits);
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("grainbath ") + GRAINBATH_VERSION);
+
+  grainbath::cli::RunArgs run_args;
+  auto* run = app.add_subcommand("run", "Run the case in CASE_DIR/case.toml; write OUT/results.h5 and OUT/summary.json");
+  run->add_option("case_dir", run_args.case_dir, "Case directory holding case.toml")->required();
+  run->add_option("--set", run_args.overrides, "Override a case key: section.key=value (repeatable)");
+  run->add_option("--out", run_args.out_dir, "Output directory (default CASE_DIR/output)");
+  run->add_flag("--quiet,-q", run_args.quiet, "No progress line");
+  run->add_flag("--resume", run_args.resume, "Continue from the newest valid checkpoint");
+  run->footer(kUnits);
+
+  grainbath::cli::RunArgs check_args;
+  auto* check = app.add_subcommand("check", "Validate CASE_DIR/case.toml without running it");
+  check->add_option("case_dir", check_args.case_dir, "Case directory holding case.toml")->required();
+  check->add_option("--set", check_args.overrides, "Override a case key: section.key=value (repeatable)");
+
+  grainbath::cli::RunArgs theory_args;
+  auto* theory = app.add_subcommand("theory", "Print the theory (closures, expansions, hydrodynamic limit) for a case as JSON");
+  theory->add_option("case_dir", theory_args.case_dir, "Case directory holding case.toml")->required();
+  theory->add_option("--set", theory_args.overrides, "Override a case key: section.key=value (repeatable)");
+
+  auto* list = app.add_subcommand("list-models", "List every restitution law, heat bath, boundary and background profile with its keys");
+
+  std::string report_dir;
+  auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
+  report->add_option("dir", report_dir, "Case directory or output directory")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  if (*run) return grainbath::cli::command_run(run_args);
+  if (*check) return grainbath::cli::command_check(check_args);
+  if (*theory) return grainbath::cli::command_theory(theory_args);
+  if (*list) return grainbath::cli::command_list_models();
+  if (*report) return grainbath::cli::command_report(report_dir, argv[0]);
+  return 1;
+}

@@ -1,0 +1,184 @@
+#include "cli/commands.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <variant>
+
+#include "core/case_file.hpp"
+#include "core/physics_config.hpp"
+#include "core/run_support.hpp"
+#include "core/summary.hpp"
+#include "dsmc/dsmc.hpp"
+
+namespace grainbath::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop.store(true); }
+
+using SolverConfig = std::variant<dsmc::Config>;
+
+struct LoadedCase {
+  CaseReader reader;
+  std::string solver;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  SolverConfig config;
+};
+
+// Reads [run], dispatches to the solver's own reader, then rejects unknown keys.
+LoadedCase load_case(const RunArgs& a) {
+  CaseReader reader = CaseReader::from_directory(a.case_dir);
+  for (const auto& o : a.overrides) reader.apply_override(o);
+  const std::string solver = reader.choice("run", "solver", "dsmc", {"dsmc"});
+  const auto seed = static_cast<std::uint64_t>(reader.integer("run", "seed", 1, 0, INT64_MAX));
+  const int threads = static_cast<int>(reader.integer("run", "threads", 0, 0, 4096));
+  SolverConfig config = dsmc::read_config(reader);
+  reader.finish();
+  return LoadedCase{std::move(reader), solver, seed, threads, std::move(config)};
+}
+
+int report_case_error(const CaseError& e) {
+  for (const auto& p : e.problems()) std::fprintf(stderr, "error: %s\n", p.to_string().c_str());
+  std::fprintf(stderr, "%zu problem(s); nothing was run. `grainbath list-models` lists the valid names.\n",
+               e.problems().size());
+  return 2;
+}
+
+void print_table(const Summary& s) {
+  auto row = [&](const char* label, const std::string& mean, const std::string& err) {
+    const double m = s.number(mean);
+    if (std::isnan(m)) return;
+    const double e = err.empty() ? NAN : s.number(err);
+    if (std::isnan(e))
+      std::printf("  %-34s %14.8g\n", label, m);
+    else
+      std::printf("  %-34s %14.8g +- %.3g\n", label, m, e);
+  };
+  std::printf("\n  %-34s %14s\n", "quantity", "value");
+  row("temperature (steady window)", "temperature.mean", "temperature.stderr");
+  row("temperature (final)", "temperature.final", "");
+  row("a2 (steady window)", "a2.mean", "a2.stderr");
+  row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
+  row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "");
+  row("theory: T# Grad", "theory.equilibrium.grad.T", "");
+  row("theory: T# Sonine", "theory.equilibrium.sonine.T", "");
+  row("theory: a2 Sonine", "theory.equilibrium.sonine.a2", "");
+  row("theory: Haff T(t_end)", "theory.haff.temperature_at_t_end", "");
+  row("theory: a2 van Noije-Ernst", "theory.haff.a2_van_noije_ernst", "");
+  row("energy budget residual (rel.)", "energy.budget_relative_residual", "");
+  row("wall time [s]", "performance.wall_seconds", "");
+  row("collisions per second", "performance.collisions_per_second", "");
+  std::printf("\n");
+}
+
+}  // namespace
+
+int command_check(const RunArgs& a) {
+  try {
+    LoadedCase lc = load_case(a);
+    std::printf("%s: OK (solver %s, seed %llu)\n", lc.reader.file().c_str(), lc.solver.c_str(),
+                static_cast<unsigned long long>(lc.seed));
+    return 0;
+  } catch (const CaseError& e) {
+    return report_case_error(e);
+  }
+}
+
+int command_theory(const RunArgs& a) {
+  try {
+    LoadedCase lc = load_case(a);
+    Summary s;
+    std::visit([&](const auto& cfg) { s.set_all("", dsmc::theory_values(cfg)); }, lc.config);
+    std::fputs(s.to_json().c_str(), stdout);
+    return 0;
+  } catch (const CaseError& e) {
+    return report_case_error(e);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
+
+int command_run(const RunArgs& a) {
+  std::optional<LoadedCase> lc;
+  try {
+    lc.emplace(load_case(a));
+  } catch (const CaseError& e) {
+    return report_case_error(e);
+  }
+  const fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "output" : fs::path(a.out_dir);
+  std::unique_ptr<OutputDirectory> dir;
+  try {
+    dir = std::make_unique<OutputDirectory>(out);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  RunContext ctx;
+  ctx.out_dir = dir->tmp();
+  ctx.case_dir = a.case_dir;
+  ctx.seed = lc->seed;
+  ctx.threads = lc->threads;
+  ctx.quiet = a.quiet;
+  ctx.case_text = lc->reader.source_text();
+  ctx.resolved = lc->reader.resolved();
+  ctx.stop_requested = &g_stop;
+  Summary summary;
+  try {
+    std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu) -> %s\n", GRAINBATH_VERSION,
+                 lc->reader.file().c_str(), lc->solver.c_str(), static_cast<unsigned long long>(lc->seed),
+                 out.string().c_str());
+    std::visit([&](const auto& cfg) { dsmc::run(cfg, ctx, summary); }, lc->config);
+    summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
+    summary.set("run.version", std::string(GRAINBATH_VERSION));
+    write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
+    dir->commit();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
+                 e.what(), out.string().c_str());
+    return g_stop.load() ? 130 : 1;
+  }
+  print_table(summary);
+  std::printf("results: %s/results.h5, %s/summary.json\n", out.string().c_str(), out.string().c_str());
+  return 0;
+}
+
+int command_list_models() {
+  std::printf("Restitution laws ([restitution] law = ...):\n");
+  for (const auto& m : restitution_models()) {
+    std::printf("  %-10s %s\n", m.name.c_str(), m.summary.c_str());
+    for (const auto& k : m.keys) std::printf("             - %s\n", k.c_str());
+  }
+  std::printf("\nSolvers ([run] solver = ...):\n  dsmc       direct simulation Monte Carlo (homogeneous)\n");
+  return 0;
+}
+
+int command_report(const std::string& dir, const char* argv0) {
+  fs::path exe = fs::canonical("/proc/self/exe").parent_path();
+  fs::path script;
+  for (fs::path cand : {exe / "../python/report.py", exe / "../../python/report.py", fs::path("python/report.py")})
+    if (fs::exists(cand)) {
+      script = cand;
+      break;
+    }
+  if (script.empty()) {
+    std::fprintf(stderr, "error: python/report.py not found next to %s\n", argv0);
+    return 1;
+  }
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string cmd = python + " '" + script.string() + "' '" + dir + "'";
+  return std::system(cmd.c_str()) == 0 ? 0 : 1;
+}
+
+}  // namespace grainbath::cli

@@ -1,0 +1,22 @@
+#pragma once
+#include <string>
+#include <vector>
+
+namespace grainbath::cli {
+
+struct RunArgs {
+  std::string case_dir;
+  std::vector<std::string> overrides;
+  std::string out_dir;
+  bool quiet = false;
+  bool resume = false;
+};
+
+// Exit codes: 0 success, 1 run failure, 2 bad input (case file, overrides, paths).
+int command_run(const RunArgs&);
+int command_check(const RunArgs&);
+int command_theory(const RunArgs&);
+int command_list_models();
+int command_report(const std::string& dir, const char* argv0);
+
+}  // namespace grainbath::cli

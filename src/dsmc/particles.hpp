@@ -1,0 +1,37 @@
+#pragma once
+// DSMC particle storage: structure of arrays, one entry per simulated grain, with a stable
+// global id that keys its random-number stream (operators/random.hpp). Positions are
+// present only for spatial runs. Kept in cell order by the spatial driver.
+#include <cstdint>
+#include <vector>
+
+#include "operators/vec3.hpp"
+
+namespace grainbath::dsmc {
+
+struct Particles {
+  std::vector<double> vx, vy, vz;
+  std::vector<double> x, y, z;  // empty for homogeneous runs
+  std::vector<std::uint64_t> id;
+
+  std::size_t size() const { return id.size(); }
+  Vec3 velocity(std::size_t i) const { return {vx[i], vy[i], vz[i]}; }
+  void set_velocity(std::size_t i, const Vec3& v) {
+    vx[i] = v.x;
+    vy[i] = v.y;
+    vz[i] = v.z;
+  }
+  void resize(std::size_t n, bool with_positions) {
+    vx.resize(n);
+    vy.resize(n);
+    vz.resize(n);
+    id.resize(n);
+    if (with_positions) {
+      x.resize(n);
+      y.resize(n);
+      z.resize(n);
+    }
+  }
+};
+
+}  // namespace grainbath::dsmc

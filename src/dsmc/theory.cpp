@@ -1,0 +1,106 @@
+#include "dsmc/theory.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <variant>
+
+namespace grainbath::dsmc {
+
+std::optional<std::pair<double, double>> power_law_equivalent(const RestitutionLaw& law) {
+  if (std::holds_alternative<ElasticRestitution>(law)) return std::pair{0.0, 0.0};
+  if (auto c = std::get_if<ConstantRestitution>(&law)) return std::pair{0.5 * (1.0 - c->e), 0.0};
+  if (auto p = std::get_if<PowerLawRestitution>(&law)) return std::pair{p->beta, p->delta};
+  return std::nullopt;
+}
+
+std::optional<closures::Parameters> closure_parameters(const Config& c) {
+  const auto pl = power_law_equivalent(c.restitution);
+  if (!c.background.present() || !pl) return std::nullopt;
+  closures::Parameters p;
+  p.alpha = c.background.mass_ratio;
+  p.mass = c.grains.mass;
+  p.nB = c.background.density;
+  p.TB = c.background.temperature;
+  p.uB = {c.background.velocity.x, c.background.velocity.y, c.background.velocity.z};
+  p.eps = c.background.knudsen;
+  p.n = c.grains.density;
+  p.beta = pl->first;
+  p.delta = pl->second;
+  return p;
+}
+
+double vne_a2(double e, int d) {
+  return 16.0 * (1.0 - e) * (1.0 - 2.0 * e * e) / (9.0 + 24.0 * d - e * (41.0 - 8.0 * d) + 30.0 * (1.0 - e) * e * e);
+}
+
+double haff_zeta0(double e, double density, double mass) {
+  return 4.0 * density * (1.0 - e * e) / (3.0 * std::sqrt(std::numbers::pi * mass));
+}
+
+double haff_temperature(double t, double T0, double e, double density, double mass, bool with_a2) {
+  const double zeta = haff_zeta0(e, density, mass) * (with_a2 ? 1.0 + 3.0 * vne_a2(e) / 16.0 : 1.0);
+  const double x = 1.0 + 0.5 * zeta * std::sqrt(T0) * t;  // dT/dt = -zeta T^{3/2}
+  return T0 / (x * x);
+}
+
+static std::optional<double> constant_e(const RestitutionLaw& law) {
+  if (std::holds_alternative<ElasticRestitution>(law)) return 1.0;
+  if (auto c = std::get_if<ConstantRestitution>(&law)) return c->e;
+  if (auto p = std::get_if<PowerLawRestitution>(&law); p && p->delta == 0.0) return 1.0 - 2.0 * p->beta;
+  return std::nullopt;
+}
+
+std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
+  std::vector<std::pair<std::string, double>> out;
+  if (auto p = closure_parameters(c)) {
+    try {
+      out = closures::theory_values(*p);
+    } catch (const closures::ClosureError& e) {
+      std::fprintf(stderr, "note: no closure theory for these parameters: %s\n", e.what());
+    }
+  } else if (!c.background.present()) {
+    if (auto e = constant_e(c.restitution)) {
+      out.emplace_back("haff.zeta0", haff_zeta0(*e, c.grains.density, c.grains.mass));
+      out.emplace_back("haff.a2_van_noije_ernst", vne_a2(*e));
+      out.emplace_back("haff.temperature_at_t_end",
+                       haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass));
+    }
+  }
+  return out;
+}
+
+std::vector<std::pair<std::string, std::vector<double>>> relaxation_series(const Config& c,
+                                                                           const std::vector<double>& times) {
+  std::vector<std::pair<std::string, std::vector<double>>> out;
+  if (auto p = closure_parameters(c)) {
+    const closures::RelaxationState init{{c.grains.drift.x, c.grains.drift.y, c.grains.drift.z},
+                                         c.grains.temperature, 0.0};
+    for (auto which : {closures::Closure::maxwellian, closures::Closure::grad, closures::Closure::sonine}) {
+      try {
+        const auto states = closures::relax(which, *p, init, times);
+        std::vector<double> T, u, a2;
+        for (const auto& s : states) {
+          T.push_back(s.T);
+          u.insert(u.end(), s.u.begin(), s.u.end());
+          a2.push_back(s.a2);
+        }
+        const std::string name = closures::to_string(which);
+        out.emplace_back(name + "/temperature", T);
+        out.emplace_back(name + "/velocity", u);
+        if (which == closures::Closure::sonine) out.emplace_back(name + "/a2", a2);
+      } catch (const closures::ClosureError& e) {
+        std::fprintf(stderr, "note: %s closure relaxation unavailable: %s\n", closures::to_string(which), e.what());
+      }
+    }
+  } else if (!c.background.present()) {
+    if (auto e = constant_e(c.restitution)) {
+      std::vector<double> T;
+      for (double t : times) T.push_back(haff_temperature(t, c.grains.temperature, *e, c.grains.density, c.grains.mass));
+      out.emplace_back("haff/temperature", T);
+    }
+  }
+  return out;
+}
+
+}  // namespace grainbath::dsmc
