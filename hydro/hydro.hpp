@@ -3,6 +3,7 @@
 // (n, u, T) moment systems. Derivations: docs/hydro.md; validation: docs/validation/hydro.md.
 #pragma once
 
+#include "hydro/closure1d.hpp"
 #include "hydro/drift_diffusion.hpp"
 #include "hydro/grid.hpp"
 #include "hydro/transport.hpp"

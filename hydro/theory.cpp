@@ -28,6 +28,18 @@ std::vector<std::pair<std::string, double>> hydro_theory_values(const HydroTheor
     out.emplace_back("hydro.k", k);
     out.emplace_back("hydro.decay_rate", drift_diffusion_decay_rate(paper, p.nB, p.TB, k));
     out.emplace_back("hydro.decay_rate_kinetic", drift_diffusion_decay_rate(kinetic, p.nB, p.TB, k));
+    // Finite-eps density-mode rates of the closed (n, u, T) systems (docs/hydro.md eq. H24).
+    ModeParams mp;
+    mp.alpha = p.alpha;
+    mp.mass = p.mass;
+    mp.nB = p.nB;
+    mp.TB = p.TB;
+    mp.eps = p.eps;
+    mp.n = p.n;
+    mp.beta = p.beta;
+    mp.delta = p.delta;
+    out.emplace_back("hydro.decay_rate_maxwellian_closure", mode_decay_rate(ModeModel::maxwellian_closure, mp, k));
+    out.emplace_back("hydro.decay_rate_grad_closure", mode_decay_rate(ModeModel::grad_closure, mp, k));
   }
   return out;
 }
