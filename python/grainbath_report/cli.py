@@ -1,0 +1,92 @@
+"""Command line: locate the output, run every applicable section, write report.md / report.html."""
+import argparse
+import datetime
+import os
+import sys
+import traceback
+
+
+def _fail(msg, code=2):
+    print(f"grainbath report: error: {msg}", file=sys.stderr)
+    return code
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(prog="grainbath report",
+                                 description="Plots and report.md/report.html from a grainbath run's output.")
+    ap.add_argument("dir", help="case directory (uses DIR/output) or output directory with results.h5 + summary.json")
+    ap.add_argument("--out", help="report directory (default: OUTPUT_DIR/report)")
+    ap.add_argument("--strict", action="store_true",
+                    help="fail when any section fails (default: note the failure in the report and go on); "
+                         "also enabled by GRAINBATH_REPORT_STRICT=1")
+    args = ap.parse_args(argv)
+    strict = args.strict or os.environ.get("GRAINBATH_REPORT_STRICT", "") not in ("", "0")
+
+    try:
+        import numpy  # noqa: F401
+        import matplotlib  # noqa: F401
+        import h5py  # noqa: F401
+    except ImportError as e:
+        return _fail(f"{sys.executable} lacks {e.name}; install python3-matplotlib and python3-h5py "
+                     f"(Debian/Ubuntu: apt-get install python3-matplotlib python3-h5py)", 3)
+
+    from .data import ReportError, RunData, locate_output
+    from .document import write_html, write_markdown
+    from .plotting import Context
+    from .sections import SECTIONS
+
+    try:
+        out_dir = locate_output(args.dir)
+        run = RunData(out_dir)
+    except ReportError as e:
+        return _fail(str(e))
+
+    report_dir = os.path.abspath(args.out) if args.out else os.path.join(out_dir, "report")
+    try:
+        os.makedirs(report_dir, exist_ok=True)
+        for f in os.listdir(report_dir):  # stale plots of an earlier report
+            if f.endswith(".png"):
+                os.remove(os.path.join(report_dir, f))
+    except OSError as e:
+        return _fail(f"{report_dir}: cannot create the report directory ({e})")
+
+    ctx = Context(report_dir)
+    sections, failures = [], []
+    for fn in SECTIONS:
+        try:
+            s = fn(run, ctx)
+        except Exception as e:  # one broken section must not cost the whole report
+            if strict:
+                traceback.print_exc()
+                return _fail(f"section {fn.__module__}.{fn.__name__} failed: {e}", 1)
+            failures.append(f"{fn.__module__.split('.')[-1]}.{fn.__name__}: {type(e).__name__}: {e}")
+            print(f"grainbath report: warning: section {fn.__name__} failed ({type(e).__name__}: {e}); "
+                  f"left out", file=sys.stderr)
+            continue
+        if s is not None:
+            sections.append(s)
+    if failures:
+        from .document import Section
+        s = Section("Sections that failed", "failures")
+        s.text("These sections raised an error and are missing from the report (please report it):\n\n" +
+               "\n".join(f"- `{f}`" for f in failures))
+        sections.insert(1, s)
+
+    case_name = os.path.basename(os.path.dirname(out_dir)) if os.path.basename(out_dir) == "output" \
+        else os.path.basename(out_dir)
+    title = f"grainbath report: {case_name} ({run.solver})"
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    intro = (f"Output directory `{out_dir}`; report made {now} from `results.h5` and `summary.json`. "
+             f"In every plot the simulation is black (line or points) and each theory has its own colour and "
+             f"line style. The data layout is documented in docs/OUTPUT.md.")
+    md = os.path.join(report_dir, "report.md")
+    htm = os.path.join(report_dir, "report.html")
+    try:
+        write_markdown(md, title, intro, sections)
+        write_html(htm, title, intro, sections)
+    except OSError as e:
+        return _fail(f"{report_dir}: cannot write the report ({e})")
+    finally:
+        run.close()
+    print(f"report: {htm}  ({len(ctx.saved)} plots, {len(sections)} sections; also report.md)")
+    return 1 if (failures and strict) else 0

@@ -1,0 +1,108 @@
+"""Sections every solver shares: overview / key numbers, and the appendix (all summary values,
+the case file, the layout of results.h5)."""
+import numpy as np
+
+from .document import Section, fmt, fmt_pm
+
+UNITS = {
+    "dsmc": ("Units (scaled, Bisi-Spiga): lengths in grain-grain mean free paths λ, grain mass m, "
+             "temperatures in energy units E (k_B = 1), velocities in √(E/m), time in λ/√(E/m)."),
+    "edmd": ("Units: lengths in grain diameters σ, grain mass m = 1, temperatures in energy units E "
+             "(k_B = 1), time in σ√(m/E)."),
+}
+
+
+def deviation(sim, err, theory):
+    """'Δ = …, … σ, … %' of theory relative to the simulation."""
+    if sim is None or theory is None:
+        return "n/a"
+    d = theory - sim
+    parts = [f"{d:+.3g}"]
+    if err:
+        parts.append(f"{d / err:+.1f} σ")
+    if sim != 0:
+        parts.append(f"{100 * d / abs(sim):+.3g} %")
+    return ", ".join(parts)
+
+
+def overview(run, ctx):
+    s = Section("Run and key numbers", "overview")
+    p = run.params
+    rows = [["solver", "`run.solver`", run.solver],
+            ["grainbath version", "`run.version`", run.get("run.version", run.root_attr("grainbath_version"))],
+            ["seed", "`run.seed`", fmt(run.get("run.seed", run.root_attr("seed")))]]
+    for key, label in [("dsmc.particles", "particles"), ("dsmc.dt", "time step Δt"),
+                       ("dsmc.t_end", "end time"), ("sampling.steady_from", "averaging from t ="),
+                       ("grains.density", "grain density n"), ("grains.temperature", "initial T"),
+                       ("grains.drift", "initial drift u(0)"), ("background.density", "background density n_B"),
+                       ("background.temperature", "background temperature T_B"),
+                       ("background.mass_ratio", "mass ratio α = m_B/(m+m_B)"),
+                       ("background.knudsen", "Knudsen number ε"), ("restitution.law", "restitution law"),
+                       ("restitution.e", "restitution e"), ("restitution.beta", "restitution β"),
+                       ("restitution.delta", "restitution δ"),
+                       ("edmd.dims", "dimensions"), ("edmd.particles", "particles"),
+                       ("edmd.packing_fraction", "packing fraction ν")]:
+        if key in p:
+            v = p[key]
+            rows.append([label, f"`{key}`", fmt(v) if not isinstance(v, list) else str(v)])
+    s.text(UNITS.get(run.solver, ""))
+    s.table(["parameter", "key", "value"], rows, caption="Resolved case parameters (from /parameters in results.h5).")
+
+    key_rows = []
+
+    def row(label, key, err_key=None):
+        v = run.num(key)
+        if v is None:
+            return
+        e = run.num(err_key) if err_key else None
+        key_rows.append([label, f"`{key}`", fmt(v), fmt(e) if e is not None else ""])
+
+    row("steady temperature T (window mean)", "temperature.mean", "temperature.stderr")
+    row("final temperature", "temperature.final")
+    row("Sonine coefficient a₂ (window mean)", "a2.mean", "a2.stderr")
+    row("final a₂", "a2.final")
+    row("final |u − u_B|", "velocity.final")
+    row("compressibility factor Z", "pressure.Z", "pressure.Z_stderr")
+    row("g(σ) from Z", "pressure.g_contact")
+    row("g(σ) from fit of g(r)", "g_r.contact_fit")
+    row("a₂ (EDMD)", "velocity.a2")
+    row("T#, local-Maxwellian closure", "theory.equilibrium.maxwellian.T")
+    row("T#, Grad closure", "theory.equilibrium.grad.T")
+    row("T#, Sonine closure", "theory.equilibrium.sonine.T")
+    row("a₂, Sonine closure", "theory.equilibrium.sonine.a2")
+    row("T#, ε-expansion to first order", "theory.expansion.first_order.T")
+    row("T#, ε-expansion 2nd order (Maxwellian)", "theory.expansion.second_order_maxwellian.T")
+    row("T#, ε-expansion 2nd order (Grad)", "theory.expansion.second_order_grad.T")
+    row("momentum relaxation rate (theory)", "theory.rates.momentum")
+    row("Haff T(t_end) (theory)", "theory.haff.temperature_at_t_end")
+    row("a₂ van Noije-Ernst (theory)", "theory.haff.a2_van_noije_ernst")
+    row("Z, equation of state (theory)", "theory.Z")
+    row("g(σ), equation of state (theory)", "theory.g_contact")
+    row("energy budget residual (relative)", "energy.budget_relative_residual")
+    row("wall time [s]", "performance.wall_seconds")
+    row("collisions per second", "performance.collisions_per_second")
+    if key_rows:
+        s.table(["quantity", "summary.json key", "value", "± std. error"], key_rows,
+                caption="Key numbers from summary.json (std. error from block averaging over the window).")
+    return s
+
+
+def appendix(run, ctx):
+    s = Section("Appendix: every summary.json value, the case file, the HDF5 contents", "appendix")
+    s.table(["summary.json key", "value"], [[f"`{k}`", fmt(v)] for k, v in run.flat_summary()])
+    case = run.text("/case/case.toml")
+    if case:
+        s.code(case, "case.toml as run (from /case/case.toml)")
+    lines = []
+
+    def visit(name, obj):
+        shape = getattr(obj, "shape", None)
+        lines.append(f"/{name}" + (f"  {shape}" if shape is not None else "/"))
+
+    run.h5.visititems(visit)
+    s.code("\n".join(lines), f"results.h5 datasets ({run.out_dir}/results.h5; layout in docs/OUTPUT.md)")
+    return s
+
+
+def window_mask(t, t0):
+    return np.asarray(t) >= t0

@@ -1,0 +1,494 @@
+"""Sections for the homogeneous DSMC solver (solver = "dsmc", /timeseries, /histogram, /theory)."""
+import math
+
+import numpy as np
+
+from .common import deviation
+from .document import Section, fmt, fmt_pm
+from .plotting import SIM, SIM_POINTS, plt, subplots, theory_style
+
+CLOSURES = ("maxwellian", "grad", "sonine")
+T_UNIT = "E"
+TIME_LABEL = "time t  [λ/√(E/m)]"
+
+
+def _is_dsmc(run):
+    return run.solver == "dsmc" and run.has("timeseries/t", "timeseries/temperature")
+
+
+def _particles(run):
+    n = run.param("dsmc.particles")
+    return int(n) if isinstance(n, (int, float)) else None
+
+
+def _shade_window(ax, run, t):
+    t0 = run.param("sampling.steady_from")
+    if isinstance(t0, (int, float)) and t0 < t[-1]:
+        ax.axvspan(t0, t[-1], color="0.85", alpha=0.5, lw=0, label="averaging window")
+
+
+def _running(x, k):
+    """Centred running mean over k samples ('valid' part only)."""
+    return np.convolve(x, np.ones(k) / k, mode="valid")
+
+
+def _transient_end(t, y, frac=0.02):
+    """End of the initial transient of a theory curve, when it is short compared with the run
+    (None otherwise): the first time after which |y - y_end| stays below frac * |y0 - y_end|."""
+    change = abs(y[0] - y[-1])
+    if len(t) < 10 or change == 0:
+        return None
+    outside = np.nonzero(np.abs(y - y[-1]) > frac * change)[0]
+    t_rel = t[outside[-1] + 1] if len(outside) and outside[-1] + 1 < len(t) else t[-1]
+    if t_rel > 0.2 * t[-1]:
+        return None
+    return min(t[-1], max(2.0 * t_rel, t[min(len(t) - 1, 8)]))
+
+
+def _free_cooling(run):
+    return run.has("theory/haff/temperature")
+
+
+# ---------------------------------------------------------------------------------------
+def temperature(run, ctx):
+    """T(t) beside the closures' relaxation ODEs (or Haff's law for free cooling)."""
+    if not _is_dsmc(run):
+        return None
+    t = run.arr("timeseries/t")
+    T = run.arr("timeseries/temperature")
+    N = _particles(run)
+    s = Section("Temperature T(t): simulation and theory", "temperature")
+    if _free_cooling(run):
+        return _temperature_haff(run, ctx, s, t, T, N)
+    have = [c for c in CLOSURES if run.has(f"theory/{c}/temperature")]
+    th = {c: run.arr(f"theory/{c}/temperature") for c in have}
+    ref = "sonine" if "sonine" in have else (have[0] if have else None)
+    zoom = _transient_end(t, th[ref]) if ref else None
+    fig = plt.figure(figsize=(10.0, 6.4))
+    gs = fig.add_gridspec(2, 2 if zoom else 1, height_ratios=[2.0, 1.2])
+    axes = [fig.add_subplot(gs[0, 0])] + ([fig.add_subplot(gs[0, 1])] if zoom else [])
+    for k, ax in enumerate(axes):
+        if k == 0:
+            _shade_window(ax, run, t)
+        sel = slice(None) if k == 0 else t <= zoom
+        ax.plot(t[sel], T[sel], **dict(SIM, marker="o" if k else None, ms=3, label="DSMC"))
+        for c in have:
+            ax.plot(t[sel], th[c][sel], **theory_style(c))
+        ax.set_xlabel(TIME_LABEL)
+        ax.set_ylabel(f"temperature T  [{T_UNIT}]")
+        ax.set_title("Whole run" if zoom and k == 0 else ("Initial relaxation (zoom)" if k else
+                                                                 "Grain temperature: DSMC vs moment closures"))
+    axes[0].legend(loc="best")
+    axr = fig.add_subplot(gs[1, :])
+    if ref:
+        d = T - th[ref]
+        if N:
+            noise = T * math.sqrt(2.0 / (3.0 * N))
+            axr.fill_between(t, -noise, noise, color="0.85", lw=0, label="±1σ noise of one DSMC sample, T√(2/3N)")
+        axr.plot(t, d, color="0.55", lw=0.8, label=f"DSMC − {ref}")
+        k = len(t) // 40
+        if k >= 4:
+            axr.plot(_running(t, k), _running(d, k), color="black", lw=1.8,
+                     label=f"DSMC − {ref}, running mean of {k} samples")
+        for c in have:
+            if c != ref:
+                axr.plot(t, th[c] - th[ref], **theory_style(c, label=f"{c} − {ref}"))
+        axr.axhline(0, **theory_style(ref, label=f"{ref} (reference)"))
+    axr.set_xlabel(TIME_LABEL)
+    axr.set_ylabel(f"T − T_{ref}  [{T_UNIT}]")
+    axr.set_title(f"Difference from the {ref} closure")
+    axr.legend(loc="upper right", ncol=2, fontsize=7.5)
+    fig_path = ctx.save(fig, "temperature")
+    s.figure(fig_path, "T(t) from DSMC (black) beside the relaxation ODEs of the moment closures, started from "
+                       "the same initial state" + (" (right: the initial relaxation enlarged)" if zoom else "") +
+                       f"; lower panel: everything minus the {ref} closure, with the DSMC sampling noise of a "
+                       "single sample in grey. The grey band in the upper panel is the window averaged for the "
+                       "steady values.")
+    if not have:
+        s.text("No closure relaxation curves in results.h5 (the closures do not apply to these parameters, "
+               "or `sampling.relaxation_theory = false`).")
+    rows = []
+    for c in have:
+        th = run.arr(f"theory/{c}/temperature")
+        d = T - th
+        rows.append([c, fmt(float(np.max(np.abs(d)))), fmt(float(t[np.argmax(np.abs(d))])),
+                     fmt(float(np.sqrt(np.mean(d ** 2))))])
+    if rows:
+        s.table(["closure", "max |T_DSMC − T_closure|", "at t", "rms difference"], rows)
+    return s
+
+
+def _temperature_haff(run, ctx, s, t, T, N):
+    haff = run.arr("theory/haff/temperature")
+    e = run.param("restitution.e")
+    n = run.param("grains.density", 1.0)
+    m = run.param("grains.mass", 1.0)
+    T0 = T[0]
+    a2 = run.num("theory.haff.a2_van_noije_ernst")
+    haff_a2 = None
+    if isinstance(e, (int, float)) and a2 is not None:
+        zeta = 4.0 * n * (1.0 - e * e) / (3.0 * math.sqrt(math.pi * m)) * (1.0 + 3.0 * a2 / 16.0)
+        haff_a2 = T0 / (1.0 + 0.5 * zeta * math.sqrt(T0) * t) ** 2
+    fig, (ax, axr) = subplots(2, 1, figsize=(7.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=[2.2, 1]))
+    ax.plot(t, T, **SIM)
+    ax.plot(t, haff, **theory_style("haff", label="Haff's law (Maxwellian cooling rate)"))
+    if haff_a2 is not None:
+        ax.plot(t, haff_a2, **theory_style("sonine", label="Haff's law × (1 + 3a₂/16), a₂ van Noije-Ernst"))
+    ax.set_yscale("log")
+    ax.set_ylabel(f"temperature T  [{T_UNIT}]  (log scale)")
+    ax.set_title("Free cooling: DSMC vs Haff's law")
+    ax.legend(loc="best")
+    axr.plot(t, T / haff, **SIM)
+    if haff_a2 is not None:
+        axr.plot(t, haff_a2 / haff, **theory_style("sonine", label="with a₂ correction"))
+    axr.axhline(1, **theory_style("haff", lw=1.2))
+    axr.set_xlabel(TIME_LABEL)
+    axr.set_ylabel("T / T_Haff")
+    s.figure(ctx.save(fig, "temperature"),
+             "Free cooling: T(t) from DSMC (black) beside Haff's law T₀/(1 + ζ₀√T₀ t/2)² (dashed) and with "
+             "the Sonine correction of the cooling rate (dotted); lower panel: ratio to Haff's law.")
+    t_end_th = run.num("theory.haff.temperature_at_t_end")
+    rows = [["T(t_end), DSMC", fmt(float(T[-1])), ""],
+            ["T(t_end), Haff (`theory.haff.temperature_at_t_end`)", fmt(t_end_th), deviation(float(T[-1]), None, t_end_th)]]
+    if haff_a2 is not None:
+        rows.append(["T(t_end), Haff with a₂ correction", fmt(float(haff_a2[-1])),
+                     deviation(float(T[-1]), None, float(haff_a2[-1]))])
+    s.table(["quantity", "value", "theory − DSMC"], rows)
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+def velocity(run, ctx):
+    """Mean velocity u(t) beside the closures (momentum relaxation towards u_B)."""
+    if not _is_dsmc(run) or not run.has("timeseries/velocity"):
+        return None
+    t = run.arr("timeseries/t")
+    u = run.arr("timeseries/velocity").reshape(len(t), 3)
+    uB = run.vec3("background.velocity")
+    have = [c for c in CLOSURES if run.has(f"theory/{c}/velocity")]
+    th = {c: run.arr(f"theory/{c}/velocity").reshape(len(t), 3) for c in have}
+    T = run.arr("timeseries/temperature")
+    N = _particles(run)
+    s = Section("Mean velocity u(t): simulation and theory", "velocity")
+    dev = np.linalg.norm(u - uB, axis=1)
+    floor = np.sqrt(3.0 * T / (run.param("grains.mass", 1.0) * N)) if N else np.zeros_like(t)
+    moving = any(np.max(np.abs(th[c] - uB)) > 0 for c in have) or dev[0] > 10 * floor[0]
+    if not moving:
+        s.text(f"The grains start at the background velocity u_B = {list(uB)} and theory keeps them there; "
+               f"DSMC's |u − u_B| stays at the statistical floor √(3T/(mN)) ≈ {fmt(float(np.mean(floor)), 3)} "
+               f"(measured rms {fmt(float(np.sqrt(np.mean(dev ** 2))), 3)}). No plot.")
+        s.table(["quantity", "value  [√(E/m)]"], [["|u − u_B| at t_end, DSMC (`velocity.final`)",
+                                                   fmt(run.num("velocity.final"))]])
+        return s
+    fig, (ax, axl) = subplots(1, 2, figsize=(10.0, 4.2))
+    comp_style = [dict(), dict(alpha=0.6), dict(alpha=0.35)]
+    for d, name in enumerate("xyz"):
+        ax.plot(t, u[:, d], color="black", lw=1.2, ls="-", label=f"DSMC u_{name}", **comp_style[d])
+    for c in have:
+        for d in range(3):
+            if np.max(np.abs(th[c][:, d] - uB[d])) > 0 or d == 0:
+                ax.plot(t, th[c][:, d], **theory_style(c, label=f"{theory_style(c)['label']}, u_{'xyz'[d]}"))
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("mean velocity u_i  [√(E/m)]")
+    ax.set_title("Components")
+    ax.legend(loc="best", fontsize=7)
+    axl.semilogy(t, np.maximum(dev, 1e-300), **SIM)
+    for c in have:
+        axl.semilogy(t, np.maximum(np.linalg.norm(th[c] - uB, axis=1), 1e-300), **theory_style(c))
+    if N:
+        axl.semilogy(t, floor, color="0.5", lw=1, ls="-", label="noise floor √(3T/(mN))")
+    rate = run.num("theory.rates.momentum")
+    if rate and dev[0] > 10 * floor[0]:
+        axl.semilogy(t, dev[0] * np.exp(-rate * t), color="#CC79A7", ls=(0, (1, 1)), lw=1.2,
+                     label=f"|u(0) − u_B| e^(−λt), λ = {rate:.4g}")
+    axl.set_xlabel(TIME_LABEL)
+    axl.set_ylabel("|u − u_B|  [√(E/m)]  (log scale)")
+    axl.set_title("Distance from the background velocity")
+    top = max(float(np.max(dev)), 1e-12)
+    axl.set_ylim(max(top * 1e-6, 1e-12 if not N else float(np.min(floor)) * 0.1), top * 3)
+    axl.legend(loc="best", fontsize=7)
+    s.figure(ctx.save(fig, "velocity"),
+             "Mean grain velocity. Left: components from DSMC (black, x solid dark) beside the closures; "
+             "right: |u − u_B| on a log scale with the closures, the linear momentum relaxation rate "
+             "(`theory.rates.momentum`) and the statistical floor √(3T/(mN)) below which DSMC is noise.")
+    rows = [["|u − u_B| at t_end, DSMC (`velocity.final`)", fmt(run.num("velocity.final"))]]
+    for c in have:
+        rows.append([f"|u − u_B| at t_end, {c}", fmt(float(np.linalg.norm(th[c][-1] - uB)))])
+    if rate:
+        rows.append(["momentum relaxation rate λ (`theory.rates.momentum`)", fmt(rate)])
+    s.table(["quantity", "value  [√(E/m)]"], rows)
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+def sonine_a2(run, ctx):
+    """a2(t) beside the Sonine closure (or van Noije-Ernst for free cooling)."""
+    if not _is_dsmc(run) or not run.has("timeseries/a2"):
+        return None
+    t = run.arr("timeseries/t")
+    a2 = run.arr("timeseries/a2")
+    N = _particles(run)
+    s = Section("Non-Gaussianity: Sonine coefficient a₂(t)", "a2")
+    fig, ax = subplots(figsize=(7.0, 4.2))
+    _shade_window(ax, run, t)
+    ax.plot(t, a2, **SIM)
+    k = len(t) // 40
+    if k >= 4:
+        ax.plot(_running(t, k), _running(a2, k), color="black", lw=2.4, alpha=0.45,
+                label=f"DSMC, running mean of {k} samples")
+    m, e = run.num("a2.mean"), run.num("a2.stderr")
+    t0 = run.param("sampling.steady_from")
+    if m is not None and isinstance(t0, (int, float)):
+        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_pm(m, e, 4)}")
+    if run.has("theory/sonine/a2"):
+        ax.plot(t, run.arr("theory/sonine/a2"), **theory_style("sonine"))
+    vne = run.num("theory.haff.a2_van_noije_ernst")
+    if vne is not None:
+        ax.axhline(vne, **theory_style("haff", label=f"van Noije-Ernst a₂ = {vne:.4g}"))
+    a2eq = run.num("theory.equilibrium.sonine.a2")
+    if a2eq is not None:
+        ax.axhline(a2eq, color="#009E73", lw=0.8, ls="-", alpha=0.7, label=f"Sonine steady a₂ = {a2eq:.4g}")
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("a₂ = 3⟨c⁴⟩/(5⟨c²⟩²) − 1  [dimensionless]")
+    ax.set_title("Second Sonine coefficient")
+    ax.legend(loc="best")
+    s.figure(ctx.save(fig, "a2"),
+             "a₂(t) measured in DSMC (black; one sample has noise ≈ √(8/15N)) beside the Sonine closure's "
+             "a₂(t) and its steady value (or the van Noije-Ernst value of the homogeneous cooling state).")
+    rows = [["DSMC, window mean (`a2.mean`)", fmt_pm(m, e), ""]]
+    if a2eq is not None:
+        rows.append(["Sonine closure (`theory.equilibrium.sonine.a2`)", fmt(a2eq), deviation(m, e, a2eq)])
+    if vne is not None:
+        rows.append(["van Noije-Ernst (`theory.haff.a2_van_noije_ernst`)", fmt(vne), deviation(m, e, vne)])
+    s.table(["source", "a₂", "theory − DSMC"], rows)
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+STEADY_ROWS = [
+    ("DSMC (window mean ± 1σ)", "temperature.mean", None),
+    ("root, local-Maxwellian closure", "theory.equilibrium.maxwellian.T", "maxwellian"),
+    ("root, Grad closure", "theory.equilibrium.grad.T", "grad"),
+    ("root, Sonine closure", "theory.equilibrium.sonine.T", "sonine"),
+    ("ε-expansion, 1st order", "theory.expansion.first_order.T", "exp1"),
+    ("ε-expansion, 2nd order (Maxwellian)", "theory.expansion.second_order_maxwellian.T", "exp2m"),
+    ("ε-expansion, 2nd order (Grad)", "theory.expansion.second_order_grad.T", "exp2g"),
+]
+
+
+def steady_temperature(run, ctx):
+    """Steady T# from DSMC beside the closures' roots and the ε-expansions."""
+    if not _is_dsmc(run) or run.num("theory.equilibrium.maxwellian.T") is None:
+        return None
+    Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
+    if Tm is None:
+        return None
+    s = Section("Steady temperature T#: DSMC beside the roots and expansions", "steady")
+    rows, pts = [], []
+    for label, key, kind in STEADY_ROWS:
+        v = run.num(key)
+        if v is None:
+            continue
+        pts.append((label, v, kind))
+        rows.append([label, f"`{key}`", fmt_pm(Tm, Te) if kind is None else fmt(v),
+                     "" if kind is None else deviation(Tm, Te, v)])
+    fig, ax = subplots(figsize=(7.5, 0.5 * len(pts) + 2.0))
+    y = np.arange(len(pts))[::-1]
+    colours = {"maxwellian": "#0072B2", "grad": "#E69F00", "sonine": "#009E73",
+               "exp1": "#CC79A7", "exp2m": "#56B4E9", "exp2g": "#D55E00"}
+    markers = {"maxwellian": "s", "grad": "D", "sonine": "^", "exp1": "v", "exp2m": "<", "exp2g": ">"}
+    for yi, (label, v, kind) in zip(y, pts):
+        if kind is None:
+            ax.axvspan(Tm - 2 * Te, Tm + 2 * Te, color="0.88", lw=0, label="DSMC ± 2σ")
+            ax.axvspan(Tm - Te, Tm + Te, color="0.7", lw=0, label="DSMC ± 1σ")
+            ax.errorbar([Tm], [yi], xerr=[Te], fmt="o", color="black", ms=6, capsize=4)
+        else:
+            ax.plot([v], [yi], marker=markers[kind], color=colours[kind], ms=8, ls="none")
+            ax.annotate(f"{v:.5g} ({(v - Tm) / Te:+.1f}σ)" if Te else f"{v:.5g}", (v, yi),
+                        textcoords="offset points", xytext=(0, 8), ha="center", fontsize=7.5, color=colours[kind])
+    vals = [p[1] for p in pts] + [Tm - 2 * Te, Tm + 2 * Te]
+    lo, hi = min(vals), max(vals)
+    pad = 0.2 * (hi - lo) if hi > lo else 1e-3 * abs(hi)
+    ax.set_xlim(lo - pad, hi + pad)
+    ax.set_ylim(-0.7, len(pts) - 0.3)
+    ax.set_yticks(y)
+    ax.set_yticklabels([p[0] for p in pts])
+    ax.set_xlabel(f"steady temperature T#  [{T_UNIT}]")
+    ax.set_title("Steady temperature: DSMC (black) vs theory (coloured)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8)
+    ax.ticklabel_format(axis="x", useOffset=False)
+    s.figure(ctx.save(fig, "steady_temperature"),
+             "Steady grain temperature T#: DSMC window mean with 1σ and 2σ bands (std. error from block "
+             "averaging) beside the roots of the three closures and the ε-expansions (ε = Knudsen number).")
+    s.table(["source", "summary.json key", "T#  [E]", "theory − DSMC (abs., in σ, rel.)"], rows)
+    s.text("The DSMC value also carries an O(Δt²) splitting error and an O(1/N) finite-particle bias that the "
+           "standard error does not include; a systematic offset of a few σ between DSMC and a closure is "
+           "the closure's truncation error only if it persists as Δt → 0 and N → ∞.")
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+def _gauss(z):
+    return np.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
+
+
+def _maxwell_speed(z):
+    return math.sqrt(2.0 / math.pi) * z * z * np.exp(-0.5 * z * z)
+
+
+def distribution(run, ctx):
+    """f(v) (components and speed) against the Maxwellian and the Sonine-corrected Maxwellian."""
+    if not _is_dsmc(run) or not run.has("histogram/component_edges", "histogram/components"):
+        return None
+    edges = run.arr("histogram/component_edges")
+    h = run.arr("histogram/components")
+    z = 0.5 * (edges[1:] + edges[:-1])
+    w = edges[1] - edges[0]
+    a2 = run.num("a2.final")
+    N = _particles(run)
+    s = Section("Velocity distribution f(v) against the Maxwellian", "distribution")
+    zz = np.linspace(edges[0], edges[-1], 600)
+    S2c = lambda x: (x ** 4 - 6 * x ** 2 + 3) / 8.0  # 1D marginal of the 3D Sonine polynomial, x = c_i/sqrt(T/m)
+    fig, (ax, axl) = subplots(1, 2, figsize=(10.5, 4.3))
+    for d, name in enumerate("xyz"):
+        for a in (ax, axl):
+            a.plot(z, h[d], marker="o", ms=2.8, ls="none", color="black", alpha=[1.0, 0.55, 0.3][d],
+                   label=f"DSMC, c_{name}")
+    for a in (ax, axl):
+        a.plot(zz, _gauss(zz), **theory_style("maxwell_dist"))
+        if a2 is not None:
+            a.plot(zz, _gauss(zz) * (1 + a2 * S2c(zz)), **theory_style("sonine_dist"))
+        a.set_xlabel("velocity component c_i / √(T/m)  [dimensionless]")
+    ax.set_ylabel("probability density  [per unit c_i/√(T/m)]")
+    ax.set_title("Linear scale")
+    axl.set_yscale("log")
+    axl.set_ylim(max(1e-7, 0.3 / (N * w) if N else 1e-7), 1.0)
+    axl.set_title("Log scale: the tails")
+    ax.legend(loc="upper left", fontsize=7)
+    s.figure(ctx.save(fig, "distribution_components"),
+             "Distribution of each velocity component about the mean, at the end of the run, in units of the "
+             "thermal speed √(T/m) (black points, x darkest) beside the unit Maxwellian (dashed) and the "
+             "Maxwellian with the first Sonine correction using the measured a₂ (dotted).")
+    # relative deviation, components pooled, with Poisson errors
+    if N:
+        hm = h.mean(axis=0)
+        counts = hm * N * w * 3
+        g = _gauss(z)
+        ok = g * N * w * 3 >= 20
+        fig, ax = subplots(figsize=(7.0, 4.0))
+        ax.errorbar(z[ok], hm[ok] / g[ok] - 1, yerr=np.sqrt(np.maximum(counts[ok], 1)) / (g[ok] * N * w * 3),
+                    fmt="o", ms=3, color="black", capsize=0, lw=0.8, label="DSMC (x, y, z pooled) ± Poisson error")
+        zr = zz[(zz >= z[ok].min()) & (zz <= z[ok].max())]
+        if a2 is not None:
+            ax.plot(zr, a2 * S2c(zr), **theory_style("sonine_dist", label=f"a₂ S₂ with measured a₂ = {a2:.3g}"))
+        a2th = run.num("theory.equilibrium.sonine.a2") or run.num("theory.haff.a2_van_noije_ernst")
+        if a2th is not None:
+            ax.plot(zr, a2th * S2c(zr), color="#D55E00", ls="--", lw=1.4, label=f"a₂ S₂ with theory a₂ = {a2th:.3g}")
+        ax.axhline(0, **theory_style("maxwell_dist", lw=1.2))
+        ax.set_xlabel("velocity component c_i / √(T/m)  [dimensionless]")
+        ax.set_ylabel("f / f_Maxwell − 1  [dimensionless]")
+        ax.set_title("Departure from the Maxwellian (bins with ≥ 20 expected grains)")
+        ax.legend(loc="best", fontsize=8)
+        s.figure(ctx.save(fig, "distribution_deviation"),
+                 "Relative departure of the component distribution from the Maxwellian, with Poisson error bars, "
+                 "beside the first Sonine correction a₂ (c⁴ − 6c² + 3)/8 (c = c_i/√(T/m)).")
+    if run.has("histogram/speed_edges", "histogram/speed"):
+        se = run.arr("histogram/speed_edges")
+        hs = run.arr("histogram/speed")
+        zs = 0.5 * (se[1:] + se[:-1])
+        zz = np.linspace(0, se[-1], 400)
+        S2 = lambda x: x ** 4 / 8 - 5 * x ** 2 / 4 + 15.0 / 8  # 3D Sonine polynomial in x = |c|/sqrt(T/m)
+        fig, ax = subplots(figsize=(7.0, 4.0))
+        ax.plot(zs, hs, **SIM_POINTS)
+        ax.plot(zz, _maxwell_speed(zz), **theory_style("maxwell_dist", label="Maxwell speed distribution"))
+        if a2 is not None:
+            ax.plot(zz, _maxwell_speed(zz) * (1 + a2 * S2(zz)), **theory_style("sonine_dist"))
+        ax.set_xlabel("speed |c| / √(T/m)  [dimensionless]")
+        ax.set_ylabel("probability density  [per unit |c|/√(T/m)]")
+        ax.set_title("Speed distribution")
+        ax.legend(loc="best")
+        s.figure(ctx.save(fig, "distribution_speed"),
+                 "Distribution of the peculiar speed |v − u|/√(T/m) at the end of the run beside the Maxwell "
+                 "speed distribution √(2/π) c² e^(−c²/2).")
+    Th = run.arr("histogram/temperature")
+    s.text(f"Histograms taken at t = t_end with T = {fmt(float(np.ravel(Th)[0])) if Th is not None else 'n/a'} E; "
+           f"measured a₂ at t_end (`a2.final`) = {fmt(a2)}.")
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+def energy(run, ctx):
+    """Energy budget: ΔKE = bath input − inelastic loss (cumulative, per grain)."""
+    if not _is_dsmc(run) or not run.has("timeseries/kinetic_energy_per_grain"):
+        return None
+    t = run.arr("timeseries/t")
+    ke = run.arr("timeseries/kinetic_energy_per_grain")
+    gin = run.arr("timeseries/bath_energy_input_per_grain")
+    loss = run.arr("timeseries/inelastic_loss_per_grain")
+    s = Section("Energy budget", "energy")
+    fig, (ax, axr) = subplots(2, 1, figsize=(7.0, 5.6), sharex=True, gridspec_kw=dict(height_ratios=[2, 1]))
+    ax.plot(t, ke - ke[0], **dict(SIM, label="ΔKE(t) = KE(t) − KE(0), DSMC"))
+    if gin is not None and np.any(gin):
+        ax.plot(t, gin, color="#E69F00", lw=1.4, ls="--", label="cumulative bath input")
+    if loss is not None:
+        ax.plot(t, -loss, color="#0072B2", lw=1.4, ls="-.", label="− cumulative inelastic loss")
+    if gin is not None and loss is not None:
+        ax.plot(t, gin - loss, color="#D55E00", lw=2.2, ls=":", label="bath input − inelastic loss")
+    ax.set_ylabel("energy per grain  [E]")
+    ax.set_title("Energy bookkeeping (the red dotted line must lie on the black one)")
+    ax.legend(loc="best")
+    if gin is not None and loss is not None:
+        scale = np.maximum(np.maximum(np.abs(gin), np.abs(loss)), abs(ke[0]))
+        axr.plot(t, (ke - ke[0] - (gin - loss)) / scale, color="black", lw=1.0)
+        axr.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    axr.set_xlabel(TIME_LABEL)
+    axr.set_ylabel("relative residual")
+    s.figure(ctx.save(fig, "energy"),
+             "Cumulative energy exchanged per grain: the change of the kinetic energy equals the energy "
+             "the bath gave minus the energy inelastic grain collisions removed (exactly, up to round-off).")
+    rows = [[k, f"`{key}`", fmt(run.num(key))] for k, key in [
+        ("bath input per grain", "energy.bath_input_per_grain"),
+        ("inelastic loss per grain", "energy.inelastic_loss_per_grain"),
+        ("relative residual of the budget", "energy.budget_relative_residual")] if run.num(key) is not None]
+    s.table(["quantity", "key", "value"], rows)
+    return s
+
+
+# ---------------------------------------------------------------------------------------
+def pressure(run, ctx):
+    """Diagonal pressure tensor / (nT) and heat flux: anisotropy during relaxation."""
+    if not _is_dsmc(run) or not run.has("timeseries/pressure_tensor"):
+        return None
+    t = run.arr("timeseries/t")
+    P = run.arr("timeseries/pressure_tensor").reshape(len(t), 6)
+    T = run.arr("timeseries/temperature")
+    n = run.param("grains.density", 1.0)
+    s = Section("Pressure tensor and heat flux", "pressure")
+    fig, (ax, axq) = subplots(1, 2, figsize=(10.5, 4.0))
+    names = ["xx", "yy", "zz", "xy", "xz", "yz"]
+    styles = ["-", "--", ":", "-", "--", ":"]
+    for k in range(6):
+        ax.plot(t, P[:, k] / (n * T) - (k < 3), color="black" if k < 3 else "#0072B2", ls=styles[k], lw=1.2,
+                label=f"P_{names[k]}/(nT)" + (" − 1" if k < 3 else ""))
+    ax.axhline(0, color="0.5", lw=0.8)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("P_ij / (n T) − δ_ij  [dimensionless]")
+    ax.set_title("Pressure tensor: departure from isotropy")
+    ax.legend(loc="best", fontsize=7, ncol=2)
+    if run.has("timeseries/heat_flux"):
+        q = run.arr("timeseries/heat_flux").reshape(len(t), 3)
+        m = run.param("grains.mass", 1.0)
+        scale = n * T * np.sqrt(T / m)
+        for d in range(3):
+            axq.plot(t, q[:, d] / scale, color="black", ls=styles[d], lw=1.2, label=f"q_{'xyz'[d]}/(nT√(T/m))")
+        axq.axhline(0, color="0.5", lw=0.8)
+        axq.set_xlabel(TIME_LABEL)
+        axq.set_ylabel("q_i / (n T √(T/m))  [dimensionless]")
+        axq.set_title("Heat flux (zero in equilibrium)")
+        axq.legend(loc="best", fontsize=7)
+    s.figure(ctx.save(fig, "pressure"),
+             "Kinetic pressure tensor over nT minus the identity (left: diagonal in black, off-diagonal in blue) and reduced "
+             "heat flux (right). Both are isotropic/zero in a homogeneous steady state; deviations during "
+             "relaxation show the anisotropy that the closures carry or neglect.")
+    return s
