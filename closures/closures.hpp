@@ -13,7 +13,7 @@
 //   grad:       f = M_TB(v - uB) * [1 + U.c/thB + kappa (c^2/thB - 3)], the quadratic-entropy
 //               maximiser w.r.t. J_EL (docs eqs. G1-G12)
 //   sonine:     f = M_T(v - u) * [1 + a2 S2(m c^2 / 2T)], a2 as a fourth field, collision terms
-//               by quadrature of the collision rule (docs eqs. S1-S12)
+//               by quadrature of the collision rule (docs eqs. S1-S10)
 #include <array>
 #include <stdexcept>
 #include <string>

@@ -239,7 +239,7 @@ MomentSources sonine_sources(const Parameters& p, const RelaxationState& st) {
   const double th = st.T / p.mass;
   MomentSources m;
   m.du_dt = bg.du_dt;
-  // docs eq. S8: T = m <c^2>/3 and a2 = <c^4>/(15 th^2) - 1, with <c^2 c> = 0 in the ansatz so
+  // docs eqs. S8, S9: T = m <c^2>/3 and a2 = <c^4>/(15 th^2) - 1, with <c^2 c> = 0 in the ansatz so
   // the moving frame c = v - u(t) adds no term.
   m.dT_dt = p.mass * (bg.dc2_dt + gg.dc2_dt) / 3.0;
   m.da2_dt = (bg.dc4_dt + gg.dc4_dt) / (15.0 * th * th) - 2.0 * (1.0 + st.a2) * m.dT_dt / st.T;

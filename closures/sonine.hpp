@@ -3,7 +3,7 @@
 //
 // f = n M_T(c) [1 + a2 S2(x)],  c = v - u,  x = m c^2/(2T),  S2(x) = x^2/2 - 5x/2 + 15/8,
 // a2 = <c^4>/(15 (T/m)^2) - 1 carried as a fourth field. Its collision terms are exact
-// expectations of the collision rule under this f, computed by quadrature (docs eqs. S4-S8):
+// expectations of the collision rule under this f, computed by quadrature (docs eqs. S3-S9):
 //  * background: the shifted-Gaussian w-average in closed form (docs eq. C4 machinery), then
 //    a 2D Gauss-Legendre quadrature over c (|c| and its angle to u - uB);
 //  * grain-grain: exact Gauss-Hermite (centre-of-mass velocity), Gauss-Jacobi (|g.n|^{j delta}
@@ -15,7 +15,7 @@ namespace grainbath::closures {
 
 struct Parameters;
 
-// Background (elastic, J_EL/eps) contributions for a Sonine grain state (docs eqs. S4-S6):
+// Background (elastic, J_EL/eps) contributions for a Sonine grain state (docs eqs. S3-S5):
 // du/dt, d<c^2>/dt and d<c^4>/dt with c = v - u, per unit time (1/eps included).
 struct SonineMoments {
   std::array<double, 3> du_dt{};

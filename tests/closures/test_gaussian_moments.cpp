@@ -35,7 +35,9 @@ TEST_P(ChiMoments, MatchQuadrature) {
   EXPECT_NEAR(m.value, q0, 1e-10 * q0) << "k=" << k << " A=" << A;
   EXPECT_NEAR(m.d1, q1, 1e-10 * q0) << "k=" << k << " A=" << A;
   EXPECT_NEAR(m.d2, q2, 1e-9 * q0) << "k=" << k << " A=" << A;
-  if (A > 0.0) EXPECT_NEAR(m.d1_over_A, q1 / A, 1e-9 * q0 / std::max(A, 1e-3));
+  if (A > 0.0) {
+    EXPECT_NEAR(m.d1_over_A, q1 / A, 1e-9 * q0 / std::max(A, 1e-3));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Grid, ChiMoments,

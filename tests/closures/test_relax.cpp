@@ -84,7 +84,9 @@ TEST(Relax, AllClosuresApproachTheirEquilibrium) {
     EXPECT_EQ(out[0].T, init.T);
     EXPECT_NEAR(out[1].u[0], p.uB[0], 1e-8) << to_string(c);
     EXPECT_NEAR(out[1].T, equilibrium_temperature(c, p), 1e-8) << to_string(c);
-    if (c == Closure::sonine) EXPECT_NEAR(out[1].a2, equilibrium_a2_sonine(p), 1e-8);
+    if (c == Closure::sonine) {
+      EXPECT_NEAR(out[1].a2, equilibrium_a2_sonine(p), 1e-8);
+    }
   }
 }
 
