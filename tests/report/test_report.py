@@ -1,0 +1,135 @@
+#!/usr/bin/python3
+"""report_smoke: run tiny versions of the shipped DSMC cases, run `grainbath report` on each,
+and check report.md, report.html and the PNGs: every PNG referenced exists and is a real
+image, report.html embeds each of them, and report.md quotes the key numbers of
+summary.json in the report's number format.  Exit 77 (ctest SKIP) only when /usr/bin/python3
+lacks numpy, matplotlib or h5py."""
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+
+try:
+    import numpy  # noqa: F401
+    import matplotlib  # noqa: F401
+    import h5py  # noqa: F401
+except ImportError as e:
+    print(f"SKIP: {sys.executable} lacks {e.name} (install python3-matplotlib python3-h5py)")
+    sys.exit(77)
+
+# (case, overrides, sections the report must have, summary keys report.md must quote)
+CASES = [
+    ("relaxation", ["dsmc.particles=3000", "dsmc.t_end=0.6", "dsmc.dt=0.004", "sampling.every=0.02",
+                    "sampling.steady_from=0.3"],
+     ["overview", "temperature", "velocity", "steady", "a2", "distribution", "energy", "appendix"],
+     ["temperature.mean", "temperature.stderr", "temperature.final", "a2.mean", "a2.final", "velocity.final",
+      "theory.equilibrium.maxwellian.T", "theory.equilibrium.grad.T", "theory.equilibrium.sonine.T",
+      "theory.equilibrium.sonine.a2", "theory.expansion.first_order.T", "theory.rates.momentum"]),
+    ("equilibrium", ["dsmc.particles=2000", "dsmc.t_end=3", "dsmc.dt=0.02", "sampling.steady_from=1"],
+     ["overview", "temperature", "steady", "a2", "distribution", "appendix"],
+     ["temperature.mean", "temperature.stderr", "a2.mean", "theory.equilibrium.sonine.T",
+      "theory.expansion.second_order_grad.T"]),
+    ("free-cooling", ["dsmc.particles=3000", "dsmc.t_end=3", "dsmc.dt=0.02", "sampling.steady_from=1"],
+     ["overview", "temperature", "a2", "distribution", "appendix"],
+     ["temperature.final", "a2.mean", "theory.haff.temperature_at_t_end", "theory.haff.a2_van_noije_ernst"]),
+]
+
+failures = []
+
+
+def check(cond, what):
+    if not cond:
+        failures.append(what)
+        print(f"FAIL: {what}")
+
+
+def fmt(x):
+    # the report's number format (python/grainbath_report/document.py: fmt)
+    return str(x) if isinstance(x, int) else f"{x:.6g}"
+
+
+def get(summary, key):
+    node = summary
+    for part in key.split("."):
+        node = node[part]
+    return node
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--grainbath", required=True)
+    ap.add_argument("--cases", required=True)
+    ap.add_argument("--work", required=True)
+    a = ap.parse_args()
+    shutil.rmtree(a.work, ignore_errors=True)
+    os.makedirs(a.work)
+    env = dict(os.environ, GRAINBATH_REPORT_STRICT="1")
+
+    for case, sets, sections, keys in CASES:
+        out = os.path.join(a.work, case)
+        cmd = [a.grainbath, "run", os.path.join(a.cases, case), "--out", out, "-q", "--set", "run.threads=1"]
+        for s in sets:
+            cmd += ["--set", s]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        check(r.returncode == 0, f"{case}: grainbath run failed ({r.returncode}): {r.stderr.strip()[-500:]}")
+        if r.returncode:
+            continue
+        r = subprocess.run([a.grainbath, "report", out], capture_output=True, text=True, env=env)
+        check(r.returncode == 0, f"{case}: grainbath report failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
+        rep = os.path.join(out, "report")
+        md_path, html_path = os.path.join(rep, "report.md"), os.path.join(rep, "report.html")
+        check(os.path.isfile(md_path) and os.path.isfile(html_path), f"{case}: report.md / report.html missing")
+        if failures:
+            continue
+        md = open(md_path).read()
+        html = open(html_path).read()
+        pngs = re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", md)
+        check(len(pngs) >= 3, f"{case}: only {len(pngs)} plots in report.md")
+        for p in pngs:
+            path = os.path.join(rep, p)
+            ok = os.path.isfile(path) and os.path.getsize(path) > 5000
+            check(ok, f"{case}: {p} missing or suspiciously small")
+            if ok:
+                with open(path, "rb") as f:
+                    check(f.read(8) == b"\x89PNG\r\n\x1a\n", f"{case}: {p} is not a PNG")
+        check(html.count('src="data:image/png;base64,') == len(pngs),
+              f"{case}: report.html embeds {html.count('data:image/png;base64,')} images, report.md has {len(pngs)}")
+        check("src=\"http" not in html and "<script" not in html, f"{case}: report.html is not self-contained")
+        for sec in sections:
+            check(f'<a id="{sec}"></a>' in md, f"{case}: section '{sec}' missing from report.md")
+        summary = json.load(open(os.path.join(out, "summary.json")))
+        for k in keys:
+            v = get(summary, k)
+            check(fmt(v) in md, f"{case}: report.md does not quote {k} = {fmt(v)}")
+        # every leaf of summary.json appears in the appendix table, with its key
+        def leaves(prefix, node):
+            if isinstance(node, dict):
+                for kk, vv in node.items():
+                    yield from leaves(f"{prefix}.{kk}" if prefix else kk, vv)
+            else:
+                yield prefix, node
+        for k, v in leaves("", summary):
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
+        print(f"ok: {case}: {len(pngs)} plots, {len(keys)} key numbers checked")
+
+    # a directory without results: non-zero exit, one clear line on stderr
+    empty = os.path.join(a.work, "empty")
+    os.makedirs(empty)
+    r = subprocess.run([a.grainbath, "report", empty], capture_output=True, text=True)
+    check(r.returncode != 0, "report on an empty directory exited 0")
+    lines = [l for l in r.stderr.splitlines() if l.strip()]
+    check(len(lines) == 1 and "results.h5" in lines[0], f"report on an empty directory: stderr {r.stderr!r}")
+
+    if failures:
+        print(f"{len(failures)} failure(s)")
+        return 1
+    print("report_smoke: all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
