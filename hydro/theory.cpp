@@ -21,6 +21,7 @@ std::vector<std::pair<std::string, double>> hydro_theory_values(const HydroTheor
   out.emplace_back("hydro.thermal_diffusion_exponent_kinetic", kin.p);
   out.emplace_back("hydro.kinetic_sonine_order", kin.order);
   out.emplace_back("hydro.kinetic_sonine_change", kin.change);
+  out.emplace_back("hydro.kinetic_sonine_converged", kin.converged ? 1.0 : 0.0);
   if (p.k) {
     const double k = *p.k;
     if (!(k > 0.0) || !std::isfinite(k))

@@ -44,7 +44,7 @@ struct SonineGalerkin {
 
 // Builds the N x N Galerkin matrix by quadrature (exact for the polynomial integrand up to
 // round-off: Gauss-Hermite in the centre-of-mass velocity, Gauss-Legendre in the scattering
-// cosine and a converged Gauss-Legendre rule in the relative speed) and solves for Dhat and p
+// cosine, generalised Gauss-Laguerre in alpha g^2/2; docs/hydro.md eq. H10) and solves for Dhat and p
 // with the first n polynomials for every n <= N (nested bases: leading principal submatrices).
 // Returns one entry per n = 1..N.
 std::vector<SonineGalerkin> sonine_galerkin_sequence(double alpha, int N);

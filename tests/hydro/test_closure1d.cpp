@@ -78,6 +78,7 @@ TEST(HydroClosureModes, EpsToZeroGivesPaperDiffusion) {
         p.eps = eps;
         const double r = mode_decay_rate(c == Closure::grad ? ModeModel::grad_closure : ModeModel::maxwellian_closure, p, k);
         const double dev = std::abs(r / mode_decay_rate(ModeModel::paper, p, k) - 1.0);
+        std::printf("  %s beta=%.2f eps=%.0e rate/paper - 1 = %.3e\n", to_string(c), beta, eps, r / mode_decay_rate(ModeModel::paper, p, k) - 1.0);
         EXPECT_LT(dev, 0.6 * prev) << to_string(c) << " eps=" << eps;
         prev = dev;
       }
@@ -130,6 +131,7 @@ TEST(HydroClosureSolver, MassConservedToRoundOff) {
       s.set_equilibrium(g.sample([](double x, double, double) { return 1.0 + 0.3 * std::sin(x) + 0.2 * std::cos(2 * x); }));
       const double m0 = s.mass();
       s.run_to(2.0, 0.1);
+      std::printf("  closure %s mass drift (%s): %.2e\n", to_string(c), b == Boundary::Wall ? "walls" : "periodic", s.mass() / m0 - 1.0);
       EXPECT_LT(std::abs(s.mass() / m0 - 1.0), 1e-13) << to_string(c);
     }
   }
@@ -165,6 +167,7 @@ TEST(HydroClosureSolver, AsymptoticPreservingAsEpsToZero) {
       prm.beta = cfg.beta;
       err_T = std::max(err_T, std::abs(w[i].T / grainbath::closures::equilibrium_temperature(c, prm) - 1.0));
     }
+    std::printf("  AP eps=1e-9 %s: max|n - n_exact| %.2e, max|u - uB| %.2e, max|T/T# - 1| %.2e\n", to_string(c), err_n, err_u, err_T);
     EXPECT_LT(err_n, 2e-3) << to_string(c);
     EXPECT_LT(err_u, 1e-6) << to_string(c);
     EXPECT_LT(err_T, 1e-6) << to_string(c);

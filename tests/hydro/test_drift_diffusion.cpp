@@ -53,6 +53,7 @@ TEST(HydroSpectral, UniformDriftIsExact) {
   const auto exact = g.sample([&](double x, double y, double) {
     return 1.0 + 0.2 * std::exp(-D * (kx * kx + ky * ky) * t) * std::cos(kx * (x - u[0] * t) + ky * (y - u[1] * t));
   });
+  std::printf("  spectral uniform-drift max error: %.2e\n", max_abs_diff(s.density(), exact));
   EXPECT_LT(max_abs_diff(s.density(), exact), 1e-13);
 }
 
@@ -67,6 +68,7 @@ TEST(HydroSpectral, MassConservedToRoundOff) {
   s.set_density(g.sample([](double x, double y, double) { return 1.0 + 0.5 * std::sin(x) * std::cos(2 * y) + 0.2 * std::cos(3 * x); }));
   const double m0 = s.mass();
   s.run_to(5.0, 0.02);
+  std::printf("  spectral mass drift after 250 steps: %.2e\n", s.mass() / m0 - 1.0);
   EXPECT_LT(std::abs(s.mass() / m0 - 1.0), 1e-13);
 }
 
@@ -82,6 +84,7 @@ TEST(HydroFiniteVolume, MassConservedToRoundOff) {
     s.set_density(g.sample([](double x, double y, double z) { return 1.0 + 0.5 * std::sin(x) * std::cos(2 * y) + 0.1 * z; }));
     const double m0 = s.mass();
     s.run_to(5.0, 0.05);
+    std::printf("  FV 3D mass drift after 100 steps (%s): %.2e\n", b == Boundary::Wall ? "walls" : "periodic", s.mass() / m0 - 1.0);
     EXPECT_LT(std::abs(s.mass() / m0 - 1.0), 1e-13);
   }
 }
@@ -262,6 +265,7 @@ TEST(HydroSteadyState, IsobaricProfileExponent) {
       lo = std::min(lo, q);
       hi = std::max(hi, q);
     }
+    std::printf("  FV steady n TB^p spread (%s, p=%.6f): %.2e\n", c.name.c_str(), c.p, (hi - lo) / hi);
     EXPECT_LT((hi - lo) / hi, 1e-9) << c.name;
     const Grid gp = Grid::make({48}, {2 * kPi}, Boundary::Periodic);
     const Background bp = isobaric_background(gp, 1.0, 1.0, 0.5, 1.0);
@@ -275,6 +279,7 @@ TEST(HydroSteadyState, IsobaricProfileExponent) {
       lo = std::min(lo, q);
       hi = std::max(hi, q);
     }
+    std::printf("  spectral steady n TB^p spread (%s): %.2e\n", c.name.c_str(), (hi - lo) / hi);
     EXPECT_LT((hi - lo) / hi, 1e-8) << c.name;
   }
   EXPECT_LT(kinetic_coefficients(0.7, 1.0, 0.5).p, 0.75);  // kinetic p differs from 1

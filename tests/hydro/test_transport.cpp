@@ -208,6 +208,7 @@ TEST(HydroTransport, LorentzLimit) {
     EXPECT_LT(seq[n].p(), seq[n - 1].p());
     EXPECT_GT(seq[n].p(), 0.5);
   }
+  std::printf("  Lorentz N=12: D/D_exact = %.6f, p = %.6f\n", seq.back().Dhat / Dexact, seq.back().p());
   EXPECT_NEAR(seq.back().Dhat / Dexact, 1.0, 4e-3);
   EXPECT_NEAR(seq.back().p(), 0.5, 6e-3);
 }
