@@ -40,7 +40,7 @@ def overview(run, ctx):
                        ("background.knudsen", "Knudsen number ε"), ("restitution.law", "restitution law"),
                        ("restitution.e", "restitution e"), ("restitution.beta", "restitution β"),
                        ("restitution.delta", "restitution δ"),
-                       ("edmd.dims", "dimensions"), ("edmd.particles", "particles"),
+                       ("edmd.dimensions", "dimensions"), ("edmd.particles", "particles"),
                        ("edmd.packing_fraction", "packing fraction ν")]:
         if key in p:
             v = p[key]
