@@ -281,6 +281,8 @@ def steady_temperature(run, ctx):
     """Steady T# from DSMC beside the closures' roots and the ε-expansions."""
     if not _is_dsmc(run) or run.num("theory.equilibrium.maxwellian.T") is None:
         return None
+    if run.has("fields") or run.has("mode"):  # spatial run: T# of the homogeneous theory does not apply globally
+        return None
     Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
     if Tm is None:
         return None

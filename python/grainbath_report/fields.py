@@ -1,9 +1,163 @@
-"""Sections for spatially resolved output (/fields, density-mode amplitudes). Layout: docs/OUTPUT.md."""
+"""Sections for spatially resolved DSMC output: density-mode decay (/mode) and time-averaged
+cell fields (/fields, with fields.xdmf for ParaView).  Layout: docs/OUTPUT.md, "Spatial DSMC"."""
+import math
+import os
+import re
+
+import numpy as np
+
+from .document import Section, fmt, fmt_pm
+from .plotting import SIM, subplots, theory_style
+
+TIME_LABEL = "time t  [λ/√(E/m)]"
+
+# theory.hydro.* decay-rate keys -> (label, style)
+RATE_THEORY = [
+    ("theory.hydro.decay_rate", "drift-diffusion limit, paper coefficients", dict(color="#CC79A7", ls="--", lw=1.8)),
+    ("theory.hydro.decay_rate_kinetic", "drift-diffusion limit, kinetic (Sonine) coefficients",
+     dict(color="#D55E00", ls=(0, (5, 1, 1, 1)), lw=1.6)),
+    ("theory.hydro.decay_rate_maxwellian_closure", "local-Maxwellian closure (finite ε)", dict(color="#0072B2", ls="--", lw=1.6)),
+    ("theory.hydro.decay_rate_grad_closure", "Grad closure (finite ε)", dict(color="#E69F00", ls="-.", lw=1.6)),
+]
+
+
+def _rate_theories(run):
+    out = [(key, label, style, run.num(key)) for key, label, style in RATE_THEORY if run.num(key) is not None]
+    known = {k for k, *_ in RATE_THEORY}
+    for key, v in run.flat_summary():  # any other theory.*decay_rate* a solver adds
+        if re.match(r"theory\..*decay_rate", key) and key not in known and isinstance(v, (int, float)) \
+                and not key.endswith(("stderr", "_ratio")):
+            out.append((key, key[len("theory."):], dict(color="0.4", ls=":", lw=1.4), float(v)))
+    return out
 
 
 def density_mode(run, ctx):
-    return None
+    """Amplitude of the imposed density mode vs time: fit and the hydrodynamic decay rates."""
+    if not run.has("mode/t", "mode/amplitude"):
+        return None
+    t, A = run.arr("mode/t"), run.arr("mode/amplitude")
+    k = run.arr("mode/wavenumber")
+    k = float(np.ravel(k)[0]) if k is not None else None
+    rate = run.num("mode.decay_rate")
+    rate_e = run.num("mode.decay_rate_stderr")
+    icpt = run.arr("mode/fit_intercept")
+    icpt = float(np.ravel(icpt)[0]) if icpt is not None else None
+    win = run.arr("mode/fit_window")
+    N = run.param("dsmc.particles")
+    theories = _rate_theories(run)
+    s = Section("Density-mode decay: fit and hydrodynamic theory", "mode")
+    fig, (ax, axr) = subplots(1, 2, figsize=(11.0, 4.4), gridspec_kw=dict(width_ratios=[1.5, 1]))
+    if win is not None and len(win) == 2:
+        ax.axvspan(max(win[0], t[0]), min(win[1], t[-1]), color="0.88", lw=0, label="fit window")
+    pos = A > 0
+    ax.semilogy(t[pos], A[pos], **dict(SIM, label="DSMC amplitude"))
+    if isinstance(N, (int, float)) and N > 0:
+        ax.axhline(2 / math.sqrt(N), color="0.5", lw=1, label="noise level 2/√N")
+    t0 = t[0]
+    if rate is not None and icpt is not None:
+        ax.semilogy(t, np.exp(icpt - rate * t), **theory_style("fit", label=f"fit: Γ = {fmt_pm(rate, rate_e, 4)}"))
+    base = icpt if icpt is not None else math.log(A[0])
+    for key, label, style, g in theories:
+        ax.semilogy(t, np.exp(base - g * t), **dict(style, label=f"{label}: Γ = {g:.4g}"))
+    ax.set_ylim(max(float(np.min(A[pos])) * 0.5, 1e-6), float(np.max(A)) * 2)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("density-mode amplitude |n̂_k| / n̄  (log scale)")
+    ax.set_title(f"Mode k = {k:.4g} λ⁻¹" if k else "Density mode")
+    ax.legend(loc="lower left", fontsize=7)
+    # rates side by side
+    entries = ([("DSMC fit", rate, "black")] if rate is not None else []) + \
+              [(lab, g, st["color"]) for _, lab, st, g in theories]
+    yy = np.arange(len(entries))[::-1]
+    for yi, (lab, g, col) in zip(yy, entries):
+        if lab == "DSMC fit":
+            axr.errorbar([g], [yi], xerr=[rate_e] if rate_e else None, fmt="o", color=col, ms=6, capsize=4)
+        else:
+            axr.plot([g], [yi], "s", color=col, ms=7)
+            if rate is not None and rate_e:
+                axr.annotate(f"{(g - rate) / rate_e:+.1f}σ", (g, yi), textcoords="offset points", xytext=(0, 7),
+                             ha="center", fontsize=8, color=col)
+    axr.set_yticks(yy)
+    axr.set_yticklabels([e[0].replace(", ", ",\n", 1) for e in entries], fontsize=7.5)
+    axr.set_ylim(-0.7, len(entries) - 0.3)
+    axr.set_xlabel("decay rate Γ  [√(E/m)/λ]")
+    axr.set_title("Decay rates")
+    s.figure(ctx.save(fig, "mode_decay"),
+             "Amplitude of the imposed density mode (black, log scale) with the exponential fit over the grey "
+             "window and the decay rates of the hydrodynamic theories, drawn through the fit's intercept so "
+             "that the slopes compare; right: the rates side by side (distance from the fit in σ).")
+    rows = [["DSMC fit (`mode.decay_rate`)", fmt_pm(rate, rate_e), ""]]
+    for key, label, _, g in theories:
+        rows.append([f"{label} (`{key}`)", fmt(g), f"{100 * (g - rate) / rate:+.3g} %" if rate else ""])
+    s.table(["source", "Γ", "theory − DSMC (rel.)"], rows)
+    extra = [(lab, key) for lab, key in [("wavenumber k", "theory.hydro.k"), ("fit points", "mode.fit_points"),
+                                         ("initial amplitude", "mode.initial_amplitude")] if run.num(key) is not None]
+    if extra:
+        s.table(["quantity", "value"], [[f"{lab} (`{key}`)", fmt(run.num(key))] for lab, key in extra])
+    return s
+
+
+def _field(run, name):
+    a = run.arr(f"fields/{name}")
+    if a is None:
+        return None
+    # [z][y][x](...) -> average over z and y: profile along x
+    return a.reshape(a.shape[0], a.shape[1], a.shape[2], -1).mean(axis=(0, 1)).squeeze()
 
 
 def profiles(run, ctx):
-    return None
+    """Time-averaged n(x), T(x) (and the background's T_B(x)) against n ∝ T_B^(−p)."""
+    if not run.has("fields/x", "fields/density"):
+        return None
+    x = run.arr("fields/x")
+    n = _field(run, "density")
+    ne = _field(run, "density_stderr")
+    T = _field(run, "temperature")
+    Te = _field(run, "temperature_stderr")
+    TB = _field(run, "background_temperature")
+    ny_nz = run.h5["fields/density"].shape[:2]
+    s = Section("Profiles n(x), T(x) against theory", "profiles")
+    fig, (ax, axT) = subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
+    ax.errorbar(x, n, yerr=ne, fmt="o", ms=3, color="black", capsize=0, lw=0.8, label="DSMC n(x) ± std. error")
+    p_keys = [("theory.hydro.thermal_diffusion_exponent", "paper", "hydro"),
+              ("theory.hydro.thermal_diffusion_exponent_kinetic", "kinetic", "fit")]
+    if TB is not None and np.all(TB > 0):
+        for key, lab, st in p_keys:
+            p = run.num(key)
+            if p is None:
+                continue
+            shape = TB ** (-p)
+            ax.plot(x, shape * np.mean(n) / np.mean(shape), **theory_style(
+                st, label=f"drift-diffusion: n ∝ T_B^(−p), p = {p:.4g} ({lab})"))
+        pe, pe_e = run.num("profile.exponent"), run.num("profile.exponent_stderr")
+        if pe is not None:
+            shape = TB ** (-pe)
+            ax.plot(x, shape * np.mean(n) / np.mean(shape), color="0.45", lw=1, ls=":",
+                    label=f"fit: p = {fmt_pm(pe, pe_e, 4)}")
+    ax.set_ylabel("grain density n  [1/λ³]")
+    ax.set_title("Time-averaged profiles" + (f" (averaged over {ny_nz[1]}×{ny_nz[0]} cells across)"
+                                             if ny_nz[0] * ny_nz[1] > 1 else ""))
+    ax.legend(loc="best", fontsize=8)
+    if T is not None:
+        axT.errorbar(x, T, yerr=Te, fmt="o", ms=3, color="black", capsize=0, lw=0.8, label="DSMC grain T(x)")
+    if TB is not None:
+        axT.plot(x, TB, color="#E69F00", lw=1.6, ls="-.", label="background T_B(x) (imposed)")
+    axT.set_xlabel("position x  [λ]")
+    axT.set_ylabel("temperature  [E]")
+    axT.legend(loc="best", fontsize=8)
+    s.figure(ctx.save(fig, "profiles"),
+             "Cell averages over the steady window (black, ± batch standard errors): grain density against the "
+             "drift-diffusion prediction n ∝ T_B^(−p) (normalised to the same mean density), and the grain "
+             "temperature beside the imposed background temperature.")
+    rows = [[f"`{key}`", fmt(run.num(key))] for key in
+            ["profile.exponent", "profile.exponent_stderr", "theory.hydro.thermal_diffusion_exponent",
+             "theory.hydro.thermal_diffusion_exponent_kinetic", "theory.hydro.diffusion_coefficient",
+             "theory.hydro.diffusion_coefficient_kinetic"] if run.num(key) is not None]
+    if rows:
+        s.table(["key", "value"], rows)
+    window = run.attr("fields", "window")
+    if window:
+        s.text(f"Fields: {window}.")
+    if os.path.isfile(os.path.join(run.out_dir, "fields.xdmf")):
+        s.text(f"The full 3D fields open in ParaView: `paraview {os.path.join(run.out_dir, 'fields.xdmf')}` "
+               "(XDMF pointing into results.h5:/fields; cell data).")
+    return s
