@@ -13,6 +13,7 @@
 #include "core/physics_config.hpp"
 #include "core/run_support.hpp"
 #include "core/summary.hpp"
+#include "dsmc/checkpoint.hpp"
 #include "dsmc/dsmc.hpp"
 
 namespace grainbath::cli {
@@ -134,6 +135,8 @@ int command_run(const RunArgs& a) {
   ctx.case_text = lc->reader.source_text();
   ctx.resolved = lc->reader.resolved();
   ctx.stop_requested = &g_stop;
+  ctx.checkpoint_dir = dsmc::checkpoint_directory(out);
+  ctx.resume = a.resume;
   Summary summary;
   try {
     std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu) -> %s\n", GRAINBATH_VERSION,
@@ -144,6 +147,9 @@ int command_run(const RunArgs& a) {
     summary.set("run.version", std::string(GRAINBATH_VERSION));
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
     dir->commit();
+    const bool keep = std::visit([](const auto& cfg) { return cfg.checkpoint.keep; }, lc->config);
+    std::error_code ec;
+    if (!keep) fs::remove_all(ctx.checkpoint_dir, ec);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
                  e.what(), out.string().c_str());
@@ -160,7 +166,16 @@ int command_list_models() {
     std::printf("  %-10s %s\n", m.name.c_str(), m.summary.c_str());
     for (const auto& k : m.keys) std::printf("             - %s\n", k.c_str());
   }
-  std::printf("\nSolvers ([run] solver = ...):\n  dsmc       direct simulation Monte Carlo (homogeneous)\n");
+  std::string kind;
+  for (const auto& m : dsmc::dsmc_models()) {
+    if (m.kind != kind) {
+      kind = m.kind;
+      std::printf("\n%s%s:\n", static_cast<char>(std::toupper(kind[0])), (kind.substr(1) + "s").c_str());
+    }
+    std::printf("  %-14s %s\n", m.name.c_str(), m.summary.c_str());
+    for (const auto& k : m.keys) std::printf("                 - %s\n", k.c_str());
+  }
+  std::printf("\nSolvers ([run] solver = ...):\n  dsmc           direct simulation Monte Carlo (homogeneous, or 1-3D with [domain])\n");
   return 0;
 }
 

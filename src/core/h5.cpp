@@ -10,6 +10,22 @@ struct SilenceHdf5 {
 };
 const SilenceHdf5 silence_hdf5;
 
+// Object creation property lists without modification times, so that the same run writes
+// a bitwise identical file (HDF5 stores times in object headers by default).
+hid_t untimed(hid_t cls) {
+  hid_t p = H5Pcreate(cls);
+  H5Pset_obj_track_times(p, false);
+  return p;
+}
+hid_t dataset_plist() {
+  static const hid_t p = untimed(H5P_DATASET_CREATE);
+  return p;
+}
+hid_t group_plist() {
+  static const hid_t p = untimed(H5P_GROUP_CREATE);
+  return p;
+}
+
 struct Handle {  // closes any HDF5 id on scope exit
   hid_t id;
   herr_t (*closer)(hid_t);
@@ -56,7 +72,7 @@ hid_t H5File::ensure_group(const std::string& name) {
   if (name.empty() || name == "/") return H5Gopen2(file_, "/", H5P_DEFAULT);
   ensure_parents(name);
   if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) return H5Oopen(file_, name.c_str(), H5P_DEFAULT);
-  hid_t g = H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  hid_t g = H5Gcreate2(file_, name.c_str(), H5P_DEFAULT, group_plist(), H5P_DEFAULT);
   if (g < 0) fail("cannot create group " + name);
   return g;
 }
@@ -66,7 +82,7 @@ void H5File::ensure_parents(const std::string& name) {
   while (pos != std::string::npos) {
     const std::string parent = name.substr(0, pos);
     if (!parent.empty() && parent != "/" && H5Lexists(file_, parent.c_str(), H5P_DEFAULT) <= 0) {
-      hid_t g = H5Gcreate2(file_, parent.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      hid_t g = H5Gcreate2(file_, parent.c_str(), H5P_DEFAULT, group_plist(), H5P_DEFAULT);
       if (g < 0) fail("cannot create group " + parent);
       H5Gclose(g);
     }
@@ -80,7 +96,7 @@ static void write_array(H5File& f, hid_t file, const std::string& name, const st
   if (dims.empty()) dims = {static_cast<hsize_t>(data.size())};
   Handle space{H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose};
   if (H5Lexists(file, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file, name.c_str(), H5P_DEFAULT);
-  Handle ds{H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
+  Handle ds{H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, dataset_plist(), H5P_DEFAULT), H5Dclose};
   if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create dataset " + name);
   if (!data.empty() && H5Dwrite(ds.id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0)
     throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
@@ -120,7 +136,7 @@ void H5File::write_string(const std::string& name, const std::string& value) {
   Handle type{string_type(value.size()), H5Tclose};
   Handle space{H5Screate(H5S_SCALAR), H5Sclose};
   if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file_, name.c_str(), H5P_DEFAULT);
-  Handle ds{H5Dcreate2(file_, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose};
+  Handle ds{H5Dcreate2(file_, name.c_str(), type.id, space.id, H5P_DEFAULT, dataset_plist(), H5P_DEFAULT), H5Dclose};
   if (ds.id < 0) fail("cannot create dataset " + name);
   const std::string buf = value.empty() ? std::string(1, '\0') : value;
   if (H5Dwrite(ds.id, type.id, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0) fail("cannot write " + name);

@@ -20,6 +20,8 @@ struct RunContext {
   std::string case_text;              // case.toml as read (stored in results.h5)
   std::map<std::string, std::string> resolved;  // every parameter as used
   const std::atomic<bool>* stop_requested = nullptr;  // set by SIGINT/SIGTERM
+  std::filesystem::path checkpoint_dir;  // where checkpoints go (empty: none)
+  bool resume = false;                   // continue from the newest valid checkpoint
 };
 
 // Writes the provenance every results.h5 carries: version, seed, case text, resolved

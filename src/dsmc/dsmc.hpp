@@ -3,7 +3,9 @@
 //   df/dt + v.grad f = (1/eps) J_EL(f) + J_IN(f, f).
 // Scaled units: lengths in grain-grain mean free paths (both cross-sections 1), grain mass
 // m, temperatures in energy units (k_B = 1), velocities in sqrt(energy/mass), time in
-// length/velocity.
+// length/velocity. Homogeneous runs have no [domain] section (one cell, no positions);
+// spatial runs have 1-3 dimensional boxes of cells (velocities always 3D).
+#include <array>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -17,17 +19,55 @@
 
 namespace grainbath::dsmc {
 
+enum class Boundary { periodic, specular, diffuse, open };
+const char* to_string(Boundary);
+
+struct Domain {
+  int dimensions = 0;                       // 0: homogeneous (no positions)
+  std::array<double, 3> length{1, 1, 1};    // box lengths (unused axes: 1)
+  std::array<int, 3> cells{1, 1, 1};        // cells per axis (unused axes: 1)
+  std::array<Boundary, 6> faces{};          // x-lo, x-hi, y-lo, y-hi, z-lo, z-hi
+  double wall_temperature = 1.0;            // diffuse walls
+  std::size_t cell_count() const { return std::size_t(cells[0]) * cells[1] * cells[2]; }
+  double volume() const { return length[0] * length[1] * length[2]; }
+  double cell_volume() const { return volume() / static_cast<double>(cell_count()); }
+  double cell_size(int axis) const { return length[axis] / cells[axis]; }
+};
+
+enum class BackgroundProfile { uniform, isobaric_sine, shear, file };
+struct BackgroundField {
+  BackgroundProfile profile = BackgroundProfile::uniform;
+  double amplitude = 0.0;      // isobaric_sine: A in TB0 (1 + A sin kx); shear: U0 in U0 sin(k y)
+  int wavenumber_index = 1;    // k = 2 pi index / length (x for isobaric_sine, y for shear)
+  std::string file;            // profile = "file": HDF5 grid with density, temperature, velocity
+  std::vector<double> grid_density, grid_temperature, grid_velocity;  // per cell (velocity: 3 per cell)
+};
+
+enum class GrainProfile { uniform, mode };
+
 struct GrainParameters {
-  double density = 1.0;      // n, grains per unit volume
+  double density = 1.0;      // n (mean), grains per unit volume
   double mass = 1.0;         // m
   double temperature = 1.0;  // initial T
   Vec3 drift;                // initial mean velocity
+  GrainProfile profile = GrainProfile::uniform;
+  double amplitude = 0.0;    // mode: n0 (1 + A cos kx)
+  int wavenumber_index = 1;  // k = 2 pi index / length_x
+};
+
+struct CheckpointSettings {
+  double every = 0.0;          // simulated time between checkpoints (0: none)
+  double every_minutes = 0.0;  // wall-clock minutes between checkpoints (0: none)
+  bool keep = false;           // keep the checkpoints after a successful run
 };
 
 struct Config {
   GrainParameters grains;
   BackgroundParameters background;
+  BackgroundField field;
+  Domain domain;
   RestitutionLaw restitution;
+  CheckpointSettings checkpoint;
   std::int64_t particles = 100000;  // simulated grains
   double dt = 0.01;
   double t_end = 10.0;
@@ -37,12 +77,19 @@ struct Config {
   double steady_from = 0.0;         // start of the averaging window
   int histogram_bins = 100;
   double histogram_range = 6.0;     // |c| / sqrt(T/m) range of the f(v) histogram
-  bool relaxation_theory = false;   // also integrate the closures on the DSMC time grid
+  bool relaxation_theory = true;    // also integrate the closures on the DSMC time grid
+  bool sample_fields = true;        // per-cell time-averaged fields (spatial runs)
+  int field_batches = 16;           // batches for the per-cell standard errors
+  double mode_fit_from = 0.0;       // density-mode decay fit window start
+  double mode_fit_to = 0.0;         // ... and end (0: t_end)
+  bool spatial() const { return domain.dimensions > 0; }
+  double wavenumber() const;        // k of the grain mode (2 pi index / Lx)
 };
 
 Config read_config(CaseReader& reader);
 void run(const Config&, const RunContext& ctx, Summary& summary);
 // Dotted keys for `grainbath theory` and the summary's `theory` block.
 std::vector<std::pair<std::string, double>> theory_values(const Config&);
+const std::vector<ModelDescription>& dsmc_models();
 
 }  // namespace grainbath::dsmc

@@ -1,5 +1,7 @@
 #include "dsmc/theory.hpp"
 
+#include "hydro/hydro.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -58,6 +60,23 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
       out = closures::theory_values(*p);
     } catch (const closures::ClosureError& e) {
       std::fprintf(stderr, "note: no closure theory for these parameters: %s\n", e.what());
+    }
+    // the drift-diffusion limit (Bisi-Spiga eq. 36) and its kinetic coefficients
+    hydro::HydroTheoryParams h;
+    h.alpha = p->alpha;
+    h.mass = p->mass;
+    h.nB = p->nB;
+    h.TB = p->TB;
+    h.eps = p->eps;
+    h.n = p->n;
+    h.beta = p->beta;
+    h.delta = p->delta;
+    if (c.spatial() && c.grains.profile == GrainProfile::mode) h.k = c.wavenumber();
+    try {
+      const auto hv = hydro::hydro_theory_values(h);
+      out.insert(out.end(), hv.begin(), hv.end());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "note: no hydrodynamic theory for these parameters: %s\n", e.what());
     }
   } else if (!c.background.present()) {
     if (auto e = constant_e(c.restitution)) {

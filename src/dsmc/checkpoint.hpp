@@ -1,0 +1,27 @@
+#pragma once
+// Checkpoints: the whole DSMC State in one HDF5 file, written to a temporary name, flushed
+// and renamed (the previous checkpoint is kept). A 64-bit checksum over every dataset
+// detects truncated or corrupt files; resume falls back to the previous one with a warning.
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "core/run_context.hpp"
+#include "dsmc/dsmc.hpp"
+#include "dsmc/state.hpp"
+
+namespace grainbath::dsmc {
+
+// Where checkpoints of the run writing to OUT live: OUT.checkpoints/ (next to the output,
+// so that they survive a crash of the run that is writing OUT).
+std::filesystem::path checkpoint_directory(const std::filesystem::path& final_out);
+
+void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx);
+
+// The newest checkpoint in `dir` that verifies, or nullopt. `warning` receives a message
+// for every checkpoint skipped as corrupt. Throws if the case differs from the checkpoint's
+// in anything but t_end and the [checkpoint] settings.
+std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx,
+                                            std::string& warning);
+
+}  // namespace grainbath::dsmc

@@ -1,0 +1,208 @@
+// Reading a DSMC case: [grains], [background], [restitution], [dsmc], [sampling],
+// [domain] (spatial runs), [checkpoint]. Every key, default and unit: docs/CASE_FILE.md.
+#include <cmath>
+#include <numbers>
+
+#include "core/h5.hpp"
+#include "dsmc/dsmc.hpp"
+
+namespace grainbath::dsmc {
+
+const char* to_string(Boundary b) {
+  switch (b) {
+    case Boundary::periodic: return "periodic";
+    case Boundary::specular: return "specular";
+    case Boundary::diffuse: return "diffuse";
+    case Boundary::open: return "open";
+  }
+  return "?";
+}
+
+double Config::wavenumber() const {
+  return 2.0 * std::numbers::pi * grains.wavenumber_index / domain.length[0];
+}
+
+const std::vector<ModelDescription>& dsmc_models() {
+  static const std::vector<ModelDescription> models = {
+      {"boundary", "periodic", "particles leaving one face re-enter through the opposite one", {}},
+      {"boundary", "specular", "mirror reflection: the normal velocity is reversed", {}},
+      {"boundary", "diffuse",
+       "re-emission with the flux-weighted Maxwellian of the wall temperature",
+       {"[domain] wall_temperature (TB, energy)"}},
+      {"boundary", "open", "particles leaving the box are removed (free outflow, no inflow)", {}},
+      {"background profile", "uniform", "nB, uB, TB constant ([background] density, velocity, temperature)", {}},
+      {"background profile", "isobaric_sine",
+       "TB(x) = TB0 (1 + A sin kx), nB TB = const, uB = 0 (a steady Euler solution)",
+       {"amplitude (0, dimensionless, |A| < 1): A", "wavenumber_index (1, integer): k = 2 pi index / length_x"}},
+      {"background profile", "shear",
+       "uB = (U0 sin(k y), 0, 0), nB and TB uniform (a steady inviscid Euler solution); needs dimensions >= 2",
+       {"amplitude (0, velocity): U0", "wavenumber_index (1, integer): k = 2 pi index / length_y"}},
+      {"background profile", "file",
+       "per-cell nB, TB, uB from an HDF5 file with datasets density [cells], temperature [cells], velocity [cells x 3] "
+       "(cells in x-fastest order, shape matching [domain] cells)",
+       {"file (required, path relative to the case directory)"}},
+      {"grain profile", "uniform", "uniform initial grain density", {}},
+      {"grain profile", "mode", "n0 (1 + A cos kx) initial density",
+       {"amplitude (0.1, |A| < 1)", "wavenumber_index (1, integer): k = 2 pi index / length_x"}},
+  };
+  return models;
+}
+
+namespace {
+
+Boundary parse_boundary(const std::string& s) {
+  if (s == "specular") return Boundary::specular;
+  if (s == "diffuse") return Boundary::diffuse;
+  if (s == "open") return Boundary::open;
+  return Boundary::periodic;
+}
+
+void read_domain(CaseReader& r, Config& c) {
+  Domain& d = c.domain;
+  d.dimensions = static_cast<int>(r.integer_required("domain", "dimensions", 1, 3));
+  const auto dims = static_cast<std::size_t>(d.dimensions);
+  const auto len = r.reals("domain", "length", std::vector<double>(dims, 10.0), dims, dims, Bounds::positive());
+  std::vector<double> cells_default(dims, 10.0);
+  const auto cells = r.reals("domain", "cells", cells_default, dims, dims, Bounds::closed(1, 1e7));
+  for (std::size_t a = 0; a < dims && a < len.size() && a < cells.size(); ++a) {
+    d.length[a] = len[a];
+    if (cells[a] != std::floor(cells[a])) {
+      r.problem("domain", "cells", "element " + std::to_string(a) + ": expected a whole number of cells, found " +
+                                       std::to_string(cells[a]));
+    }
+    d.cells[a] = static_cast<int>(cells[a]);
+  }
+  const std::vector<std::string> valid = {"periodic", "specular", "diffuse", "open"};
+  const auto names = r.texts("domain", "boundaries", {"periodic"});
+  const std::size_t nfaces = 2 * dims;
+  if (names.size() != 1 && names.size() != dims && names.size() != nfaces) {
+    r.problem("domain", "boundaries",
+              "expected 1 name (all faces), " + std::to_string(dims) + " (one per axis) or " + std::to_string(nfaces) +
+                  " (lo and hi per axis), found " + std::to_string(names.size()));
+  }
+  for (const auto& n : names)
+    if (std::find(valid.begin(), valid.end(), n) == valid.end())
+      r.problem("domain", "boundaries", "unknown boundary \"" + n + "\"; valid: periodic, specular, diffuse, open");
+  for (std::size_t f = 0; f < 6; ++f) {
+    std::string name = "periodic";
+    if (f < nfaces) {
+      if (names.size() == 1) name = names[0];
+      else if (names.size() == dims) name = names[f / 2];
+      else if (names.size() == nfaces) name = names[f];
+    }
+    d.faces[f] = parse_boundary(name);
+  }
+  for (std::size_t a = 0; a < dims; ++a)
+    if ((d.faces[2 * a] == Boundary::periodic) != (d.faces[2 * a + 1] == Boundary::periodic))
+      r.problem("domain", "boundaries", "axis " + std::string(1, "xyz"[a]) +
+                                            ": a periodic face needs a periodic opposite face");
+  d.wall_temperature = r.real("domain", "wall_temperature", c.background.temperature, Bounds::positive(), "energy");
+}
+
+void read_background_field(CaseReader& r, Config& c, const std::string& case_dir) {
+  BackgroundField& f = c.field;
+  const std::string profile =
+      r.choice("background", "profile", "uniform", {"uniform", "isobaric_sine", "shear", "file"});
+  if (profile == "isobaric_sine") f.profile = BackgroundProfile::isobaric_sine;
+  if (profile == "shear") f.profile = BackgroundProfile::shear;
+  if (profile == "file") f.profile = BackgroundProfile::file;
+  if (f.profile != BackgroundProfile::uniform && !c.spatial())
+    r.problem("background", "profile", "profile \"" + profile + "\" needs a spatial run: add a [domain] section");
+  if (f.profile == BackgroundProfile::isobaric_sine) {
+    f.amplitude = r.real("background", "amplitude", 0.0, Bounds::open(-1.0, 1.0));
+    f.wavenumber_index = static_cast<int>(r.integer("background", "wavenumber_index", 1, 1, 1 << 20));
+  } else if (f.profile == BackgroundProfile::shear) {
+    f.amplitude = r.real("background", "amplitude", 0.0, Bounds::any(), "velocity");
+    f.wavenumber_index = static_cast<int>(r.integer("background", "wavenumber_index", 1, 1, 1 << 20));
+    if (c.domain.dimensions < 2)
+      r.problem("background", "profile", "profile \"shear\" (uB_x varying in y) needs dimensions >= 2");
+  } else if (f.profile == BackgroundProfile::file) {
+    f.file = r.text("background", "file", "");
+    if (f.file.empty()) {
+      r.problem("background", "file", "missing: profile = \"file\" needs file = \"grid.h5\"");
+      return;
+    }
+    const std::string path = (f.file.front() == '/') ? f.file : case_dir + "/" + f.file;
+    try {
+      H5File h(path, H5File::Mode::read);
+      std::vector<hsize_t> dn, dt, dv;
+      f.grid_density = h.read_doubles("density", &dn);
+      f.grid_temperature = h.read_doubles("temperature", &dt);
+      f.grid_velocity = h.read_doubles("velocity", &dv);
+      const std::size_t cells = c.domain.cell_count();
+      if (f.grid_density.size() != cells || f.grid_temperature.size() != cells || f.grid_velocity.size() != 3 * cells)
+        r.problem("background", "file",
+                  path + ": expected density and temperature with " + std::to_string(cells) +
+                      " values and velocity with " + std::to_string(3 * cells) + " (the [domain] cells), found " +
+                      std::to_string(f.grid_density.size()) + ", " + std::to_string(f.grid_temperature.size()) +
+                      " and " + std::to_string(f.grid_velocity.size()));
+      for (std::size_t i = 0; i < f.grid_density.size() && i < f.grid_temperature.size(); ++i)
+        if (!(f.grid_density[i] >= 0) || !(f.grid_temperature[i] > 0)) {
+          r.problem("background", "file", path + ": cell " + std::to_string(i) +
+                                              ": expected density >= 0 and temperature > 0");
+          break;
+        }
+    } catch (const std::exception& e) {
+      r.problem("background", "file", std::string(e.what()) + " (expected datasets density, temperature, velocity)");
+    }
+  }
+}
+
+}  // namespace
+
+Config read_config(CaseReader& r) {
+  Config c;
+  const std::string case_dir = [&] {
+    const std::string& f = r.file();
+    const auto slash = f.rfind('/');
+    return slash == std::string::npos ? std::string(".") : f.substr(0, slash);
+  }();
+  c.grains.density = r.real("grains", "density", 1.0, Bounds::positive(), "grains per volume");
+  c.grains.mass = r.real("grains", "mass", 1.0, Bounds::positive(), "mass");
+  c.grains.temperature = r.real("grains", "temperature", 1.0, Bounds::positive(), "energy");
+  c.grains.drift = r.vec3("grains", "drift", {});
+  c.background = read_background(r);
+  if (r.has_section("domain")) read_domain(r, c);
+  read_background_field(r, c, case_dir);
+  const std::string gprofile = r.choice("grains", "profile", "uniform", {"uniform", "mode"});
+  if (gprofile == "mode") {
+    c.grains.profile = GrainProfile::mode;
+    c.grains.amplitude = r.real("grains", "amplitude", 0.1, Bounds::open(-1.0, 1.0));
+    c.grains.wavenumber_index = static_cast<int>(r.integer("grains", "wavenumber_index", 1, 1, 1 << 20));
+    if (!c.spatial()) r.problem("grains", "profile", "profile \"mode\" needs a spatial run: add a [domain] section");
+  }
+  c.restitution = read_restitution(r);
+  c.particles = r.integer("dsmc", "particles", 100000, 2, 2'000'000'000);
+  c.dt = r.real("dsmc", "dt", 0.01, Bounds::positive(), "time");
+  c.t_end = r.real("dsmc", "t_end", 10.0, Bounds::positive(), "time");
+  c.sample_every = r.real("sampling", "every", c.dt * 10, Bounds::positive(), "time");
+  c.steady_from = r.real("sampling", "steady_from", 0.5 * c.t_end, Bounds::non_negative(), "time");
+  c.histogram_bins = static_cast<int>(r.integer("sampling", "histogram_bins", 100, 4, 100000));
+  c.histogram_range = r.real("sampling", "histogram_range", 6.0, Bounds::positive(), "thermal speeds");
+  c.relaxation_theory = r.boolean("sampling", "relaxation_theory", true);
+  if (c.spatial()) {
+    c.sample_fields = r.boolean("sampling", "fields", true);
+    c.field_batches = static_cast<int>(r.integer("sampling", "field_batches", 16, 2, 1024));
+    if (c.grains.profile == GrainProfile::mode) {
+      c.mode_fit_from = r.real("sampling", "mode_fit_from", 0.0, Bounds::non_negative(), "time");
+      c.mode_fit_to = r.real("sampling", "mode_fit_to", c.t_end, Bounds::positive(), "time");
+    }
+    const double per_cell = static_cast<double>(c.particles) / static_cast<double>(c.domain.cell_count());
+    if (per_cell < 2.0)
+      r.problem("dsmc", "particles", "expected at least 2 particles per cell on average (" +
+                                         std::to_string(c.domain.cell_count()) + " cells), found " +
+                                         std::to_string(per_cell));
+  }
+  c.checkpoint.every = r.real("checkpoint", "every", 0.0, Bounds::non_negative(), "time");
+  c.checkpoint.every_minutes = r.real("checkpoint", "every_minutes", 0.0, Bounds::non_negative(), "minutes");
+  c.checkpoint.keep = r.boolean("checkpoint", "keep", false);
+  if (c.dt > c.t_end) r.problem("dsmc", "dt", "expected dt <= t_end");
+  c.steps = static_cast<std::int64_t>(std::ceil(c.t_end / c.dt - 1e-9));
+  c.sample_every_steps = std::max<std::int64_t>(1, std::llround(c.sample_every / c.dt));
+  if (c.steady_from >= c.t_end)
+    r.problem("sampling", "steady_from", "expected a time before t_end, so the averaging window is not empty");
+  if (c.steps > 2'000'000'000) r.problem("dsmc", "dt", "t_end / dt is more than 2e9 steps");
+  return c;
+}
+
+}  // namespace grainbath::dsmc

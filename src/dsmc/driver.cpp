@@ -1,0 +1,284 @@
+// The DSMC driver: one loop for homogeneous (one cell, no positions) and spatial runs.
+//
+// Time step (Strang splitting of the collision operators, second order in dt):
+//   background collisions over dt/2 -> [stream over dt, sort into cells] -> grain-grain
+//   collisions over dt in every cell -> background collisions over dt/2.
+// Background substeps are exact in distribution for each grain (thinning with a per-grain
+// majorant, operators/background.hpp); grain-grain collisions use NTC per cell.
+// Every random number is keyed on (seed, stream; particle or cell id, step) and particles
+// are ordered by id inside each cell, so a run is a pure function of (case, seed): the
+// same at any thread count, and bitwise the same after a restart from a checkpoint.
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <stdexcept>
+
+#include "core/h5.hpp"
+#include "core/run_support.hpp"
+#include "dsmc/checkpoint.hpp"
+#include "dsmc/collide.hpp"
+#include "dsmc/dsmc.hpp"
+#include "dsmc/moments.hpp"
+#include "dsmc/output.hpp"
+#include "dsmc/spatial.hpp"
+#include "dsmc/theory.hpp"
+
+namespace grainbath::dsmc {
+
+namespace {
+
+// Initial state: positions from the density profile and Maxwellian velocities, each grain
+// from its own counter-based stream; then velocities are shifted and scaled so that the
+// sample mean and temperature are exactly the requested ones (no O(N^-1/2) noise at t = 0).
+void initialise(State& s, const Config& c, std::uint64_t seed) {
+  Particles& p = s.particles;
+  const std::size_t n = static_cast<std::size_t>(c.particles);
+  const Domain& d = c.domain;
+  p.resize(n, false);
+  if (c.spatial()) {
+    p.x.resize(n);
+    if (d.dimensions > 1) p.y.resize(n);
+    if (d.dimensions > 2) p.z.resize(n);
+  }
+  const double sig = std::sqrt(c.grains.temperature / c.grains.mass);
+  const double k = c.spatial() ? c.wavenumber() : 0.0;
+  const double A = c.grains.profile == GrainProfile::mode ? c.grains.amplitude : 0.0;
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) {
+    p.id[i] = i;
+    CounterRng rng(seed, Stream::initial_velocities, i, 0);
+    p.set_velocity(i, sig * rng.normal3());
+    if (c.spatial()) {
+      CounterRng pr(seed, Stream::initial_positions, i, 0);
+      // n0 (1 + A cos kx) by rejection
+      double x;
+      do {
+        x = pr.uniform() * d.length[0];
+      } while (A != 0.0 && pr.uniform() * (1.0 + std::abs(A)) > 1.0 + A * std::cos(k * x));
+      p.x[i] = x;
+      if (d.dimensions > 1) p.y[i] = pr.uniform() * d.length[1];
+      if (d.dimensions > 2) p.z[i] = pr.uniform() * d.length[2];
+    }
+  }
+  const Moments m = measure_moments(p, 0, n, c.grains.mass);
+  const double scale = std::sqrt(c.grains.temperature / m.temperature);
+  for (std::size_t i = 0; i < n; ++i)
+    p.set_velocity(i, scale * (p.velocity(i) - m.mean_velocity) + c.grains.drift);
+  s.remainder.assign(c.spatial() ? d.cell_count() : 1, 0.0);
+  s.initial_kinetic_energy = measure_moments(p, 0, n, c.grains.mass).kinetic_energy;
+}
+
+// Background substep for every grain, in fixed blocks (deterministic reduction).
+void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath, double duration,
+                  std::uint64_t seed, Stream stream) {
+  constexpr std::size_t kBlock = 4096;
+  Particles& p = s.particles;
+  const std::size_t n = p.size();
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  const bool local = c.field.profile != BackgroundProfile::uniform;
+  const double m = c.grains.mass;
+  const auto step = static_cast<std::uint64_t>(s.step);
+  std::vector<BackgroundCounters> partial(blocks);
+#pragma omp parallel for schedule(dynamic, 4)
+  for (std::size_t blk = 0; blk < blocks; ++blk) {
+    BackgroundCounters cnt;
+    const std::size_t lo = blk * kBlock, hi = std::min(n, lo + kBlock);
+    for (std::size_t i = lo; i < hi; ++i) {
+      CounterRng rng(seed, stream, p.id[i], step);
+      Vec3 v = p.velocity(i);
+      if (local) {
+        const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
+        const BackgroundState b = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
+        evolve_in_background(v, b, m, duration, rng, cnt);
+      } else {
+        evolve_in_background(v, uniform_bath, m, duration, rng, cnt);
+      }
+      p.set_velocity(i, v);
+    }
+    partial[blk] = cnt;
+  }
+  for (const auto& c2 : partial) {
+    s.counters.bath_candidates += c2.candidates;
+    s.counters.bath_collisions += c2.collisions;
+    s.counters.bath_energy += c2.energy_gain;
+  }
+}
+
+// Grain-grain collisions in every cell; each cell has its own random stream (cell id, step)
+// and its own counters, summed in cell order afterwards.
+void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_cell) {
+  const std::size_t cells = s.cell_start.size() - 1;
+  per_cell.assign(cells, GrainCounters{});
+  const double weight = c.grains.density * (c.spatial() ? c.domain.volume() : 1.0) / static_cast<double>(c.particles);
+  const double cell_volume = c.spatial() ? c.domain.cell_volume() : 1.0;
+  const auto step = static_cast<std::uint64_t>(s.step);
+  std::visit(
+      [&](const auto& law) {
+#pragma omp parallel for schedule(dynamic, 64)
+        for (std::size_t k = 0; k < cells; ++k) {
+          const std::size_t b = s.cell_start[k], e = s.cell_start[k + 1];
+          if (e - b < 2) continue;
+          // homogeneous: the case density; spatial: the cell's simulated density
+          const double density = c.spatial() ? static_cast<double>(e - b) * weight / cell_volume : c.grains.density;
+          CounterRng rng(seed, Stream::grain_collisions, k, step);
+          collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], per_cell[k]);
+        }
+      },
+      c.restitution);
+  for (const auto& g : per_cell) s.counters.grain.add(g);
+}
+
+void sample(State& s, const Config& c, double t) {
+  const Particles& p = s.particles;
+  const std::size_t n = p.size();
+  const Moments mo = measure_moments(p, 0, n, c.grains.mass);
+  TimeSeries& ts = s.series;
+  // grain density of the sampled population (spatial: mean over the box)
+  const double density = c.grains.density * static_cast<double>(n) / static_cast<double>(c.particles);
+  ts.t.push_back(t);
+  ts.T.push_back(mo.temperature);
+  ts.a2.push_back(mo.a2);
+  ts.velocity.insert(ts.velocity.end(), {mo.mean_velocity.x, mo.mean_velocity.y, mo.mean_velocity.z});
+  for (double x : mo.pressure) ts.pressure.push_back(density * x);
+  ts.heat_flux.insert(ts.heat_flux.end(),
+                      {density * mo.heat_flux.x, density * mo.heat_flux.y, density * mo.heat_flux.z});
+  const double per = 1.0 / static_cast<double>(c.particles);
+  ts.ke.push_back(mo.kinetic_energy * per);
+  ts.bath_in.push_back(s.counters.bath_energy * per);
+  ts.loss.push_back(s.counters.grain.energy_loss * per);
+  ts.wall_in.push_back(s.counters.wall_energy * per);
+  ts.removed_out.push_back(s.counters.removed_energy * per);
+  ts.count.push_back(static_cast<double>(n));
+  ts.bath_collisions.push_back(s.counters.bath_collisions);
+  ts.grain_collisions.push_back(s.counters.grain.collisions);
+  if (c.spatial() && c.grains.profile == GrainProfile::mode) {
+    const double k = c.wavenumber();
+    double sc = 0, ss = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      sc += std::cos(k * p.x[i]);
+      ss += std::sin(k * p.x[i]);
+    }
+    ts.mode_amplitude.push_back(2.0 * std::hypot(sc, ss) / static_cast<double>(n));
+  }
+  if (!std::isfinite(mo.temperature) || !std::isfinite(mo.a2))
+    throw std::runtime_error("non-finite temperature or a2 at t = " + std::to_string(t) +
+                             ": stopping (is dt far too large?)");
+  // per-cell sums for the time-averaged fields
+  FieldAccumulator& f = s.fields;
+  if (f.cells > 0 && t >= c.steady_from - 1e-12 && f.taken < f.window_samples) {
+    const int batch = static_cast<int>(f.taken * f.batches / f.window_samples);
+    double* base = f.sums.data() + static_cast<std::size_t>(batch) * f.cells * FieldAccumulator::kSums;
+#pragma omp parallel for schedule(dynamic, 256)
+    for (std::size_t k = 0; k < f.cells; ++k) {
+      double* a = base + k * FieldAccumulator::kSums;
+      for (std::size_t i = s.cell_start[k]; i < s.cell_start[k + 1]; ++i) {
+        const double vx = p.vx[i], vy = p.vy[i], vz = p.vz[i], v2 = vx * vx + vy * vy + vz * vz;
+        a[0] += 1;
+        a[1] += vx;
+        a[2] += vy;
+        a[3] += vz;
+        a[4] += vx * vx;
+        a[5] += vy * vy;
+        a[6] += vz * vz;
+        a[7] += vx * vy;
+        a[8] += vx * vz;
+        a[9] += vy * vz;
+        a[10] += v2 * vx;
+        a[11] += v2 * vy;
+        a[12] += v2 * vz;
+        a[13] += v2;
+      }
+    }
+    f.batch_samples[batch] += 1;
+    f.taken += 1;
+  }
+}
+
+}  // namespace
+
+void run(const Config& c, const RunContext& ctx, Summary& summary) {
+  const auto wall_start = std::chrono::steady_clock::now();
+  if (ctx.threads > 0) omp_set_num_threads(ctx.threads);
+  const BackgroundParameters& bg = c.background;
+  const BackgroundState uniform_bath =
+      BackgroundState::make(bg.density, bg.knudsen, bg.velocity, bg.temperature, bg.mass_ratio, c.grains.mass);
+
+  State s;
+  bool resumed = false;
+  if (ctx.resume) {
+    std::string warning;
+    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning);
+    if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+    if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
+    s = std::move(*restored);
+    resumed = true;
+    std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
+  } else {
+    initialise(s, c, ctx.seed);
+    if (c.spatial() && c.sample_fields) {
+      FieldAccumulator& f = s.fields;
+      f.cells = c.domain.cell_count();
+      f.batches = c.field_batches;
+      for (std::int64_t st = 0; st <= c.steps; ++st)
+        if ((st % c.sample_every_steps == 0 || st == c.steps) && st * c.dt >= c.steady_from - 1e-12) ++f.window_samples;
+      f.batches = static_cast<int>(std::min<std::int64_t>(f.batches, std::max<std::int64_t>(1, f.window_samples)));
+      f.sums.assign(static_cast<std::size_t>(f.batches) * f.cells * FieldAccumulator::kSums, 0.0);
+      f.batch_samples.assign(f.batches, 0);
+    }
+  }
+  std::vector<std::uint8_t> removed;
+  auto rebuild_cells = [&] {
+    if (c.spatial()) {
+      removed.clear();
+      sort_by_cell(s, c, removed);
+    } else {
+      s.cell_start = {0, s.particles.size()};
+    }
+  };
+  rebuild_cells();
+  if (!resumed) sample(s, c, 0.0);
+
+  std::vector<GrainCounters> per_cell;
+  Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet);
+  auto last_checkpoint_wall = std::chrono::steady_clock::now();
+  const std::int64_t checkpoint_steps =
+      c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
+  for (; s.step < c.steps;) {
+    if (bg.present()) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half);
+    if (c.spatial()) {
+      stream(s, c, ctx.seed, removed);
+      sort_by_cell(s, c, removed);
+    }
+    grain_step(s, c, ctx.seed, per_cell);
+    if (bg.present()) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
+    ++s.step;
+    if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
+      sample(s, c, static_cast<double>(s.step) * c.dt);
+      char extra[96];
+      std::snprintf(extra, sizeof extra, "t=%.4g T=%.5g", s.series.t.back(), s.series.T.back());
+      progress.update(static_cast<double>(s.step), extra);
+    }
+    const bool stop = ctx.stop_requested && ctx.stop_requested->load();
+    const bool due_sim = checkpoint_steps > 0 && s.step % checkpoint_steps == 0;
+    const bool due_wall = c.checkpoint.every_minutes > 0 &&
+                          wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes;
+    if (!ctx.checkpoint_dir.empty() && (stop || ((due_sim || due_wall) && s.step < c.steps))) {
+      write_checkpoint(ctx.checkpoint_dir, s, ctx);
+      last_checkpoint_wall = std::chrono::steady_clock::now();
+    }
+    if (stop) {
+      progress.finish();
+      throw std::runtime_error("interrupted at step " + std::to_string(s.step) + " (t = " +
+                               std::to_string(s.step * c.dt) + "); a checkpoint was written to " +
+                               ctx.checkpoint_dir.string() + "; continue with: grainbath run " +
+                               ctx.case_dir.string() + " --resume");
+    }
+  }
+  progress.finish();
+  write_results(c, ctx, s, wall_seconds_since(wall_start), summary);
+}
+
+}  // namespace grainbath::dsmc

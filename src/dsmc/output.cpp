@@ -1,0 +1,348 @@
+#include "dsmc/output.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+
+#include "core/h5.hpp"
+#include "core/run_support.hpp"
+#include "dsmc/moments.hpp"
+#include "dsmc/spatial.hpp"
+#include "dsmc/theory.hpp"
+
+namespace grainbath::dsmc {
+
+namespace {
+
+struct LineFit {
+  double slope = NAN, slope_stderr = NAN, intercept = NAN;
+  std::size_t points = 0;
+};
+
+// Weighted least squares y = a + b x (weights 1/sigma^2; sigma empty: unweighted). The slope
+// error is scaled by sqrt(reduced chi^2) when that exceeds 1 and, for unweighted time
+// series, by the blocking factor of the residuals (correlated noise).
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& sigma,
+                 bool correlated) {
+  LineFit f;
+  const std::size_t n = x.size();
+  f.points = n;
+  if (n < 3) return f;
+  double S = 0, Sx = 0, Sy = 0, Sxx = 0, Sxy = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double w = sigma.empty() ? 1.0 : 1.0 / (sigma[k] * sigma[k]);
+    S += w;
+    Sx += w * x[k];
+    Sy += w * y[k];
+    Sxx += w * x[k] * x[k];
+    Sxy += w * x[k] * y[k];
+  }
+  const double D = S * Sxx - Sx * Sx;
+  f.slope = (S * Sxy - Sx * Sy) / D;
+  f.intercept = (Sxx * Sy - Sx * Sxy) / D;
+  std::vector<double> res(n);
+  double chi2 = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    res[k] = y[k] - f.intercept - f.slope * x[k];
+    const double w = sigma.empty() ? 1.0 : 1.0 / (sigma[k] * sigma[k]);
+    chi2 += w * res[k] * res[k];
+  }
+  const double red = chi2 / static_cast<double>(n - 2);
+  double var = S / D;  // slope variance for known sigmas
+  if (sigma.empty()) var *= red;
+  else if (red > 1) var *= red;
+  if (correlated) {
+    const MeanError blocked = block_average(res);
+    double v = 0;
+    for (double r : res) v += r * r;
+    const double naive = std::sqrt(v / (n - 1) / n);
+    if (naive > 0 && blocked.stderr_ > naive) var *= (blocked.stderr_ / naive) * (blocked.stderr_ / naive);
+  }
+  f.slope_stderr = std::sqrt(var);
+  return f;
+}
+
+void write_xdmf(const std::filesystem::path& path, const Domain& d, const std::vector<std::string>& scalars,
+                const std::vector<std::string>& vectors) {
+  // 3D CoRectMesh: node counts are cells + 1 (z, y, x order in XDMF)
+  const int nx = d.cells[0], ny = d.cells[1], nz = d.cells[2];
+  std::ofstream o(path);
+  o << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n  <Grid Name=\"dsmc_fields\" GridType=\"Uniform\">\n";
+  o << "   <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << nz + 1 << " " << ny + 1 << " " << nx + 1 << "\"/>\n";
+  o << "   <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n";
+  o << "    <DataItem Dimensions=\"3\" Format=\"XML\">0 0 0</DataItem>\n";
+  o << "    <DataItem Dimensions=\"3\" Format=\"XML\">" << d.length[2] / nz << " " << d.length[1] / ny << " "
+    << d.length[0] / nx << "</DataItem>\n   </Geometry>\n";
+  for (const auto& s : scalars)
+    o << "   <Attribute Name=\"" << s << "\" AttributeType=\"Scalar\" Center=\"Cell\">\n    <DataItem Dimensions=\"" << nz
+      << " " << ny << " " << nx << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">results.h5:/fields/" << s
+      << "</DataItem>\n   </Attribute>\n";
+  for (const auto& v : vectors)
+    o << "   <Attribute Name=\"" << v << "\" AttributeType=\"Vector\" Center=\"Cell\">\n    <DataItem Dimensions=\"" << nz
+      << " " << ny << " " << nx << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">results.h5:/fields/" << v
+      << "</DataItem>\n   </Attribute>\n";
+  o << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  if (!o) throw std::runtime_error(path.string() + ": cannot write the XDMF file");
+}
+
+}  // namespace
+
+void write_results(const Config& c, const RunContext& ctx, const State& s, double wall, Summary& summary) {
+  const Particles& p = s.particles;
+  const std::size_t n = p.size();
+  const double m = c.grains.mass;
+  const TimeSeries& ts = s.series;
+  const std::size_t samples = ts.t.size();
+
+  // ---- statistics over the steady window
+  std::vector<double> Tw, a2w;
+  for (std::size_t k = 0; k < samples; ++k)
+    if (ts.t[k] >= c.steady_from - 1e-12) {
+      Tw.push_back(ts.T[k]);
+      a2w.push_back(ts.a2[k]);
+    }
+  const MeanError Tm = block_average(Tw), a2m = block_average(a2w);
+
+  // ---- final velocity histograms in units of the thermal speed sqrt(T/m)
+  const Moments fin = measure_moments(p, 0, n, m);
+  const double vth = std::sqrt(fin.temperature / m);
+  const int nb = c.histogram_bins;
+  const double range = c.histogram_range;
+  std::vector<double> edges(nb + 1), hist_comp(3 * nb, 0.0), hist_speed(nb, 0.0), speed_edges(nb + 1);
+  for (int k = 0; k <= nb; ++k) {
+    edges[k] = -range + 2 * range * k / nb;
+    speed_edges[k] = range * k / nb;
+  }
+  const double wcomp = nb / (2 * range), wspeed = nb / range;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 cv = (1.0 / vth) * (p.velocity(i) - fin.mean_velocity);
+    const double comp[3] = {cv.x, cv.y, cv.z};
+    for (int d = 0; d < 3; ++d) {
+      const int b = static_cast<int>(std::floor((comp[d] + range) * wcomp));
+      if (b >= 0 && b < nb) hist_comp[d * nb + b] += 1;
+    }
+    const int bs = static_cast<int>(std::floor(norm(cv) * wspeed));
+    if (bs >= 0 && bs < nb) hist_speed[bs] += 1;
+  }
+  for (auto& h : hist_comp) h *= wcomp / static_cast<double>(n);
+  for (auto& h : hist_speed) h *= wspeed / static_cast<double>(n);
+
+  // ---- energy budget: KE(t) - KE(0) = bath + walls - inelastic loss - carried out
+  const RunCounters& rc = s.counters;
+  const double budget_residual = (fin.kinetic_energy - s.initial_kinetic_energy) -
+                                 (rc.bath_energy + rc.wall_energy - rc.grain.energy_loss - rc.removed_energy);
+  const double budget_scale = std::max({std::abs(s.initial_kinetic_energy), std::abs(rc.bath_energy),
+                                        std::abs(rc.grain.energy_loss), std::abs(rc.wall_energy), 1e-300});
+
+  // ---- theory
+  const auto theory = theory_values(c);
+  std::vector<std::pair<std::string, std::vector<double>>> theory_series;
+  if (c.relaxation_theory && !c.spatial()) theory_series = relaxation_series(c, ts.t);
+
+  H5File f((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
+  write_provenance(f, ctx, "dsmc");
+  f.write("/timeseries/t", ts.t);
+  f.write("/timeseries/temperature", ts.T);
+  f.write("/timeseries/a2", ts.a2);
+  f.write("/timeseries/velocity", ts.velocity, {samples, 3});
+  f.write("/timeseries/pressure_tensor", ts.pressure, {samples, 6});
+  f.write("/timeseries/heat_flux", ts.heat_flux, {samples, 3});
+  f.write("/timeseries/kinetic_energy_per_grain", ts.ke);
+  f.write("/timeseries/bath_energy_input_per_grain", ts.bath_in);
+  f.write("/timeseries/inelastic_loss_per_grain", ts.loss);
+  f.write("/timeseries/wall_energy_input_per_grain", ts.wall_in);
+  f.write("/timeseries/outflow_energy_per_grain", ts.removed_out);
+  f.write("/timeseries/particles", ts.count);
+  f.write("/timeseries/bath_collisions", ts.bath_collisions);
+  f.write("/timeseries/grain_collisions", ts.grain_collisions);
+  f.attribute("/timeseries/pressure_tensor", "components", std::string("xx yy zz xy xz yz"));
+  f.attribute("/timeseries", "units",
+              std::string("t: time; temperature: energy; velocity: sqrt(energy/mass); per_grain: energy per initial grain"));
+  f.write("/histogram/component_edges", edges);
+  f.write("/histogram/components", hist_comp, {3, static_cast<hsize_t>(nb)});
+  f.write("/histogram/speed_edges", speed_edges);
+  f.write("/histogram/speed", hist_speed);
+  f.attribute("/histogram", "units", std::string("velocities in units of sqrt(T/m) about the mean; densities normalised to 1"));
+  f.write_scalar("/histogram/temperature", fin.temperature);
+  for (const auto& [name, values] : theory_series) f.write("/theory/" + name, values);
+
+  summary.set("solver", std::string("dsmc"));
+  summary.set("temperature.mean", Tm.mean);
+  summary.set("temperature.stderr", Tm.stderr_);
+  summary.set("temperature.samples", static_cast<std::int64_t>(Tm.samples));
+  summary.set("temperature.final", fin.temperature);
+  summary.set("a2.mean", a2m.mean);
+  summary.set("a2.stderr", a2m.stderr_);
+  summary.set("a2.final", fin.a2);
+  summary.set("velocity.final", norm(fin.mean_velocity - c.background.velocity));
+
+  // ---- spatial: density mode decay
+  if (c.spatial() && !ts.mode_amplitude.empty()) {
+    f.write("/mode/t", ts.t);
+    f.write("/mode/amplitude", ts.mode_amplitude);
+    f.write_scalar("/mode/wavenumber", c.wavenumber());
+    const double noise = 2.0 / std::sqrt(static_cast<double>(c.particles));
+    std::vector<double> tx, ly;
+    for (std::size_t k = 0; k < samples; ++k)
+      if (ts.t[k] >= c.mode_fit_from && ts.t[k] <= c.mode_fit_to && ts.mode_amplitude[k] > 5 * noise) {
+        tx.push_back(ts.t[k]);
+        ly.push_back(std::log(ts.mode_amplitude[k]));
+      }
+    const LineFit lf = fit_line(tx, ly, {}, true);
+    summary.set("mode.decay_rate", -lf.slope);
+    summary.set("mode.decay_rate_stderr", lf.slope_stderr);
+    summary.set("mode.fit_points", static_cast<std::int64_t>(lf.points));
+    summary.set("mode.initial_amplitude", ts.mode_amplitude.front());
+    f.write_scalar("/mode/decay_rate", -lf.slope);
+    f.write_scalar("/mode/decay_rate_stderr", lf.slope_stderr);
+    f.write_scalar("/mode/fit_intercept", lf.intercept);
+    f.write("/mode/fit_window", std::vector<double>{c.mode_fit_from, c.mode_fit_to});
+  }
+
+  // ---- spatial: per-cell time-averaged fields with batch standard errors
+  const FieldAccumulator& fa = s.fields;
+  if (c.spatial() && fa.cells > 0 && fa.taken > 0) {
+    const std::size_t cells = fa.cells;
+    const double weight = c.grains.density * c.domain.volume() / static_cast<double>(c.particles);
+    const double vcell = c.domain.cell_volume();
+    std::vector<double> nmean(cells, 0), nerr(cells, 0), Tmean(cells, 0), Terr(cells, 0), umean(3 * cells, 0),
+        Pmean(6 * cells, 0), qmean(3 * cells, 0);
+    std::vector<double> nb_(fa.batches), Tb(fa.batches);
+    int used_batches = 0;
+    for (int b = 0; b < fa.batches; ++b)
+      if (fa.batch_samples[b] > 0) ++used_batches;
+    for (std::size_t k = 0; k < cells; ++k) {
+      double ns = 0, n2 = 0, Ts = 0, T2 = 0;
+      int nbt = 0, nTb = 0;
+      for (int b = 0; b < fa.batches; ++b) {
+        if (fa.batch_samples[b] == 0) continue;
+        const double* a = fa.sums.data() + (static_cast<std::size_t>(b) * cells + k) * FieldAccumulator::kSums;
+        const double count = a[0];
+        const double dens = count * weight / vcell / static_cast<double>(fa.batch_samples[b]);
+        ns += dens;
+        n2 += dens * dens;
+        ++nbt;
+        if (count < 2) continue;
+        const double u[3] = {a[1] / count, a[2] / count, a[3] / count};
+        const double vv[6] = {a[4] / count, a[5] / count, a[6] / count, a[7] / count, a[8] / count, a[9] / count};
+        const int ij[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+        double P[6];
+        for (int q = 0; q < 6; ++q) P[q] = dens * m * (vv[q] - u[ij[q][0]] * u[ij[q][1]]);
+        const double T = (P[0] + P[1] + P[2]) / (3 * dens);
+        const double v2 = a[13] / count, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+        const double full[3][3] = {{vv[0], vv[3], vv[4]}, {vv[3], vv[1], vv[5]}, {vv[4], vv[5], vv[2]}};
+        for (int i = 0; i < 3; ++i) {
+          // <|c|^2 c_i> = <|v|^2 v_i> - u_i <|v|^2> - 2 u_j <v_j v_i> + 2 u_i |u|^2
+          double ujvv = 0;
+          for (int j = 0; j < 3; ++j) ujvv += u[j] * full[j][i];
+          const double c3 = a[10 + i] / count - u[i] * v2 - 2 * ujvv + 2 * u[i] * u2;
+          qmean[3 * k + i] += 0.5 * m * dens * c3;
+          umean[3 * k + i] += u[i];
+        }
+        for (int q = 0; q < 6; ++q) Pmean[6 * k + q] += P[q];
+        Ts += T;
+        T2 += T * T;
+        ++nTb;
+      }
+      nmean[k] = ns / nbt;
+      nerr[k] = nbt > 1 ? std::sqrt(std::max(0.0, n2 / nbt - nmean[k] * nmean[k]) / (nbt - 1)) : NAN;
+      if (nTb > 0) {
+        Tmean[k] = Ts / nTb;
+        Terr[k] = nTb > 1 ? std::sqrt(std::max(0.0, T2 / nTb - Tmean[k] * Tmean[k]) / (nTb - 1)) : NAN;
+        for (int i = 0; i < 3; ++i) {
+          umean[3 * k + i] /= nTb;
+          qmean[3 * k + i] /= nTb;
+        }
+        for (int q = 0; q < 6; ++q) Pmean[6 * k + q] /= nTb;
+      }
+    }
+    const hsize_t nx = c.domain.cells[0], ny = c.domain.cells[1], nz = c.domain.cells[2];
+    f.write("/fields/density", nmean, {nz, ny, nx});
+    f.write("/fields/density_stderr", nerr, {nz, ny, nx});
+    f.write("/fields/temperature", Tmean, {nz, ny, nx});
+    f.write("/fields/temperature_stderr", Terr, {nz, ny, nx});
+    f.write("/fields/velocity", umean, {nz, ny, nx, 3});
+    f.write("/fields/pressure_tensor", Pmean, {nz, ny, nx, 6});
+    f.write("/fields/heat_flux", qmean, {nz, ny, nx, 3});
+    std::vector<double> xc(nx), bgT(cells), bgn(cells);
+    for (hsize_t i = 0; i < nx; ++i) xc[i] = (i + 0.5) * c.domain.cell_size(0);
+    f.write("/fields/x", xc);
+    if (c.domain.dimensions > 1) {
+      std::vector<double> yc(ny);
+      for (hsize_t i = 0; i < ny; ++i) yc[i] = (i + 0.5) * c.domain.cell_size(1);
+      f.write("/fields/y", yc);
+    }
+    if (c.domain.dimensions > 2) {
+      std::vector<double> zc(nz);
+      for (hsize_t i = 0; i < nz; ++i) zc[i] = (i + 0.5) * c.domain.cell_size(2);
+      f.write("/fields/z", zc);
+    }
+    for (std::size_t k = 0; k < cells; ++k) {
+      const std::size_t ix = k % nx, iy = (k / nx) % ny, iz = k / (nx * ny);
+      const double x = (ix + 0.5) * c.domain.cell_size(0), y = (iy + 0.5) * c.domain.cell_size(1),
+                   z = (iz + 0.5) * c.domain.cell_size(2);
+      const BackgroundState b = local_background(c, x, y, z, static_cast<std::uint32_t>(k));
+      const double mB = background_mass(c.background.mass_ratio, m);
+      bgT[k] = b.sigma * b.sigma * mB;
+      bgn[k] = b.rate_scale * c.background.knudsen;
+    }
+    f.write("/fields/background_temperature", bgT, {nz, ny, nx});
+    f.write("/fields/background_density", bgn, {nz, ny, nx});
+    f.attribute("/fields", "window", std::string("time averages over t >= steady_from, standard errors from ") +
+                                         std::to_string(used_batches) + " batches");
+    f.attribute("/fields", "units", std::string("density: grains per volume; temperature: energy; cell-centred, "
+                                                "arrays indexed [z][y][x]"));
+    write_xdmf(ctx.out_dir / "fields.xdmf", c.domain,
+               {"density", "density_stderr", "temperature", "temperature_stderr", "background_temperature",
+                "background_density"},
+               {"velocity", "heat_flux"});
+    // steady n(x) against TB(x): n ~ TB^-p (isobaric background)
+    if (c.field.profile == BackgroundProfile::isobaric_sine) {
+      std::vector<double> lx, ly, ls;
+      for (std::size_t k = 0; k < cells; ++k)
+        if (nmean[k] > 0 && nerr[k] > 0) {
+          lx.push_back(std::log(bgT[k]));
+          ly.push_back(std::log(nmean[k]));
+          ls.push_back(nerr[k] / nmean[k]);
+        }
+      const LineFit lf = fit_line(lx, ly, ls, false);
+      summary.set("profile.exponent", -lf.slope);
+      summary.set("profile.exponent_stderr", lf.slope_stderr);
+    }
+  }
+
+  summary.set("counters.bath_candidates", static_cast<std::int64_t>(rc.bath_candidates));
+  summary.set("counters.bath_collisions", static_cast<std::int64_t>(rc.bath_collisions));
+  summary.set("counters.grain_candidates", static_cast<std::int64_t>(rc.grain.candidates));
+  summary.set("counters.grain_collisions", static_cast<std::int64_t>(rc.grain.collisions));
+  summary.set("counters.restitution_clamped", static_cast<std::int64_t>(rc.grain.clamped));
+  summary.set("counters.majorant_exceeded", static_cast<std::int64_t>(rc.grain.bound_exceeded));
+  summary.set("counters.particles_final", static_cast<std::int64_t>(n));
+  summary.set("counters.particles_removed", static_cast<std::int64_t>(rc.removed));
+  const double per = 1.0 / static_cast<double>(c.particles);
+  summary.set("energy.bath_input_per_grain", rc.bath_energy * per);
+  summary.set("energy.wall_input_per_grain", rc.wall_energy * per);
+  summary.set("energy.inelastic_loss_per_grain", rc.grain.energy_loss * per);
+  summary.set("energy.budget_relative_residual", budget_residual / budget_scale);
+  summary.set_all("theory", theory);
+  const double collisions = static_cast<double>(rc.bath_collisions + rc.grain.collisions);
+  summary.set("performance.wall_seconds", wall);
+  summary.set("performance.particle_steps_per_second", static_cast<double>(c.particles) * c.steps / wall);
+  summary.set("performance.collisions_per_second", collisions / wall);
+  summary.set("performance.threads", static_cast<std::int64_t>(omp_get_max_threads()));
+
+  if (rc.grain.collisions > 0 && rc.grain.clamped > 1e-4 * rc.grain.collisions)
+    std::fprintf(stderr, "warning: the power law gave e < 0 (clamped to 0) in %.3g%% of grain collisions\n",
+                 100.0 * rc.grain.clamped / rc.grain.collisions);
+  if (rc.grain.bound_exceeded > 1e-4 * std::max<std::uint64_t>(1, rc.grain.candidates))
+    std::fprintf(stderr, "warning: the grain-collision majorant was exceeded %llu times\n",
+                 static_cast<unsigned long long>(rc.grain.bound_exceeded));
+  if (std::abs(budget_residual / budget_scale) > 1e-8)
+    std::fprintf(stderr, "warning: the energy budget does not close: relative residual %.3g\n",
+                 budget_residual / budget_scale);
+}
+
+}  // namespace grainbath::dsmc

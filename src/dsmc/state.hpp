@@ -1,0 +1,54 @@
+#pragma once
+// Everything a DSMC run carries from step to step. A checkpoint is exactly this struct
+// (src/dsmc/checkpoint.cpp): with counter-based random numbers keyed on (seed, id, step),
+// restoring it and continuing gives results bitwise identical to an uninterrupted run.
+#include <cstdint>
+#include <vector>
+
+#include "dsmc/collide.hpp"
+#include "dsmc/particles.hpp"
+
+namespace grainbath::dsmc {
+
+struct RunCounters {
+  std::uint64_t bath_candidates = 0;
+  std::uint64_t bath_collisions = 0;
+  double bath_energy = 0.0;         // kinetic energy given to the grains by the medium
+  GrainCounters grain;              // grain-grain collisions (energy_loss: dissipated)
+  std::uint64_t removed = 0;        // particles that left through open faces
+  double wall_energy = 0.0;         // kinetic energy given by diffuse walls
+  double removed_energy = 0.0;      // kinetic energy carried out through open faces
+};
+
+struct TimeSeries {
+  std::vector<double> t, T, a2, velocity, pressure, heat_flux, ke, bath_in, loss, wall_in, removed_out;
+  std::vector<double> mode_amplitude;   // spatial runs with a density mode: 2 |<exp(ikx)>|
+  std::vector<double> count;            // simulated particles
+  std::vector<std::uint64_t> bath_collisions, grain_collisions;
+};
+
+// Per-cell sums for time-averaged fields, in batches (for standard errors). Per cell and
+// batch: count, sum v (3), sum v_i v_j (6: xx yy zz xy xz yz), sum |v|^2 v (3), sum |v|^2.
+struct FieldAccumulator {
+  static constexpr int kSums = 14;
+  int batches = 0;
+  std::size_t cells = 0;
+  std::int64_t window_samples = 0;        // samples expected in the averaging window
+  std::int64_t taken = 0;                 // samples taken so far in the window
+  std::vector<double> sums;               // [batch][cell][kSums]
+  std::vector<std::int64_t> batch_samples;
+};
+
+struct State {
+  Particles particles;
+  std::int64_t step = 0;
+  std::vector<double> remainder;          // NTC fractional candidates, per cell
+  RunCounters counters;
+  TimeSeries series;
+  FieldAccumulator fields;
+  double initial_kinetic_energy = 0.0;
+  // scratch (rebuilt every step, not checkpointed)
+  std::vector<std::size_t> cell_start;    // cell c holds [cell_start[c], cell_start[c+1])
+};
+
+}  // namespace grainbath::dsmc
