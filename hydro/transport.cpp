@@ -94,10 +94,11 @@ Eigen::MatrixXd galerkin_matrix(double alpha, int N) {
             }
             row += 3;
           }
-      C.noalias() -= (1.0 / 6.0) * (B.transpose() * B);
+      // C -= (1/6) B^T B, lower triangle only (symmetric rank-k update).
+      C.selfadjointView<Eigen::Lower>().rankUpdate(B.transpose(), -1.0 / 6.0);
     }
   }
-  return 0.5 * (C + C.transpose());
+  return C.selfadjointView<Eigen::Lower>();
 }
 
 // <c_z^2 S_p^2>_M = (4/(3 sqrt(pi))) Gamma(p+5/2)/p!  (Sonine orthogonality, weight x^{3/2} e^{-x}).
