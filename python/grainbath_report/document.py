@@ -39,9 +39,13 @@ class Table:
 
 
 class Figure:
-    def __init__(self, path, caption):
+    def __init__(self, path, caption, alt=None):
         self.path = path          # absolute path of the PNG (inside the report directory)
         self.caption = caption
+        if alt is None:           # first sentence of the caption, kept short
+            alt = re.split(r"(?<=[a-z0-9)])(?<!std)(?<!eqs)(?<!Fig)\. ", caption, maxsplit=1)[0].rstrip(".")
+            alt = alt if len(alt) <= 120 else alt[:117].rsplit(" ", 1)[0] + "…"
+        self.alt = alt
 
 
 class Section:
@@ -58,9 +62,9 @@ class Section:
         self.blocks.append(("table", Table(headers, rows, caption)))
         return self
 
-    def figure(self, path, caption):
+    def figure(self, path, caption, alt=None):
         if path:
-            self.blocks.append(("figure", Figure(path, caption)))
+            self.blocks.append(("figure", Figure(path, caption, alt)))
         return self
 
     def code(self, s, summary=None):
@@ -98,7 +102,7 @@ def write_markdown(path, title, intro, sections):
                 out.append("")
             elif kind == "figure":
                 name = os.path.basename(b.path)
-                out += [f"![{_md_cell(b.caption.split('.')[0])}]({name})", "", f"*{b.caption}*", ""]
+                out += [f"![{_md_cell(b.alt).replace('[', '(').replace(']', ')')}]({name})", "", f"*{b.caption}*", ""]
             elif kind == "code":
                 text, summary = b
                 if summary:
@@ -167,7 +171,7 @@ def write_html(path, title, intro, sections):
             elif kind == "figure":
                 with open(b.path, "rb") as f:
                     data = base64.b64encode(f.read()).decode("ascii")
-                out.append(f'<figure><img alt="{html.escape(b.caption.split(".")[0])}" '
+                out.append(f'<figure><img alt="{html.escape(b.alt)}" '
                            f'src="data:image/png;base64,{data}"><figcaption>{_inline(b.caption)}'
                            f"</figcaption></figure>")
             elif kind == "code":

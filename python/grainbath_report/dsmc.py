@@ -426,31 +426,38 @@ def energy(run, ctx):
         return None
     t = run.arr("timeseries/t")
     ke = run.arr("timeseries/kinetic_energy_per_grain")
-    gin = run.arr("timeseries/bath_energy_input_per_grain")
-    loss = run.arr("timeseries/inelastic_loss_per_grain")
+    z = np.zeros_like(t)
+    terms = []  # (label, signed cumulative series, colour, style)
+    for path, label, sign, col, ls in [
+            ("bath_energy_input_per_grain", "cumulative bath input", 1, "#E69F00", "--"),
+            ("wall_energy_input_per_grain", "cumulative wall input", 1, "#CC79A7", "--"),
+            ("inelastic_loss_per_grain", "− cumulative inelastic loss", -1, "#0072B2", "-."),
+            ("outflow_energy_per_grain", "− energy carried out by leaving grains", -1, "#56B4E9", "-.")]:
+        a = run.arr(f"timeseries/{path}")
+        if a is not None and np.any(a):
+            terms.append((label, sign * a, col, ls))
     s = Section("Energy budget", "energy")
     fig, (ax, axr) = subplots(2, 1, figsize=(7.0, 5.6), sharex=True, gridspec_kw=dict(height_ratios=[2, 1]))
     ax.plot(t, ke - ke[0], **dict(SIM, label="ΔKE(t) = KE(t) − KE(0), DSMC"))
-    if gin is not None and np.any(gin):
-        ax.plot(t, gin, color="#E69F00", lw=1.4, ls="--", label="cumulative bath input")
-    if loss is not None:
-        ax.plot(t, -loss, color="#0072B2", lw=1.4, ls="-.", label="− cumulative inelastic loss")
-    if gin is not None and loss is not None:
-        ax.plot(t, gin - loss, color="#D55E00", lw=2.2, ls=":", label="bath input − inelastic loss")
+    for label, a, col, ls in terms:
+        ax.plot(t, a, color=col, lw=1.4, ls=ls, label=label)
+    total = sum((a for _, a, _, _ in terms), z)
+    ax.plot(t, total, color="#D55E00", lw=2.2, ls=":", label="sum of the inputs and losses")
     ax.set_ylabel("energy per grain  [E]")
     ax.set_title("Energy bookkeeping (the red dotted line must lie on the black one)")
     ax.legend(loc="best")
-    if gin is not None and loss is not None:
-        scale = np.maximum(np.maximum(np.abs(gin), np.abs(loss)), abs(ke[0]))
-        axr.plot(t, (ke - ke[0] - (gin - loss)) / scale, color="black", lw=1.0)
-        axr.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+    scale = np.maximum.reduce([np.abs(a) for _, a, _, _ in terms] + [np.full_like(t, abs(ke[0]) or 1.0)])
+    axr.plot(t, (ke - ke[0] - total) / scale, color="black", lw=1.0)
+    axr.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
     axr.set_xlabel(TIME_LABEL)
-    axr.set_ylabel("relative residual")
+    axr.set_ylabel("rel. residual  [1]")
     s.figure(ctx.save(fig, "energy"),
-             "Cumulative energy exchanged per grain: the change of the kinetic energy equals the energy "
-             "the bath gave minus the energy inelastic grain collisions removed (exactly, up to round-off).")
+             "Cumulative energy exchanged per grain: the change of the kinetic energy equals what the bath (and "
+             "walls) gave minus what inelastic grain collisions (and grains leaving) removed, exactly up to "
+             "round-off; lower panel: the residual relative to the largest term.")
     rows = [[k, f"`{key}`", fmt(run.num(key))] for k, key in [
         ("bath input per grain", "energy.bath_input_per_grain"),
+        ("wall input per grain", "energy.wall_input_per_grain"),
         ("inelastic loss per grain", "energy.inelastic_loss_per_grain"),
         ("relative residual of the budget", "energy.budget_relative_residual")] if run.num(key) is not None]
     s.table(["quantity", "key", "value"], rows)
