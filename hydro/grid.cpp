@@ -154,6 +154,10 @@ Background uniform_background(const Grid& g, double nB, double TB, std::array<do
   return b;
 }
 
+Background uniform_drift_background(const Grid& g, double nB, double TB, std::array<double, 3> uB) {
+  return uniform_background(g, nB, TB, uB);
+}
+
 Background isobaric_background(const Grid& g, double nB0, double TB0, double A, double k,
                                int axis) {
   if (!(std::abs(A) < 1.0))

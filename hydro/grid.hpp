@@ -63,6 +63,8 @@ struct Background {
 // Uniform nB, TB and uniform drift uB (Galilean drift: Euler-steady).
 Background uniform_background(const Grid& g, double nB, double TB,
                               std::array<double, 3> uB = {0.0, 0.0, 0.0});
+// Uniform nB, TB with a uniform drift uB (the "uniform drift" case of issue #4).
+Background uniform_drift_background(const Grid& g, double nB, double TB, std::array<double, 3> uB);
 // Isobaric temperature profile TB = TB0 (1 + A sin(k x_axis)), nB TB = nB0 TB0, uB = 0
 // (steady Euler: grad(nB TB) = 0). Requires |A| < 1 and, on a periodic axis, commensurate k.
 Background isobaric_background(const Grid& g, double nB0, double TB0, double A, double k,

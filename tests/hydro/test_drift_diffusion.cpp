@@ -44,7 +44,7 @@ const DriftDiffusionCoefficients kPaper = paper_coefficients(0.5, 1.0, 0.2);
 TEST(HydroSpectral, UniformDriftIsExact) {
   const Grid g = Grid::make({32, 16}, {2 * kPi, kPi}, Boundary::Periodic);
   const std::array<double, 3> u{0.3, -0.2, 0.0};
-  const Background bg = uniform_background(g, 1.5, 0.8, u);
+  const Background bg = uniform_drift_background(g, 1.5, 0.8, u);
   SpectralSolver s(bg, kPaper);
   const double kx = 2.0, ky = 4.0;
   s.set_density(g.sample([&](double x, double y, double) { return 1.0 + 0.2 * std::cos(kx * x + ky * y); }));
