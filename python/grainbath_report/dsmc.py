@@ -63,7 +63,9 @@ def temperature(run, ctx):
     have = [c for c in CLOSURES if run.has(f"theory/{c}/temperature")]
     th = {c: run.arr(f"theory/{c}/temperature") for c in have}
     ref = "sonine" if "sonine" in have else (have[0] if have else None)
-    zoom = _transient_end(t, th[ref]) if ref else None
+    if ref is None:
+        return _temperature_alone(run, ctx, s, t, T)
+    zoom = _transient_end(t, th[ref])
     fig = plt.figure(figsize=(10.0, 6.4))
     gs = fig.add_gridspec(2, 2 if zoom else 1, height_ratios=[2.0, 1.2])
     axes = [fig.add_subplot(gs[0, 0])] + ([fig.add_subplot(gs[0, 1])] if zoom else [])
@@ -115,6 +117,39 @@ def temperature(run, ctx):
                      fmt(float(np.sqrt(np.mean(d ** 2))))])
     if rows:
         s.table(["closure", "max |T_DSMC − T_closure|", "at t", "rms difference"], rows)
+    return s
+
+
+def _temperature_alone(run, ctx, s, t, T):
+    """No relaxation curves (spatial run, or the closures do not apply): T(t) with the steady roots
+    when the background is uniform (then the homogeneous T# is the reference)."""
+    fig, ax = subplots(figsize=(7.5, 4.2))
+    _shade_window(ax, run, t)
+    ax.plot(t, T, **dict(SIM, label="DSMC, whole domain"))
+    uniform = run.param("background.profile", "uniform") == "uniform"
+    shown = []
+    if uniform:
+        for c in CLOSURES:
+            v = run.num(f"theory.equilibrium.{c}.T")
+            if v is not None:
+                ax.axhline(v, **theory_style(c, label=f"{theory_style(c)['label']}: steady T# = {v:.5g}"))
+                shown.append(c)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel(f"temperature T  [{T_UNIT}]")
+    ax.set_title("Grain temperature" + (" beside the homogeneous steady roots" if shown else ""))
+    ax.legend(loc="best", fontsize=8)
+    s.figure(ctx.save(fig, "temperature"),
+             "Grain temperature over the whole domain (black)" +
+             (", beside the steady temperatures T# of the closures for a homogeneous gas in this (uniform) "
+              "background; the grey band is the averaging window." if shown else
+              "; no closure relaxation curves were written for this run (spatial run, or the closures do not "
+              "apply to these parameters)."))
+    if shown:
+        Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
+        s.table(["source", "T  [E]", "theory − DSMC"],
+                [["DSMC, window mean (`temperature.mean`)", fmt_pm(Tm, Te), ""]] +
+                [[f"{c} closure (`theory.equilibrium.{c}.T`)", fmt(run.num(f"theory.equilibrium.{c}.T")),
+                  deviation(Tm, Te, run.num(f"theory.equilibrium.{c}.T"))] for c in shown])
     return s
 
 

@@ -293,7 +293,7 @@ def normal_speed(run, ctx):
     xx = np.linspace(0, x[-1], 400)
     ax.plot(xx, xx / 2 * np.exp(-xx ** 2 / 4), **theory_style("maxwell_dist", label="molecular chaos: (x/2) e^(−x²/4)"))
     ax.set_xlabel("normal relative speed at contact v_n / √(T/m)  [dimensionless]")
-    ax.set_ylabel("probability density per collision")
+    ax.set_ylabel("probability density per collision  [per unit v_n/√(T/m)]")
     ax.set_title("Collision-weighted normal speed (Bizon et al. Fig. 10)")
     ax.legend(loc="best")
     s.figure(ctx.save(fig, "edmd_normal_speed"),

@@ -7,7 +7,7 @@ import re
 import numpy as np
 
 from .document import Section, fmt, fmt_pm
-from .plotting import SIM, subplots, theory_style
+from .plotting import SIM, plt, subplots, theory_style
 
 TIME_LABEL = "time t  [λ/√(E/m)]"
 
@@ -46,24 +46,44 @@ def density_mode(run, ctx):
     N = run.param("dsmc.particles")
     theories = _rate_theories(run)
     s = Section("Density-mode decay: fit and hydrodynamic theory", "mode")
-    fig, (ax, axr) = subplots(1, 2, figsize=(11.0, 4.4), gridspec_kw=dict(width_ratios=[1.5, 1]))
+    fig = plt.figure(figsize=(11.5, 6.6))
+    gs = fig.add_gridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[1.6, 1])
+    ax, axc, axr = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[1, 0]), fig.add_subplot(gs[:, 1])
     if win is not None and len(win) == 2:
         ax.axvspan(max(win[0], t[0]), min(win[1], t[-1]), color="0.88", lw=0, label="fit window")
     pos = A > 0
     ax.semilogy(t[pos], A[pos], **dict(SIM, label="DSMC amplitude"))
     if isinstance(N, (int, float)) and N > 0:
-        ax.axhline(2 / math.sqrt(N), color="0.5", lw=1, label="noise level 2/√N")
+        ax.axhline(2 / math.sqrt(N), color="0.55", lw=1, ls=":", label="noise level 2/√N")
     t0 = t[0]
     if rate is not None and icpt is not None:
         ax.semilogy(t, np.exp(icpt - rate * t), **theory_style("fit", label=f"fit: Γ = {fmt_pm(rate, rate_e, 4)}"))
     base = icpt if icpt is not None else math.log(A[0])
     for key, label, style, g in theories:
         ax.semilogy(t, np.exp(base - g * t), **dict(style, label=f"{label}: Γ = {g:.4g}"))
-    ax.set_ylim(max(float(np.min(A[pos])) * 0.5, 1e-6), float(np.max(A)) * 2)
-    ax.set_xlabel(TIME_LABEL)
-    ax.set_ylabel("density-mode amplitude |n̂_k| / n̄  (log scale)")
-    ax.set_title(f"Mode k = {k:.4g} λ⁻¹" if k else "Density mode")
+    lo = float(np.min(A[pos])) * 0.5
+    if isinstance(N, (int, float)) and N > 0:
+        lo = min(lo, 0.5 / math.sqrt(N))
+    ax.set_ylim(max(lo * 0.04, 1e-9), float(np.max(A)) * 2)  # room for the legend below the data
+    ax.set_ylabel("amplitude |n̂_k| / n̄  (log scale)")
+    ax.set_title(f"Density mode k = {k:.4g} λ⁻¹" if k else "Density mode")
     ax.legend(loc="lower left", fontsize=7)
+    # compensated: divide by the fit, so that each theory is a straight line of slope Γ_fit − Γ
+    if rate is not None and icpt is not None:
+        fitc = np.exp(icpt - rate * t)
+        if win is not None and len(win) == 2:
+            axc.axvspan(max(win[0], t[0]), min(win[1], t[-1]), color="0.88", lw=0)
+        axc.plot(t[pos], A[pos] / fitc[pos], **dict(SIM, label="DSMC / fit"))
+        if isinstance(N, (int, float)) and N > 0:
+            axc.fill_between(t, 1 - 2 / math.sqrt(N) / fitc, 1 + 2 / math.sqrt(N) / fitc, color="0.85", lw=0,
+                             alpha=0.6, label="± noise level")
+        for key, label, style, g in theories:
+            axc.plot(t, np.exp(-(g - rate) * t), **dict(style, label=label))
+        axc.axhline(1, **theory_style("fit", label="fit"))
+        lo_c = min(0.8, float(np.min(A[pos] / fitc[pos])))
+        axc.set_ylim(max(lo_c, 0.5), min(max(1.2, float(np.max(A[pos] / fitc[pos]))), 2.0))
+        axc.set_ylabel("amplitude / fit  [1]")
+    axc.set_xlabel(TIME_LABEL)
     # rates side by side
     entries = ([("DSMC fit", rate, "black")] if rate is not None else []) + \
               [(lab, g, st["color"]) for _, lab, st, g in theories]
@@ -84,7 +104,8 @@ def density_mode(run, ctx):
     s.figure(ctx.save(fig, "mode_decay"),
              "Amplitude of the imposed density mode (black, log scale) with the exponential fit over the grey "
              "window and the decay rates of the hydrodynamic theories, drawn through the fit's intercept so "
-             "that the slopes compare; right: the rates side by side (distance from the fit in σ).")
+             "that the slopes compare; lower left: everything divided by the fit, so a theory with the wrong "
+             "rate drifts away from 1; right: the rates side by side (distance from the fit in σ).")
     rows = [["DSMC fit (`mode.decay_rate`)", fmt_pm(rate, rate_e), ""]]
     for key, label, _, g in theories:
         rows.append([f"{label} (`{key}`)", fmt(g), f"{100 * (g - rate) / rate:+.3g} %" if rate else ""])
@@ -118,21 +139,21 @@ def profiles(run, ctx):
     s = Section("Profiles n(x), T(x) against theory", "profiles")
     fig, (ax, axT) = subplots(2, 1, figsize=(7.5, 6.4), sharex=True)
     ax.errorbar(x, n, yerr=ne, fmt="o", ms=3, color="black", capsize=0, lw=0.8, label="DSMC n(x) ± std. error")
-    p_keys = [("theory.hydro.thermal_diffusion_exponent", "paper", "hydro"),
-              ("theory.hydro.thermal_diffusion_exponent_kinetic", "kinetic", "fit")]
+    p_keys = [("theory.hydro.thermal_diffusion_exponent", "paper", RATE_THEORY[0][2]),
+              ("theory.hydro.thermal_diffusion_exponent_kinetic", "kinetic", RATE_THEORY[1][2])]
     if TB is not None and np.all(TB > 0):
         for key, lab, st in p_keys:
             p = run.num(key)
             if p is None:
                 continue
             shape = TB ** (-p)
-            ax.plot(x, shape * np.mean(n) / np.mean(shape), **theory_style(
-                st, label=f"drift-diffusion: n ∝ T_B^(−p), p = {p:.4g} ({lab})"))
+            ax.plot(x, shape * np.mean(n) / np.mean(shape),
+                    **dict(st, label=f"drift-diffusion: n ∝ T_B^(−p), p = {p:.4g} ({lab} coefficients)"))
         pe, pe_e = run.num("profile.exponent"), run.num("profile.exponent_stderr")
         if pe is not None:
             shape = TB ** (-pe)
-            ax.plot(x, shape * np.mean(n) / np.mean(shape), color="0.45", lw=1, ls=":",
-                    label=f"fit: p = {fmt_pm(pe, pe_e, 4)}")
+            ax.plot(x, shape * np.mean(n) / np.mean(shape),
+                    **theory_style("fit", label=f"fit to DSMC: p = {fmt_pm(pe, pe_e, 4)}"))
     ax.set_ylabel("grain density n  [1/λ³]")
     ax.set_title("Time-averaged profiles" + (f" (averaged over {ny_nz[1]}×{ny_nz[0]} cells across)"
                                              if ny_nz[0] * ny_nz[1] > 1 else ""))
@@ -154,6 +175,23 @@ def profiles(run, ctx):
              "theory.hydro.diffusion_coefficient_kinetic"] if run.num(key) is not None]
     if rows:
         s.table(["key", "value"], rows)
+    # has the profile had time to form? diffusion time of the imposed mode, 1/(D k^2)
+    Dc = run.num("theory.hydro.diffusion_coefficient")
+    Lx = run.param("domain.length")
+    idx = run.param("background.wavenumber_index", 1)
+    t0 = run.param("sampling.steady_from")
+    if Dc and isinstance(Lx, list) and Lx and isinstance(t0, (int, float)) and \
+            run.param("background.profile", "uniform") != "uniform":
+        kx = 2 * math.pi * idx / float(Lx[0])
+        tau = 1.0 / (Dc * kx * kx)
+        note = (f"Diffusion time of the imposed profile 1/(D k²) = {fmt(tau, 3)} (D = `theory.hydro.diffusion_coefficient`, "
+                f"k = 2π·{idx}/L_x); the averaging starts at t = {fmt(t0, 3)}")
+        if t0 < 3 * tau:
+            s.text(f"**Warning:** {note}, less than 3 diffusion times: the density profile is probably still "
+                   f"forming and cannot be compared with the steady drift-diffusion prediction. Run longer "
+                   f"(`dsmc.t_end`, `sampling.steady_from` ≳ {fmt(3 * tau, 2)}).")
+        else:
+            s.text(note + ".")
     window = run.attr("fields", "window")
     if window:
         s.text(f"Fields: {window}.")

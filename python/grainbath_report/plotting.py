@@ -21,7 +21,7 @@ THEORY = {
     "sonine_dist": dict(color="#009E73", ls=":", lw=2.0, label="Maxwellian × (1 + a₂ S₂), a₂ measured"),
     "eos": dict(color="#0072B2", ls="--", lw=1.8, label="equation of state"),
     "eos2": dict(color="#E69F00", ls="-.", lw=1.6, label="equation of state (alt.)"),
-    "fit": dict(color="#D55E00", ls="-", lw=1.4, label="fit"),
+    "fit": dict(color="black", ls=(0, (4, 2)), lw=1.0, label="fit to the simulation"),
 }
 
 plt.rcParams.update({
