@@ -1,0 +1,485 @@
+// EDMD driver: case keys -> Config, the run loop with its measurements, results.h5 and
+// summary.json, the theory values and the model list.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/h5.hpp"
+#include "core/run_support.hpp"
+#include "edmd/edmd.hpp"
+#include "edmd/measure.hpp"
+#include "edmd/theory.hpp"
+
+namespace grainbath::edmd {
+
+namespace {
+inline double& comp(Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
+}  // namespace
+
+double Config::box_length() const {
+  const double n = theory::number_density(dims, packing_fraction);
+  return std::pow(static_cast<double>(particles) / n, 1.0 / dims);
+}
+
+const std::vector<ModelDescription>& edmd_models() {
+  static const std::vector<ModelDescription> models = {
+      {"heating", "none", "No driving: elastic equilibrium or free cooling (Haff's law)", {}},
+      {"heating", "white_noise",
+       "Bizon Sec. III A, eqs. 20-21: at every grain collision, `rate` pairs of random grains get opposite kicks of size `kick` "
+       "in a random direction (momentum conserved)",
+       {"rate (1, integer >= 1): kicked pairs per collision (r_v)", "kick (required, > 0, velocity): |dv| of each kick"}},
+      {"heating", "air_table",
+       "Bizon Sec. III B, eq. 22: every grain accelerates uniformly between collisions (|a| = `acceleration`), paired grains "
+       "have opposite accelerations; at every collision `rate` grains get a new random direction (partner: the opposite)",
+       {"rate (1, integer >= 1): accelerations redrawn per collision (r_a)",
+        "acceleration (required, > 0, velocity/time): a0"}},
+      {"heating", "boltzmann",
+       "Bizon Sec. III C: at every collision `rate` random grains get a new velocity drawn from a Maxwellian at `temperature`",
+       {"rate (1, integer >= 1): thermalised grains per collision (r_b)", "temperature (1, > 0, energy): bath temperature"}},
+      {"background", "medium",
+       "Bisi-Spiga background medium as Poisson-timed events (same operator as DSMC; 2D variant for disks, docs/edmd.md)",
+       {"density (0, >= 0): nB", "knudsen (1, > 0): eps; rate per unit relative speed K = nB/eps", "temperature (1, > 0)",
+        "mass_ratio (0.5, (0, 1)): alpha", "velocity ([0,0,0]): uB"}},
+      {"boundary", "walls",
+       "[walls] directions = [\"x\", ...]: flat hard walls at 0 and L (centres kept sigma/2 away); others periodic",
+       {"directions ([], subset of x, y, z)", "restitution (1, (0, 1]): wall restitution"}},
+  };
+  return models;
+}
+
+Config read_config(CaseReader& r) {
+  Config c;
+  c.dims = static_cast<int>(r.integer("edmd", "dimensions", 3, 2, 3));
+  c.particles = r.integer("edmd", "particles", 1000, 2, std::int64_t{1} << 31);
+  c.packing_fraction = r.real_required("edmd", "packing_fraction", Bounds::open(0.0, 1.0), "nu (2D) or phi (3D)");
+  c.temperature = r.real("edmd", "temperature", 1.0, Bounds::positive(), "energy");
+  c.equilibrate = r.real("edmd", "equilibrate", 50.0, Bounds::non_negative(), "collisions per particle");
+  c.collisions = r.real("edmd", "collisions", 200.0, Bounds::positive(), "collisions per particle");
+  c.initial = r.choice("edmd", "initial", "lattice", {"lattice"});
+  c.restitution = read_restitution(r);
+  const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
+                                  std::holds_alternative<PowerLawRestitution>(c.restitution);
+  c.contact_time = r.real("edmd", "contact_time", inelastic_constant ? 1e-6 : 0.0, Bounds::non_negative(), "time");
+  const double cp = theory::close_packing(c.dims);
+  if (c.packing_fraction >= cp) {
+    std::ostringstream m;
+    m << "packing fraction " << c.packing_fraction << " is at or above close packing " << cp << " for "
+      << (c.dims == 2 ? "disks" : "spheres");
+    r.problem("edmd", "packing_fraction", m.str());
+  } else {
+    const double lattice_max = c.dims == 2 ? std::numbers::pi / 4.0 : std::numbers::pi / 6.0;
+    // lattice start: n_side^D sites of spacing L / n_side must be >= sigma
+    const double side = std::ceil(std::pow(static_cast<double>(c.particles), 1.0 / c.dims) - 1e-9);
+    const double spacing = c.box_length() / side;
+    if (spacing < 1.0) {
+      std::ostringstream m;
+      m << "the lattice start needs spacing >= sigma, got " << spacing << " (" << (c.dims == 2 ? "square" : "simple cubic")
+        << " lattice, max packing " << lattice_max << " for a perfect power of N); lower packing_fraction or choose N = k^"
+        << c.dims;
+      r.problem("edmd", "packing_fraction", m.str());
+    }
+  }
+  // walls
+  const auto dirs = r.texts("walls", "directions", {});
+  for (const auto& d : dirs) {
+    const int k = d == "x" ? 0 : d == "y" ? 1 : d == "z" ? 2 : -1;
+    if (k < 0) r.problem("walls", "directions", "unknown direction '" + d + "'; expected x, y or z");
+    else if (k >= c.dims) r.problem("walls", "directions", "a wall in " + d + " cuts a 2D box (disks move in x, y)");
+    else if (c.walls[k]) r.problem("walls", "directions", "direction " + d + " given twice");
+    else c.walls[k] = true;
+  }
+  c.wall_restitution = r.real("walls", "restitution", 1.0, Bounds::half_open(0.0, 1.0));
+  if (c.box_length() < 3.0)
+    r.problem("edmd", "particles", "the box is shorter than 3 sigma; use more particles");
+  // heating
+  const std::string model = r.choice("heating", "model", "none", {"none", "white_noise", "air_table", "boltzmann"});
+  if (model == "white_noise") {
+    c.heating.kind = HeatingKind::white_noise;
+    c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
+    c.heating.kick = r.real_required("heating", "kick", Bounds::positive(), "velocity");
+  } else if (model == "air_table") {
+    c.heating.kind = HeatingKind::air_table;
+    c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
+    c.heating.acceleration = r.real_required("heating", "acceleration", Bounds::positive(), "velocity/time");
+  } else if (model == "boltzmann") {
+    c.heating.kind = HeatingKind::boltzmann;
+    c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
+    c.heating.temperature = r.real("heating", "temperature", 1.0, Bounds::positive(), "energy");
+  }
+  c.background = read_background(r);
+  if (c.dims == 2 && c.background.velocity.z != 0.0)
+    r.problem("background", "velocity", "a 2D medium cannot drift in z");
+  // sampling
+  c.sample_interval = r.real("sampling", "interval", 1.0, Bounds::positive(), "collisions per particle");
+  c.gr_max = r.real("sampling", "gr_max", 5.0, Bounds::positive(), "sigma");
+  c.gr_bin = r.real("sampling", "gr_bin", 0.02, Bounds::positive(), "sigma");
+  c.corr_max = r.real("sampling", "corr_max", 0.0, Bounds::non_negative(), "sigma");
+  c.corr_bin = r.real("sampling", "corr_bin", 0.1, Bounds::positive(), "sigma");
+  c.trajectory_interval = r.real("sampling", "trajectory_interval", 0.0, Bounds::non_negative(), "collisions per particle");
+  c.free_cooling = r.boolean("sampling", "free_cooling", false);
+  if (c.free_cooling && (c.heating.kind != HeatingKind::none || c.background.present()))
+    r.problem("sampling", "free_cooling", "free cooling needs [heating] model = \"none\" and no background medium");
+  return c;
+}
+
+EngineSetup make_setup(const Config& c, std::uint64_t seed) {
+  EngineSetup s;
+  s.dims = c.dims;
+  const double L = c.box_length();
+  s.length = {L, L, c.dims == 3 ? L : 1.0};
+  s.walls = c.walls;
+  s.wall_restitution = c.wall_restitution;
+  s.contact_time = c.contact_time;
+  s.heating = c.heating;
+  s.seed = seed;
+  if (c.background.present()) {
+    s.background = BackgroundState::make(c.background.density, c.background.knudsen, c.background.velocity,
+                                         c.background.temperature, c.background.mass_ratio, 1.0);
+  }
+  const double tscale = std::sqrt(std::max({c.temperature, c.heating.temperature, c.background.temperature}));
+  s.vn_bin_width = 0.02 * tscale;
+  s.vn_bins = 600;
+  return s;
+}
+
+InitialState make_initial_state(const Config& c, std::uint64_t seed) {
+  InitialState st;
+  const std::size_t n = static_cast<std::size_t>(c.particles);
+  const double L = c.box_length();
+  const int side = static_cast<int>(std::ceil(std::pow(static_cast<double>(n), 1.0 / c.dims) - 1e-9));
+  const double a = L / side;
+  if (a < 1.0) throw std::invalid_argument("edmd: lattice spacing below sigma (packing fraction too high for a lattice start)");
+  st.positions.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t ix = k % side, iy = (k / side) % side, iz = k / (static_cast<std::size_t>(side) * side);
+    st.positions.push_back({(ix + 0.5) * a, (iy + 0.5) * a, c.dims == 3 ? (iz + 0.5) * a : 0.5});
+  }
+  Vec3 p;
+  st.velocities.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    CounterRng rng(seed, Stream::initial_velocities, i, 0);
+    Vec3 v = rng.normal3();
+    if (c.dims == 2) v.z = 0.0;
+    st.velocities[i] = v;
+    p += v;
+  }
+  p = (1.0 / n) * p;
+  double ke = 0.0;
+  for (auto& v : st.velocities) v -= p, ke += norm2(v);
+  const double s = std::sqrt(c.temperature * c.dims * n / ke);
+  for (auto& v : st.velocities) v *= s;
+  return st;
+}
+
+std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
+  std::vector<std::pair<std::string, double>> out;
+  const int D = c.dims;
+  const double nu = c.packing_fraction;
+  const double n = theory::number_density(D, nu);
+  out.emplace_back("edmd.number_density", n);
+  out.emplace_back("edmd.box_length", c.box_length());
+  if (D == 2) {
+    out.emplace_back("edmd.Z_henderson", theory::z_henderson(nu));
+    out.emplace_back("edmd.Z_kolafa_rottner_fit", theory::z_disk_kr(nu));
+    out.emplace_back("edmd.g_contact_cs_bizon_eq5", theory::g_contact_disk_cs(nu));
+  } else {
+    out.emplace_back("edmd.Z_carnahan_starling", theory::z_carnahan_starling(nu));
+    out.emplace_back("edmd.g_contact_cs", theory::g_contact_sphere_cs(nu));
+  }
+  const double g = theory::g_contact_reference(D, nu);
+  out.emplace_back("edmd.g_contact", g);
+  out.emplace_back("edmd.enskog_frequency", theory::enskog_frequency(D, nu, g, c.temperature));
+  const double e = std::visit([&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; },
+                              c.restitution);
+  out.emplace_back("edmd.gamma0", theory::gamma0(D, nu, g, e, c.temperature));
+  out.emplace_back("edmd.gamma_e",
+                   std::visit([&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }, c.restitution));
+  if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
+    const double ec = std::get<ConstantRestitution>(c.restitution).e;
+    out.emplace_back("edmd.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, ec));
+    out.emplace_back("edmd.haff_t0", theory::haff_time(D, nu, g, ec, c.temperature, true));
+  }
+  return out;
+}
+
+namespace {
+
+struct Series {
+  std::vector<double> time, temperature, z, energy_lost, heating, background, collisions;
+};
+
+template <class Law>
+void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& summary) {
+  const std::uint64_t seed = ctx.seed;
+  const int D = c.dims;
+  const std::size_t N = static_cast<std::size_t>(c.particles);
+  const InitialState init = make_initial_state(c, seed);
+  Engine eng(make_setup(c, seed), init.positions, init.velocities);
+  const double volume = std::pow(c.box_length(), D);
+  const double n = N / volume;
+  std::vector<Vec3> x(N), v(N);
+  auto snapshot = [&]() {
+    eng.synchronize();
+    Vec3 mean;
+    for (std::size_t i = 0; i < N; ++i) x[i] = eng.position(i), v[i] = eng.velocity(i), mean += v[i];
+    mean = (1.0 / N) * mean;
+    double ke = 0.0;
+    for (auto& u : v) {
+      if (c.heating.kind != HeatingKind::none || c.background.present()) u -= mean;  // fluctuations
+      ke += norm2(u);
+    }
+    return ke / (D * N);  // granular temperature (Bizon eq. 3)
+  };
+
+  const auto wall0 = std::chrono::steady_clock::now();
+  Progress progress("edmd", c.equilibrate + c.collisions, ctx.quiet);
+  // --- equilibration -------------------------------------------------------------------
+  const std::uint64_t n_eq = static_cast<std::uint64_t>(c.equilibrate * N);
+  double engine_seconds = 0.0;
+  auto timed_advance = [&](double t_end, std::uint64_t max_coll) {
+    const auto t_a = std::chrono::steady_clock::now();
+    eng.advance(law, t_end, max_coll);
+    engine_seconds += wall_seconds_since(t_a);
+  };
+  for (int k = 1; k <= 20 && n_eq > 0; ++k) {
+    timed_advance(kInf, n_eq * k / 20);
+    progress.update(static_cast<double>(eng.counters().collisions) / N);
+    if (ctx.stop_requested && ctx.stop_requested->load()) throw std::runtime_error("edmd: interrupted");
+  }
+  double T = snapshot();
+  const double t_eq = eng.time();
+  const double rate_eq = t_eq > 0 ? eng.counters().collisions / t_eq : 0.0;
+  eng.rebuild();
+  const Counters c_eq = eng.counters();
+  eng.counters() = Counters{};
+  eng.counters().vn_histogram.assign(c_eq.vn_histogram.size(), 0);
+
+  // sampling interval in time (steady state) from the equilibration's collision rate;
+  // collision-based when cooling freely or when there was no equilibration
+  const bool by_collisions = c.free_cooling || rate_eq <= 0.0;
+  const double dt_sample = by_collisions ? 0.0 : c.sample_interval * N / rate_eq;
+  const std::uint64_t coll_sample = static_cast<std::uint64_t>(std::max(1.0, c.sample_interval * N));
+  const std::uint64_t n_prod = static_cast<std::uint64_t>(c.collisions * N);
+
+  PairStatistics pairs;
+  const double L = c.box_length();
+  // range of the pair statistics: corr_max, or L/2 (Bizon Fig. 7) while all pairs are
+  // affordable (N <= 4000), else 10 sigma searched on a grid
+  const double corr_range = c.corr_max > 0 ? c.corr_max : (N <= 4000 ? 0.5 * L : std::min(10.0, L / 3.0));
+  pairs.init(D, {L, L, D == 3 ? L : 1.0}, c.walls, std::max(c.gr_max, corr_range), c.gr_bin, c.corr_bin);
+  VelocityHistogram vhist;
+  vhist.init(5.0, 100);
+  Series s;
+  const double t0 = eng.time();
+  const double T0 = T;
+  T = snapshot();
+  const double e_initial = eng.kinetic_energy();
+  const Vec3 p_initial = eng.momentum();
+  s.time.push_back(0.0);
+  s.temperature.push_back(T);
+  Counters prev = eng.counters();
+  double t_prev = t0;
+  double T_prev = T;
+  // trajectories (H5MD layout)
+  std::vector<double> traj_pos, traj_time;
+  std::vector<std::int64_t> traj_step;
+  const std::uint64_t coll_traj = c.trajectory_interval > 0 ? static_cast<std::uint64_t>(c.trajectory_interval * N) : 0;
+  std::uint64_t next_traj = 0;
+  int sample_no = 0;
+  const int pair_every = std::max<int>(1, static_cast<int>(std::ceil(5.0 / c.sample_interval)));  // pair stats every ~5 coll/particle
+  while (eng.counters().collisions < n_prod) {
+    if (by_collisions) timed_advance(kInf, std::min(n_prod, eng.counters().collisions + coll_sample));
+    else timed_advance(t_prev + dt_sample, n_prod);
+    T = snapshot();
+    const Counters& cur = eng.counters();
+    const double dt = eng.time() - t_prev;
+    ++sample_no;
+    if (dt > 0) {
+      const double Tm = 0.5 * (T + T_prev);
+      // Bizon eq. 24: P V = N T + (m sigma / (D t)) Sum k.dv
+      s.z.push_back(1.0 + (cur.virial - prev.virial) / (D * dt * N * Tm));
+      s.time.push_back(eng.time() - t0);
+      s.temperature.push_back(T);
+      s.energy_lost.push_back((cur.energy_lost - prev.energy_lost) / (volume * dt));
+      s.heating.push_back((cur.heating_energy - prev.heating_energy) / (volume * dt));
+      s.background.push_back((cur.background_energy - prev.background_energy) / (volume * dt));
+      s.collisions.push_back(static_cast<double>(cur.collisions - prev.collisions) * 2.0 / (N * dt));
+    }
+    if (!c.free_cooling) {
+      vhist.add(v, T, D);
+      if (sample_no % pair_every == 0) pairs.add(x, v, T);
+    }
+    if (coll_traj && cur.collisions >= next_traj) {
+      for (const auto& p : x)
+        for (int d = 0; d < D; ++d) traj_pos.push_back(d == 0 ? p.x : d == 1 ? p.y : p.z);
+      traj_time.push_back(eng.time() - t0);
+      traj_step.push_back(static_cast<std::int64_t>(cur.collisions));
+      next_traj = cur.collisions + coll_traj;
+    }
+    prev = cur;
+    t_prev = eng.time();
+    T_prev = T;
+    progress.update(c.equilibrate + static_cast<double>(cur.collisions) / N);
+    if (ctx.stop_requested && ctx.stop_requested->load()) throw std::runtime_error("edmd: interrupted");
+  }
+  progress.finish();
+  eng.synchronize();
+  const double wall = wall_seconds_since(wall0);
+  const Counters& f = eng.counters();
+  const double t_run = eng.time() - t0;
+
+  // ---- summary -------------------------------------------------------------------------
+  std::vector<double> Tseries(s.temperature.begin() + 1, s.temperature.end());
+  const MeanError Tm = block_average(Tseries);
+  const MeanError Zm = block_average(s.z);
+  const double T_mean = Tm.mean;
+  // Z from the totals (ratio of sums) and its error from the blocked per-interval series
+  const double Z = c.free_cooling ? Zm.mean : 1.0 + f.virial / (D * t_run * N * T_mean);
+  summary.set("pressure.Z", Z);
+  summary.set("pressure.Z_stderr", Zm.stderr_);
+  summary.set("pressure.P", n * T_mean * Z);
+  summary.set("temperature.mean", T_mean);
+  summary.set("temperature.stderr", Tm.stderr_);
+  summary.set("temperature.initial", T0);
+  const double mean_e = f.collisions ? f.sum_e / f.collisions : 1.0;
+  summary.set("restitution.mean_e", mean_e);
+  // G_s (Bizon eq. 23 generalised): Z = 1 + 2^{D-1} (1 + <e>)/2 * packing * g
+  const double pref = D == 2 ? 1.0 : 2.0;
+  const double Gs = (Z - 1.0) / (1.0 + mean_e);
+  summary.set("pressure.G_s", Gs);
+  summary.set("pressure.g_contact", Gs / (pref * c.packing_fraction));
+  const double g_ref = theory::g_contact_reference(D, c.packing_fraction);
+  summary.set("theory.Z", theory::z_reference(D, c.packing_fraction));
+  summary.set("theory.g_contact", g_ref);
+  if (D == 2) {
+    summary.set("theory.Z_henderson", theory::z_henderson(c.packing_fraction));
+    summary.set("theory.G_cs", c.packing_fraction * theory::g_contact_disk_cs(c.packing_fraction));
+  }
+  // collision frequency per particle vs Enskog
+  const double omega = t_run > 0 ? 2.0 * f.collisions / (N * t_run) : 0.0;
+  const double omega_e = theory::enskog_frequency(D, c.packing_fraction, g_ref, T_mean);
+  summary.set("collision.frequency", omega);
+  summary.set("collision.enskog_frequency", omega_e);
+  summary.set("collision.frequency_over_enskog", omega / omega_e);
+  summary.set("collision.g_contact_from_rate", omega / theory::enskog_frequency(D, c.packing_fraction, 1.0, T_mean));
+  const double vn_mean = f.collisions ? f.sum_vn / f.collisions : 0.0;
+  const double vn2_mean = f.collisions ? f.sum_vn2 / f.collisions : 0.0;
+  summary.set("collision.vn_over_sqrt_piT", vn_mean / std::sqrt(std::numbers::pi * T_mean));  // Bizon after eq. 33
+  summary.set("collision.vn2_over_4T", vn2_mean / (4.0 * T_mean));
+  summary.set("collision.count", static_cast<std::int64_t>(f.collisions));
+  if (!c.free_cooling) summary.set("g_r.contact_fit", pairs.contact_value());
+  // loss rate (Bizon eqs. 14, 29-31)
+  const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
+  const double Gfor = Gs / pref / c.packing_fraction;  // g from the EOS measurement, as Bizon does
+  const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_mean);
+  const double ge = theory::gamma_e(law, D, c.packing_fraction, Gfor, T_mean);
+  summary.set("loss.gamma", gamma);
+  summary.set("loss.gamma0", g0);
+  summary.set("loss.gamma_e", ge);
+  if (g0 > 0) summary.set("loss.gamma_over_gamma0", gamma / g0);
+  if (ge > 0) summary.set("loss.gamma_over_gamma_e", gamma / ge);
+  // Bizon eq. 33 check: gamma/gamma_e tracks (pi/(4 sqrt T)) <v_n^2>_c / <v_n>_c
+  summary.set("loss.velocity_ratio", std::numbers::pi / (4.0 * std::sqrt(T_mean)) * vn2_mean / std::max(vn_mean, 1e-300));
+  // conservation
+  summary.set("conservation.energy_change",
+              (eng.kinetic_energy() - e_initial) - (f.heating_energy + f.background_energy - f.energy_lost));
+  summary.set("conservation.relative_energy_change_elastic", (eng.kinetic_energy() - e_initial) / e_initial);
+  summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
+  summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
+  summary.set("energy.background_rate", t_run > 0 ? f.background_energy / (volume * t_run) : 0.0);
+  summary.set("energy.loss_rate", gamma);
+  summary.set("overlap.min_distance", eng.min_distance());
+  if (vhist.samples > 0) {
+    const double c4 = vhist.c4_sum / vhist.samples, c2 = vhist.c2_sum / vhist.samples;
+    summary.set("velocity.a2", c4 / (c2 * c2) * D / (D + 2.0) - 1.0);  // Sonine a2 = D<c^4>/((D+2)<c^2>^2) - 1
+  }
+  if (c.free_cooling) {
+    const double e_c = mean_e;
+    const double th = theory::haff_time(D, c.packing_fraction, g_ref, e_c, T0, true);
+    const double th0 = theory::haff_time(D, c.packing_fraction, g_ref, e_c, T0, false);
+    // fit t0 from T(t) = T0/(1 + t/t0)^2: T^{-1/2} linear in t
+    double sx = 0, sy = 0, sxx = 0, sxy = 0, m = 0;
+    for (std::size_t k = 0; k < s.time.size(); ++k) {
+      const double y = std::sqrt(T0 / s.temperature[k]);
+      sx += s.time[k], sy += y, sxx += s.time[k] * s.time[k], sxy += s.time[k] * y, m += 1;
+    }
+    const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+    summary.set("haff.t0_measured", 1.0 / slope);
+    summary.set("haff.t0_theory", th);
+    summary.set("haff.t0_theory_no_a2", th0);
+    summary.set("haff.ratio", (1.0 / slope) / th);
+    summary.set("haff.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, e_c));
+    summary.set("haff.final_temperature", s.temperature.back());
+  }
+  // engine throughput (event loop only, measurements excluded) and overall
+  const double cps = engine_seconds > 0 ? (c_eq.collisions + f.collisions) / engine_seconds : 0.0;
+  summary.set("performance.collisions_per_second", cps);
+  summary.set("performance.overall_collisions_per_second", wall > 0 ? (c_eq.collisions + f.collisions) / wall : 0.0);
+  summary.set("performance.engine_seconds", engine_seconds);
+  summary.set("performance.wall_seconds", wall);
+  summary.set("performance.events_per_collision", f.collisions ? double(f.events) / f.collisions : 0.0);
+  summary.set("performance.stale_fraction", f.events ? double(f.stale) / f.events : 0.0);
+  summary.set("performance.threads", static_cast<std::int64_t>(1));
+  summary.set("guard.elastic_collisions", static_cast<std::int64_t>(f.guard_elastic));
+  summary.set("guard.clamped", static_cast<std::int64_t>(f.clamped));
+  summary.set("background.collisions", static_cast<std::int64_t>(f.background_collisions));
+  summary.set("walls.collisions", static_cast<std::int64_t>(f.wall_collisions));
+
+  // ---- results.h5 ----------------------------------------------------------------------
+  H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
+  write_provenance(h5, ctx, "edmd");
+  h5.attribute("/", "units", "sigma = 1, m = 1, k_B = 1; time sigma sqrt(m/energy)");
+  h5.write("/series/time", s.time);
+  h5.write("/series/temperature", s.temperature);
+  h5.write("/series/Z", s.z);
+  h5.write("/series/loss_rate", s.energy_lost);
+  h5.write("/series/heating_rate", s.heating);
+  h5.write("/series/background_rate", s.background);
+  h5.write("/series/collision_frequency", s.collisions);
+  if (!c.free_cooling) {
+    h5.write("/observables/gr/r", pairs.gr_radii());
+    h5.write("/observables/gr/g", pairs.gr());
+    h5.write("/observables/velocity_correlation/r", pairs.corr_radii());
+    h5.write("/observables/velocity_correlation/parallel", pairs.parallel());
+    h5.write("/observables/velocity_correlation/perpendicular", pairs.perpendicular());
+    h5.write("/observables/velocity_distribution/v_over_sqrtT", vhist.centres());
+    for (int d = 0; d < D; ++d) h5.write(std::string("/observables/velocity_distribution/") + "xyz"[d], vhist.density(d));
+  }
+  {
+    std::vector<double> centres, dens;
+    const double w = make_setup(c, seed).vn_bin_width;
+    const double tot = static_cast<double>(std::max<std::uint64_t>(1, f.collisions));
+    for (std::size_t b = 0; b < f.vn_histogram.size(); ++b) {
+      centres.push_back((b + 0.5) * w / std::sqrt(T_mean));
+      dens.push_back(f.vn_histogram[b] / tot / (w / std::sqrt(T_mean)));
+    }
+    h5.write("/observables/normal_speed/vn_over_sqrtT", centres);  // Bizon Fig. 10 (normal component)
+    h5.write("/observables/normal_speed/density", dens);
+  }
+  if (!traj_time.empty()) {
+    // H5MD layout: /particles/all/position/{value,time,step}, /particles/all/box
+    h5.write("/particles/all/position/value", traj_pos,
+             {static_cast<hsize_t>(traj_time.size()), static_cast<hsize_t>(N), static_cast<hsize_t>(D)});
+    h5.write("/particles/all/position/time", traj_time);
+    h5.write("/particles/all/position/step", traj_step);
+    h5.write("/particles/all/box/edges", std::vector<double>(D, L));
+    h5.attribute("/particles/all/box", "dimension", static_cast<double>(D));
+    h5.attribute("/particles/all/box", "boundary", c.walls[0] || c.walls[1] || c.walls[2] ? "mixed" : "periodic");
+    h5.attribute("/h5md", "version", "1.1");
+    h5.attribute("/h5md", "creator", "grainbath edmd");
+  }
+  for (const auto& [k, val] : summary.entries()) {
+    if (const double* d = std::get_if<double>(&val)) h5.attribute("/summary", k, *d);
+  }
+}
+
+}  // namespace
+
+void run(const Config& c, const RunContext& ctx, Summary& summary) {
+  std::visit([&](const auto& law) { run_with(law, c, ctx, summary); }, c.restitution);
+}
+
+}  // namespace grainbath::edmd

@@ -1,0 +1,61 @@
+#pragma once
+// EDMD solver entry points for the CLI ([run] solver = "edmd").
+// Units: grain diameter sigma = 1, grain mass m = 1, k_B = 1 (temperatures in energy units),
+// time in sigma sqrt(m / energy). Packing fraction nu = n pi/4 (2D), phi = n pi/6 (3D).
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/case_file.hpp"
+#include "core/physics_config.hpp"
+#include "core/run_context.hpp"
+#include "core/summary.hpp"
+#include "edmd/engine.hpp"
+#include "operators/restitution.hpp"
+
+namespace grainbath::edmd {
+
+struct Config {
+  int dims = 3;
+  std::int64_t particles = 1000;
+  double packing_fraction = 0.3;
+  double temperature = 1.0;        // initial temperature (and the elastic one)
+  double equilibrate = 50.0;       // collisions per particle before measuring
+  double collisions = 200.0;       // collisions per particle measured
+  std::string initial = "lattice"; // "lattice" (square / simple cubic)
+  double contact_time = 0.0;       // TC-model guard (0: off)
+  std::array<bool, 3> walls{false, false, false};
+  double wall_restitution = 1.0;
+  RestitutionLaw restitution = ElasticRestitution{};
+  BackgroundParameters background;
+  Heating heating;
+  // [sampling]
+  double sample_interval = 1.0;    // collisions per particle between samples
+  double gr_max = 5.0;             // g(r) range, sigma
+  double gr_bin = 0.02;
+  double corr_max = 0.0;           // velocity correlations range (0: L/2, capped by grid)
+  double corr_bin = 0.1;           // Bizon: delta r = sigma/10
+  double trajectory_interval = 0.0;  // collisions per particle between H5MD frames (0: none)
+  bool free_cooling = false;       // record T(t) against Haff's law
+  // derived
+  double box_length() const;
+  std::uint64_t seed = 1;  // set by run() from the RunContext
+};
+
+Config read_config(CaseReader& reader);
+void run(const Config& config, const RunContext& ctx, Summary& summary);
+std::vector<std::pair<std::string, double>> theory_values(const Config& config);
+const std::vector<ModelDescription>& edmd_models();
+
+// Initial state (also used by tests and the benchmark): lattice positions, Maxwellian
+// velocities at `temperature` with zero total momentum, rescaled to exactly that temperature.
+struct InitialState {
+  std::vector<Vec3> positions, velocities;
+};
+InitialState make_initial_state(const Config& config, std::uint64_t seed);
+EngineSetup make_setup(const Config& config, std::uint64_t seed);
+
+}  // namespace grainbath::edmd

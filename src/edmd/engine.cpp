@@ -1,0 +1,629 @@
+#include "edmd/engine.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <sstream>
+
+namespace grainbath::edmd {
+
+namespace {
+
+inline double& comp(Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
+inline double comp(const Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
+
+// Earliest t >= 0 with x + v t + acc t^2 / 2 = bound, approached from the side x is on; inf if
+// never. Used for cell faces and walls under constant acceleration (air table).
+double quadratic_hit(double x, double v, double acc, double bound) {
+  const double A = 0.5 * acc, B = v, C = x - bound;
+  if (A == 0.0) {
+    if (B == 0.0) return kInf;
+    const double t = -C / B;
+    return t >= 0.0 ? t : (C * B > 0.0 ? kInf : 0.0);
+  }
+  const double disc = B * B - 4.0 * A * C;
+  if (disc < 0.0) return kInf;
+  const double s = std::sqrt(disc);
+  const double q = -0.5 * (B + (B >= 0.0 ? s : -s));
+  double r1 = q / A, r2 = (q != 0.0) ? C / q : r1;
+  if (r1 > r2) std::swap(r1, r2);
+  if (r1 >= 0.0) return r1;
+  if (r2 >= 0.0) return r2;
+  return kInf;
+}
+
+// --- first root of a quartic on [0, tmax] (air-table pair collisions) -------------------
+struct Poly {
+  double c[5] = {0, 0, 0, 0, 0};  // c[k] t^k
+  int deg = 4;
+  double operator()(double t) const {
+    double s = 0.0;
+    for (int k = deg; k >= 0; --k) s = s * t + c[k];
+    return s;
+  }
+  Poly derivative() const {
+    Poly p;
+    p.deg = std::max(0, deg - 1);
+    for (int k = 1; k <= deg; ++k) p.c[k - 1] = k * c[k];
+    return p;
+  }
+};
+
+// Root of p on [a, b] where p(a), p(b) have opposite signs (or p(b) == 0), by bisection.
+double bisect(const Poly& p, double a, double b) {
+  double fa = p(a);
+  for (int it = 0; it < 200; ++it) {
+    const double m = 0.5 * (a + b);
+    if (m <= a || m >= b) break;
+    const double fm = p(m);
+    if ((fm > 0.0) == (fa > 0.0)) a = m, fa = fm;
+    else b = m;
+  }
+  return b;
+}
+
+// Sorted roots of p in (a, b), p of degree <= 4, found by recursively splitting at the
+// roots of p' (on each piece p is monotone, so a sign change brackets exactly one root).
+// Fixed-size storage: no allocation.
+struct Roots {
+  double t[8];
+  int n = 0;
+};
+void roots_in(const Poly& p, double a, double b, Roots& out) {
+  double cuts[10];
+  int nc = 0;
+  cuts[nc++] = a;
+  if (p.deg >= 2) {
+    Roots crit;
+    roots_in(p.derivative(), a, b, crit);
+    for (int k = 0; k < crit.n; ++k) cuts[nc++] = crit.t[k];
+  }
+  cuts[nc++] = b;
+  for (int k = 0; k + 1 < nc; ++k) {
+    const double fa = p(cuts[k]), fb = p(cuts[k + 1]);
+    if (((fa > 0.0 && fb <= 0.0) || (fa < 0.0 && fb >= 0.0)) && out.n < 8)
+      out.t[out.n++] = bisect(p, cuts[k], cuts[k + 1]);
+  }
+}
+
+}  // namespace
+
+Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const std::vector<Vec3>& velocities)
+    : n_(positions.size()), dims_(s.dims), L_(s.length), walls_(s.walls), wall_e_(s.wall_restitution),
+      tc_(s.contact_time), heating_(s.heating), bg_(s.background), seed_(s.seed),
+      accelerated_(s.heating.kind == HeatingKind::air_table), vn_bin_width_(s.vn_bin_width) {
+  if (dims_ != 2 && dims_ != 3) throw std::invalid_argument("edmd: dimensions must be 2 or 3");
+  if (velocities.size() != n_) throw std::invalid_argument("edmd: positions and velocities differ in length");
+  if (n_ < 2) throw std::invalid_argument("edmd: need at least 2 particles");
+  if (n_ >= (std::size_t{1} << 32)) throw std::invalid_argument("edmd: too many particles");
+  if (dims_ == 2) walls_[2] = false, L_.z = 1.0;
+  for (int d = 0; d < dims_; ++d) {
+    const double l = comp(L_, d);
+    if (!(l >= 3.0)) {
+      std::ostringstream m;
+      m << "edmd: box length " << l << " in direction " << "xyz"[d]
+        << " is below 3 sigma (the cell search needs at least 3 cells); use more particles";
+      throw std::invalid_argument(m.str());
+    }
+    nc_[d] = static_cast<int>(std::floor(l));  // cell side l / nc >= 1 = sigma
+    comp(w_, d) = l / nc_[d];
+  }
+  if (dims_ == 2) nc_[2] = 1, w_.z = 1.0;
+  cap_ = dims_ == 2 ? 6 : 8;
+  rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
+  next_rebuild_ = rebuild_every_;
+
+  k_.resize(n_);
+  id_.resize(n_);
+  slot_of_.resize(n_);
+  for (std::uint32_t i = 0; i < n_; ++i) id_[i] = slot_of_[i] = i;
+  a_.assign(n_, Vec3{});
+  omega_.assign(n_, Vec3{});
+  counter_.assign(n_, 0);
+  last_collision_.assign(n_, -kInf);
+  bg_time_.assign(n_, kInf);
+  ev_time_.assign(n_, kInf);
+  ev_.assign(n_, Event{});
+  cellc_.assign(n_, {0, 0, 0});
+  slot_.assign(n_, 0);
+  c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
+
+  for (std::size_t i = 0; i < n_; ++i) {
+    Vec3 r = positions[i], v = velocities[i];
+    if (dims_ == 2) r.z = 0.5, v.z = 0.0;
+    for (int d = 0; d < dims_; ++d) {
+      const double x = comp(r, d), l = comp(L_, d);
+      const bool ok = walls_[d] ? (x >= 0.5 && x <= l - 0.5) : (x >= 0.0 && x < l);
+      if (!ok || !std::isfinite(x)) {
+        std::ostringstream m;
+        m << "edmd: particle " << i << " is outside the box: " << "xyz"[d] << " = " << x << ", allowed "
+          << (walls_[d] ? "[0.5, L - 0.5] (hard walls, sigma/2 from the wall)" : "[0, L)") << ", L = " << l;
+        throw std::invalid_argument(m.str());
+      }
+    }
+    k_[i].r = r;
+    k_[i].v = v;
+  }
+  // Air table (Bizon eq. 22): particles paired (2k, 2k+1) with opposite accelerations.
+  pair_.resize(n_);
+  for (std::size_t i = 0; i < n_; ++i) pair_[i] = static_cast<std::uint32_t>(i ^ 1u);
+  if (n_ % 2) pair_[n_ - 1] = static_cast<std::uint32_t>(n_ - 1);  // odd N: the last grain is not driven
+  if (accelerated_) {
+    for (std::size_t i = 0; i + 1 < n_; i += 2) {
+      CounterRng rng(seed_, Stream::edmd_heating, i, 0);
+      Vec3 u;
+      if (dims_ == 2) {
+        const double phi = 2.0 * std::numbers::pi * rng.uniform();
+        u = {std::cos(phi), std::sin(phi), 0.0};
+      } else {
+        u = rng.unit_vector();
+      }
+      a_[i] = heating_.acceleration * u;
+      a_[i + 1] = -a_[i];
+    }
+  }
+  for (std::uint32_t i = 0; i < n_; ++i) assign_cell(i);
+  fill_cells();
+
+  const double dmin = min_distance();
+  if (dmin < 1.0 - 1e-10) {
+    std::ostringstream m;
+    m << "edmd: initial positions overlap: the closest pair is " << dmin << " apart (diameter sigma = 1)";
+    throw std::invalid_argument(m.str());
+  }
+  rebuild();
+}
+
+void Engine::assign_cell(std::uint32_t i) {
+  for (int d = 0; d < 3; ++d) {
+    int c = 0;
+    if (d < dims_) {
+      c = static_cast<int>(std::floor(comp(k_[i].r, d) / comp(w_, d)));
+      c = std::clamp(c, 0, nc_[d] - 1);
+    }
+    cellc_[i][d] = c;
+  }
+}
+
+void Engine::fill_cells() {
+  for (;;) {
+    members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * cap_, 0);
+    count_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2], 0);
+    bool ok = true;
+    for (std::uint32_t i = 0; i < n_ && ok; ++i) {
+      const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+      if (count_[c] >= cap_) ok = false;
+      else insert_cell(i);
+    }
+    if (ok) return;
+    cap_ *= 2;
+  }
+}
+
+void Engine::grow_cells() {
+  cap_ *= 2;
+  fill_cells();
+}
+
+void Engine::insert_cell(std::uint32_t i) {
+  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  if (count_[c] >= cap_) {
+    grow_cells();  // rare: re-inserts everyone including i
+    return;
+  }
+  const std::size_t s = count_[c]++;
+  members_[static_cast<std::size_t>(c) * cap_ + s] = i;
+  slot_[i] = static_cast<std::uint32_t>(s);
+}
+
+void Engine::remove_cell(std::uint32_t i) {
+  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  const std::size_t base = static_cast<std::size_t>(c) * cap_;
+  const std::uint32_t last = members_[base + count_[c] - 1];
+  members_[base + slot_[i]] = last;
+  slot_[last] = slot_[i];
+  --count_[c];
+}
+
+void Engine::move_to(std::uint32_t i, double t) {
+  Kin& k = k_[i];
+  const double dt = t - k.t;
+  if (dt == 0.0) return;
+  if (accelerated_) {
+    k.r += dt * k.v + (0.5 * dt * dt) * a_[i];
+    k.v += dt * a_[i];
+  } else {
+    k.r += dt * k.v;
+  }
+  k.t = t;
+}
+
+void Engine::trajectory_changed(std::uint32_t i) {
+  ++counter_[i];
+  if (bg_) {
+    CounterRng rng(seed_, Stream::edmd_background, id_[i], counter_[i]);
+    const double rate = dims_ == 2 ? background_majorant_rate_2d(k_[i].v, *bg_)
+                                   : background_majorant_rate(k_[i].v, *bg_);
+    bg_time_[i] = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
+  }
+}
+
+double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const {
+  // |dr + dv t + da t^2/2|^2 - sigma^2 = 0: first root where the distance falls to sigma.
+  const Vec3 s = 0.5 * da;
+  Poly p;
+  p.c[4] = dot(s, s);
+  p.c[3] = 2.0 * dot(dv, s);
+  p.c[2] = dot(dv, dv) + 2.0 * dot(dr, s);
+  p.c[1] = 2.0 * dot(dr, dv);
+  p.c[0] = dot(dr, dr) - 1.0;
+  p.deg = p.c[4] > 0.0 ? 4 : 2;
+  if (p.c[0] <= 0.0 && p.c[1] < 0.0) return 0.0;  // touching (round-off) and approaching
+  if (!std::isfinite(tmax)) tmax = 1e6;
+  // f non-decreasing for t >= 0 and positive now: never a contact
+  if (p.c[0] > 0.0 && p.c[1] >= 0.0 && p.c[2] >= 0.0 && p.c[3] >= 0.0) return kInf;
+  Roots roots;
+  roots_in(p, 0.0, tmax, roots);
+  // Apart now (f(0) > 0): the first root is the contact. Touching and separating: the first
+  // root is where they part, the second where they meet again.
+  const int k = p.c[0] > 0.0 ? 0 : 1;
+  return roots.n > k ? roots.t[k] : kInf;
+}
+
+void Engine::predict(std::uint32_t i) {
+  const Kin ki = k_[i];
+  const double t = ki.t;
+  double best = kInf;
+  Event ev{};
+  if (bg_) {
+    best = bg_time_[i];
+    ev.type = ev_background;
+  }
+  const auto& c = cellc_[i];
+  const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
+  // cell faces and walls
+  for (int d = 0; d < dims_; ++d) {
+    const double x = comp(ki.r, d), v = comp(ki.v, d), acc = comp(ai, d);
+    const double lo = c[d] * comp(w_, d), hi = lo + comp(w_, d);
+    const bool low_wall = walls_[d] && c[d] == 0;
+    const bool high_wall = walls_[d] && c[d] == nc_[d] - 1;
+    if (!accelerated_) {
+      if (v > 0.0) {
+        const double bound = high_wall ? comp(L_, d) - 0.5 : hi;
+        const double tc = t + std::max(0.0, (bound - x) / v);
+        if (tc < best) {
+          best = tc;
+          ev.type = high_wall ? ev_wall : ev_cell;
+          ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+        }
+      } else if (v < 0.0) {
+        const double bound = low_wall ? 0.5 : lo;
+        const double tc = t + std::max(0.0, (bound - x) / v);
+        if (tc < best) {
+          best = tc;
+          ev.type = low_wall ? ev_wall : ev_cell;
+          ev.aux = static_cast<std::uint8_t>(2 * d);
+        }
+      }
+    } else {
+      const double bh = high_wall ? comp(L_, d) - 0.5 : hi;
+      const double bl = low_wall ? 0.5 : lo;
+      const double th = (x >= bh && v >= 0.0) ? 0.0 : quadratic_hit(x, v, acc, bh);
+      const double tl = (x <= bl && v <= 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl);
+      if (t + th < best) {
+        best = t + th;
+        ev.type = high_wall ? ev_wall : ev_cell;
+        ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+      }
+      if (t + tl < best) {
+        best = t + tl;
+        ev.type = low_wall ? ev_wall : ev_cell;
+        ev.aux = static_cast<std::uint8_t>(2 * d);
+      }
+    }
+  }
+  // collisions with grains in the 3^D neighbouring cells
+  const int zlo = dims_ == 3 ? -1 : 0, zhi = dims_ == 3 ? 1 : 0;
+  for (int dz = zlo; dz <= zhi; ++dz) {
+    int cz = c[2] + dz;
+    double sz = 0.0;
+    if (dims_ == 3) {
+      if (cz < 0) {
+        if (walls_[2]) continue;
+        cz += nc_[2], sz = -L_.z;
+      } else if (cz >= nc_[2]) {
+        if (walls_[2]) continue;
+        cz -= nc_[2], sz = L_.z;
+      }
+    }
+    for (int dy = -1; dy <= 1; ++dy) {
+      int cy = c[1] + dy;
+      double sy = 0.0;
+      if (cy < 0) {
+        if (walls_[1]) continue;
+        cy += nc_[1], sy = -L_.y;
+      } else if (cy >= nc_[1]) {
+        if (walls_[1]) continue;
+        cy -= nc_[1], sy = L_.y;
+      }
+      for (int dx = -1; dx <= 1; ++dx) {
+        int cx = c[0] + dx;
+        double sx = 0.0;
+        if (cx < 0) {
+          if (walls_[0]) continue;
+          cx += nc_[0], sx = -L_.x;
+        } else if (cx >= nc_[0]) {
+          if (walls_[0]) continue;
+          cx -= nc_[0], sx = L_.x;
+        }
+        const Vec3 shift{sx, sy, sz};
+        const int cell = cell_index(cx, cy, cz);
+        const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
+        const int cnt = count_[cell];
+        for (int q = 0; q < cnt; ++q) {
+          const std::uint32_t j = m[q];
+          if (j == i) continue;
+          const Kin& kj = k_[j];
+          const double dtj = t - kj.t;
+          double tcol;
+          if (!accelerated_) {
+            const Vec3 dr = kj.r + dtj * kj.v + shift - ki.r;
+            const Vec3 dv = kj.v - ki.v;
+            const double b = dot(dr, dv);
+            if (b >= 0.0) continue;
+            const double q2 = dot(dr, dr) - 1.0;
+            if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;  // lower bound, no sqrt
+            const double dv2 = dot(dv, dv);
+            const double disc = b * b - dv2 * q2;
+            if (disc <= 0.0) continue;
+            tcol = q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc));
+          } else {
+            const Vec3 vj = kj.v + dtj * a_[j];
+            const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
+            tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
+            if (!std::isfinite(tcol)) continue;
+          }
+          if (t + tcol < best) {
+            best = t + tcol;
+            ev.type = ev_collision;
+            ev.partner = j;
+            ev.partner_counter = counter_[j];
+          }
+        }
+      }
+    }
+  }
+  ev_time_[i] = best;
+  ev_[i] = ev;
+  heap_.update(i);
+}
+
+void Engine::process_cell(std::uint32_t i) {
+  move_to(i, now_);
+  ++c_.cell_crossings;
+  const int d = ev_[i].aux >> 1;
+  const int dir = (ev_[i].aux & 1) ? 1 : -1;
+  remove_cell(i);
+  int& c = cellc_[i][d];
+  c += dir;
+  if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
+  else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
+  insert_cell(i);
+  predict(i);
+}
+
+void Engine::process_wall(std::uint32_t i) {
+  move_to(i, now_);
+  ++c_.wall_collisions;
+  const int d = ev_[i].aux >> 1;
+  double& v = comp(k_[i].v, d);
+  const bool high = ev_[i].aux & 1;
+  if ((high && v > 0.0) || (!high && v < 0.0)) {
+    const double e0 = 0.5 * v * v;
+    c_.wall_virial += (1.0 + wall_e_) * std::abs(v);
+    v = -wall_e_ * v;
+    c_.energy_lost += e0 - 0.5 * v * v;
+    // pin to the wall against round-off drift
+    comp(k_[i].r, d) = high ? comp(L_, d) - 0.5 : 0.5;
+    trajectory_changed(i);
+  }
+  predict(i);
+}
+
+void Engine::process_background(std::uint32_t i) {
+  move_to(i, now_);
+  ++c_.background_candidates;
+  CounterRng rng(seed_, Stream::edmd_collisions, id_[i], counter_[i]);
+  const bool hit = dims_ == 2 ? attempt_background_collision_2d(k_[i].v, *bg_, 1.0, rng, c_.background_energy)
+                              : attempt_background_collision(k_[i].v, *bg_, 1.0, rng, c_.background_energy);
+  if (hit) ++c_.background_collisions;
+  trajectory_changed(i);  // also redraws the next candidate time at the new majorant rate
+  predict(i);
+}
+
+void Engine::apply_heating() {
+  CounterRng rng(seed_, Stream::edmd_heating, kSystemEntity, c_.collisions);
+  auto pick = [&]() {  // a random particle id, returned as its storage slot
+    return slot_of_[static_cast<std::uint32_t>(std::min<double>(static_cast<double>(n_ - 1), rng.uniform() * n_))];
+  };
+  auto direction = [&]() -> Vec3 {
+    if (dims_ == 2) {
+      const double phi = 2.0 * std::numbers::pi * rng.uniform();
+      return {std::cos(phi), std::sin(phi), 0.0};
+    }
+    return rng.unit_vector();
+  };
+  auto kinetic = [&](std::uint32_t p) { return 0.5 * norm2(k_[p].v); };
+  for (int r = 0; r < heating_.rate; ++r) {
+    switch (heating_.kind) {
+      case HeatingKind::white_noise: {  // Bizon eqs. 20-21: opposite kicks, momentum conserved
+        const std::uint32_t p = pick();
+        std::uint32_t q = pick();
+        while (q == p) q = pick();
+        const Vec3 u = direction();
+        move_to(p, now_);
+        move_to(q, now_);
+        const double e0 = kinetic(p) + kinetic(q);
+        k_[p].v += heating_.kick * u;
+        k_[q].v -= heating_.kick * u;
+        c_.heating_energy += kinetic(p) + kinetic(q) - e0;
+        trajectory_changed(p);
+        trajectory_changed(q);
+        predict(p);
+        predict(q);
+        break;
+      }
+      case HeatingKind::air_table: {  // Bizon eq. 22: new direction, partner gets the opposite
+        const std::uint32_t p = pick();
+        const std::uint32_t q = slot_of_[pair_[id_[p]]];
+        if (q == p) break;
+        const Vec3 u = direction();
+        move_to(p, now_);
+        move_to(q, now_);
+        a_[p] = heating_.acceleration * u;
+        a_[q] = -a_[p];
+        trajectory_changed(p);
+        trajectory_changed(q);
+        predict(p);
+        predict(q);
+        break;
+      }
+      case HeatingKind::boltzmann: {  // Bizon Sec. III C: velocity replaced by a Maxwellian draw
+        const std::uint32_t p = pick();
+        move_to(p, now_);
+        const double e0 = kinetic(p);
+        const double s = std::sqrt(heating_.temperature);
+        k_[p].v = {s * rng.normal(), s * rng.normal(), dims_ == 3 ? s * rng.normal() : 0.0};
+        c_.heating_energy += kinetic(p) - e0;
+        trajectory_changed(p);
+        predict(p);
+        break;
+      }
+      case HeatingKind::none: break;
+    }
+  }
+}
+
+void Engine::synchronize() {
+  for (std::uint32_t i = 0; i < n_; ++i) move_to(i, now_);
+}
+
+void Engine::rebuild() {
+  synchronize();
+  // wrap into the box and reassign cells from positions alone, so that a run restarted
+  // from (positions, velocities, counters) takes exactly the same decisions
+  for (std::uint32_t i = 0; i < n_; ++i) {
+    for (int d = 0; d < dims_; ++d) {
+      if (walls_[d]) continue;
+      double& x = comp(k_[i].r, d);
+      const double l = comp(L_, d);
+      if (x >= l) x -= l;
+      else if (x < 0.0) x += l;
+      if (x >= l) x = 0.0;  // x = -tiny + l rounds to l
+    }
+    k_[i].t = 0.0;
+    assign_cell(i);
+  }
+  sort_by_cell();
+  fill_cells();
+  offset_ += now_;
+  for (std::uint32_t i = 0; i < n_; ++i) last_collision_[i] -= now_;
+  now_ = 0.0;
+  ++rebuilds_;
+  for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
+  heap_.reset(n_, ev_time_.data());
+  for (std::uint32_t i = 0; i < n_; ++i) predict(i);
+}
+
+// Counting sort of the storage by cell index (ties by id): neighbours in space become
+// neighbours in memory, which is what makes the neighbour scans cache-friendly.
+void Engine::sort_by_cell() {
+  const std::size_t ncell = static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2];
+  std::vector<std::uint32_t> start(ncell + 1, 0);
+  std::vector<std::uint32_t> key(n_);
+  // visit slots in id order so ties are ordered by id, independent of the current layout
+  for (std::uint32_t id = 0; id < n_; ++id) {
+    const std::uint32_t s = slot_of_[id];
+    key[s] = static_cast<std::uint32_t>(cell_index(cellc_[s][0], cellc_[s][1], cellc_[s][2]));
+    ++start[key[s] + 1];
+  }
+  for (std::size_t c = 0; c < ncell; ++c) start[c + 1] += start[c];
+  std::vector<std::uint32_t> order(n_);  // new slot -> old slot
+  for (std::uint32_t id = 0; id < n_; ++id) {
+    const std::uint32_t s = slot_of_[id];
+    order[start[key[s]]++] = s;
+  }
+  auto permute = [&](auto& vec) {
+    auto copy = vec;
+    for (std::size_t k = 0; k < n_; ++k) vec[k] = copy[order[k]];
+  };
+  permute(k_);
+  permute(a_);
+  permute(omega_);
+  permute(counter_);
+  permute(last_collision_);
+  permute(bg_time_);
+  permute(cellc_);
+  permute(id_);
+  for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
+}
+
+void Engine::set_velocities(const std::vector<Vec3>& v) {
+  synchronize();
+  for (std::size_t i = 0; i < n_; ++i) {
+    Vec3& u = k_[slot_of_[i]].v;
+    u = v[i];
+    if (dims_ == 2) u.z = 0.0;
+  }
+  rebuild();
+}
+
+double Engine::kinetic_energy() const {
+  double s = 0.0;
+  for (const auto& k : k_) s += 0.5 * norm2(k.v);
+  return s;
+}
+
+Vec3 Engine::momentum() const {
+  Vec3 p;
+  for (const auto& k : k_) p += k.v;
+  return p;
+}
+
+double Engine::min_distance() const {
+  double best2 = kInf;
+  for (std::uint32_t i = 0; i < n_; ++i) {
+    const auto& c = cellc_[i];
+    const int zlo = dims_ == 3 ? -1 : 0, zhi = dims_ == 3 ? 1 : 0;
+    for (int dz = zlo; dz <= zhi; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int off[3] = {dx, dy, dz};
+          int cc[3];
+          bool skip = false;
+          for (int d = 0; d < 3; ++d) {
+            cc[d] = c[d] + off[d];
+            if (cc[d] < 0 || cc[d] >= nc_[d]) {
+              if (walls_[d] || d >= dims_) { skip = true; break; }
+              cc[d] = (cc[d] + nc_[d]) % nc_[d];
+            }
+          }
+          if (skip) continue;
+          const int cell = cell_index(cc[0], cc[1], cc[2]);
+          for (int q = 0; q < count_[cell]; ++q) {
+            const std::uint32_t j = members_[static_cast<std::size_t>(cell) * cap_ + q];
+            if (j <= i) continue;
+            Vec3 dr = k_[j].r - k_[i].r;
+            for (int d = 0; d < dims_; ++d) {
+              if (walls_[d]) continue;
+              double& x = comp(dr, d);
+              const double l = comp(L_, d);
+              x -= l * std::round(x / l);
+            }
+            best2 = std::min(best2, norm2(dr));
+          }
+        }
+  }
+  return std::sqrt(best2);
+}
+
+}  // namespace grainbath::edmd

@@ -1,0 +1,287 @@
+#pragma once
+// Event-driven molecular dynamics of inelastic hard disks (2D) and hard spheres (3D).
+//
+// Units: diameter sigma = 1, grain mass m = 1, k_B = 1; time in sigma sqrt(m / energy).
+//
+// Algorithm (docs/edmd.md):
+//  * particles move ballistically (or with a constant acceleration in the air-table bath)
+//    between events; each particle carries its own local time ("delayed states"), and is
+//    only brought to the current time when it takes part in an event;
+//  * cell lists with cells of side >= sigma; a particle's next event is the earliest of: a
+//    collision with a particle of the 3^D neighbouring cells, leaving its cell, hitting a
+//    hard wall, a Poisson-timed background-medium candidate;
+//  * calendar: one entry per particle in an indexed binary heap (event_heap.hpp);
+//    invalidation is lazy: a predicted collision stores the partner's event counter; the
+//    counter of a particle is bumped whenever its trajectory changes, so a stale prediction
+//    is recognised when it reaches the top and the particle is re-predicted;
+//  * randomness is counter-based (Philox), keyed on (seed, stream; particle id, particle
+//    event counter) or (seed, stream; global entity, collision number): nothing but the
+//    counters has to be saved for an exact restart, and rebuild() recomputes the whole
+//    calendar from positions and velocities alone (issue #8 design).
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "edmd/background2d.hpp"
+#include "edmd/event_heap.hpp"
+#include "operators/background.hpp"
+#include "operators/binary_collision.hpp"
+#include "operators/random.hpp"
+#include "operators/restitution.hpp"
+#include "operators/vec3.hpp"
+
+namespace grainbath::edmd {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+// Entity id for draws that belong to the whole system (heating choices), far above any
+// particle id.
+inline constexpr std::uint64_t kSystemEntity = std::uint64_t{1} << 62;
+
+enum class HeatingKind { none, white_noise, air_table, boltzmann };
+
+// Bizon Sec. III. All three act at grain-grain collisions, "rate" pairs/particles per collision.
+struct Heating {
+  HeatingKind kind = HeatingKind::none;
+  int rate = 1;              // r_v (pairs kicked), r_a (accelerations redrawn), r_b (particles thermalised)
+  double kick = 0.0;         // white noise: |dv| of each kick (eqs. 20-21)
+  double acceleration = 0.0; // air table: a0 (eq. 22)
+  double temperature = 1.0;  // Boltzmann bath temperature
+};
+
+struct EngineSetup {
+  int dims = 3;
+  Vec3 length{1, 1, 1};
+  std::array<bool, 3> walls{false, false, false};  // hard walls at 0 and L in that direction
+  double wall_restitution = 1.0;
+  double contact_time = 0.0;  // TC-model collapse guard: e = 1 if either grain collided within t_c
+  Heating heating;
+  std::optional<BackgroundState> background;
+  std::uint64_t seed = 1;
+  double rebuild_interval = 10.0;  // collisions per particle between automatic rebuilds (0: never)
+  double vn_bin_width = 0.05;  // histogram of normal speed at collision
+  int vn_bins = 200;
+};
+
+// Event accounting and the per-collision tallies of the measurements (Bizon Sec. IV).
+struct Counters {
+  std::uint64_t collisions = 0;
+  std::uint64_t events = 0;          // all processed events incl. stale ones
+  std::uint64_t stale = 0;
+  std::uint64_t cell_crossings = 0;
+  std::uint64_t wall_collisions = 0;
+  std::uint64_t background_candidates = 0;
+  std::uint64_t background_collisions = 0;
+  std::uint64_t guard_elastic = 0;    // TC-model collisions made elastic
+  std::uint64_t clamped = 0;          // restitution law clamped to [0, 1]
+  double virial = 0.0;                // Sum sigma k.dv_i = Sum (1+e)/2 g_n  (Bizon eq. 24)
+  double energy_lost = 0.0;           // Sum (m/4)(1-e^2) g_n^2
+  double heating_energy = 0.0;        // energy injected by the heat bath
+  double background_energy = 0.0;     // energy given by the background medium
+  double wall_virial = 0.0;           // Sum m |dv_n| at walls (momentum transferred)
+  double sum_vn = 0.0, sum_vn2 = 0.0, sum_e = 0.0;
+  std::vector<std::uint64_t> vn_histogram;
+};
+
+class Engine {
+ public:
+  // Throws std::invalid_argument on overlapping or out-of-box positions.
+  Engine(const EngineSetup& setup, const std::vector<Vec3>& positions, const std::vector<Vec3>& velocities);
+
+  // Runs events until the total time reaches t_end or the collision count reaches
+  // max_collisions, whichever first. Particles are NOT synchronised afterwards.
+  template <class Law>
+  void advance(const Law& law, double t_end, std::uint64_t max_collisions);
+
+  // Brings every particle to the current time (positions, velocities); predictions stay valid.
+  void synchronize();
+  // synchronize(), shift the time origin to now (keeps round-off of event times bounded),
+  // bump all counters, redraw background times, recompute the whole calendar. A checkpoint
+  // taken right after a rebuild restores bitwise (issue #8).
+  void rebuild();
+
+  double time() const { return offset_ + now_; }
+  std::size_t size() const { return n_; }
+  int dims() const { return dims_; }
+  const Vec3& length() const { return L_; }
+  // By stable particle id (storage order is internal: sorted by cell at every rebuild).
+  Vec3 position(std::size_t id) const { return k_[slot_of_[id]].r; }   // valid after synchronize()
+  Vec3 velocity(std::size_t id) const { return k_[slot_of_[id]].v; }
+  std::uint64_t event_counter(std::size_t id) const { return counter_[slot_of_[id]]; }
+  const Counters& counters() const { return c_; }
+  Counters& counters() { return c_; }
+  double kinetic_energy() const;   // after synchronize()
+  Vec3 momentum() const;
+  // Smallest centre distance over all pairs (cell search), after synchronize().
+  double min_distance() const;
+  // Heap property and one-entry-per-particle consistency (tests).
+  bool calendar_valid() const { return heap_.valid(); }
+  std::uint64_t rebuilds() const { return rebuilds_; }
+  // Replace velocities (e.g. rescaling during equilibration); rebuilds the calendar.
+  void set_velocities(const std::vector<Vec3>& v);
+
+ private:
+  enum EventType : std::uint8_t { ev_none, ev_collision, ev_cell, ev_wall, ev_background };
+  struct Kin {          // the kinematic record, read together in every prediction
+    Vec3 r;             // position at local time t
+    double t = 0.0;     // local time (relative to offset_)
+    Vec3 v;             // velocity at local time t
+    double pad = 0.0;   // keeps the record at 64 bytes (one cache line)
+  };
+  struct Event {
+    std::uint32_t partner = 0;
+    std::uint8_t type = ev_none;
+    std::uint8_t aux = 0;  // cell crossing: 2 * dim + (dir > 0); wall: 2 * dim + (high side)
+    std::uint64_t partner_counter = 0;
+  };
+
+  void move_to(std::uint32_t i, double t);
+  void predict(std::uint32_t i);
+  void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
+  void insert_cell(std::uint32_t i);
+  void remove_cell(std::uint32_t i);
+  int cell_index(int cx, int cy, int cz) const { return (cz * nc_[1] + cy) * nc_[0] + cx; }
+  void assign_cell(std::uint32_t i);
+  double pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const;
+  void process_cell(std::uint32_t i);
+  void process_wall(std::uint32_t i);
+  void process_background(std::uint32_t i);
+  template <class Law>
+  void process_collision(const Law& law, std::uint32_t i, std::uint32_t j);
+  void apply_heating();
+  void grow_cells();
+  void fill_cells();
+  void sort_by_cell();
+
+  // configuration
+  std::size_t n_ = 0;
+  int dims_ = 3;
+  Vec3 L_;
+  std::array<bool, 3> walls_{};
+  double wall_e_ = 1.0;
+  double tc_ = 0.0;
+  Heating heating_;
+  std::optional<BackgroundState> bg_;
+  std::uint64_t seed_ = 1;
+  bool accelerated_ = false;
+  double vn_bin_width_ = 0.05;
+
+  // particle storage (structure of arrays, indexed by storage slot; slots are re-sorted by
+  // cell at every rebuild for memory locality, id_[slot] is the stable particle id)
+  std::vector<std::uint32_t> id_, slot_of_;
+  std::vector<Kin> k_;
+  std::vector<Vec3> a_;          // acceleration (air table), zero otherwise
+  std::vector<Vec3> omega_;      // angular velocity: reserved for rough grains (issue #6)
+  std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
+  std::vector<std::uint64_t> counter_;
+  std::vector<double> last_collision_;
+  std::vector<double> bg_time_;
+  std::vector<double> ev_time_;
+  std::vector<Event> ev_;
+  std::vector<std::array<int, 3>> cellc_;
+  std::vector<std::uint32_t> slot_;
+
+  // cells: fixed-capacity member arrays
+  std::array<int, 3> nc_{1, 1, 1};
+  Vec3 w_;  // cell widths
+  int cap_ = 8;
+  std::vector<std::uint32_t> members_;
+  std::vector<std::uint16_t> count_;
+
+  EventHeap heap_;
+  double now_ = 0.0, offset_ = 0.0;
+  std::uint64_t rebuilds_ = 0;
+  std::uint64_t total_collisions_ = 0;   // never reset (schedules the automatic rebuilds)
+  std::uint64_t rebuild_every_ = 0, next_rebuild_ = 0;
+  Counters c_;
+};
+
+// ---------------------------------------------------------------------------------------
+// Template members
+
+template <class Law>
+void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j) {
+  move_to(i, now_);
+  move_to(j, now_);
+  Kin& a = k_[i];
+  Kin& b = k_[j];
+  Vec3 dr = b.r - a.r;
+  // minimum image (positions are kept within one box length of each other's cell)
+  for (int d = 0; d < dims_; ++d) {
+    if (walls_[d]) continue;
+    double* x = d == 0 ? &dr.x : d == 1 ? &dr.y : &dr.z;
+    const double l = d == 0 ? L_.x : d == 1 ? L_.y : L_.z;
+    if (*x > 0.5 * l) *x -= l;
+    else if (*x < -0.5 * l) *x += l;
+  }
+  const Vec3 n = (1.0 / norm(dr)) * dr;  // unit vector from i to j (Bizon's k)
+  const double gn = dot(a.v - b.v, n);    // approach speed > 0
+  double e = 1.0;
+  if (tc_ > 0.0 && (now_ - last_collision_[i] < tc_ || now_ - last_collision_[j] < tc_)) {
+    ++c_.guard_elastic;  // TC model (Luding-McNamara): collapse guard for constant e
+  } else {
+    const RestitutionOutcome out = restitution(law, gn);
+    e = out.e;
+    if (out.clamped) ++c_.clamped;
+  }
+  c_.energy_lost += inelastic_collision(a.v, b.v, n, e, 1.0);  // Bizon eq. 28 per collision
+  c_.virial += 0.5 * (1.0 + e) * gn;                             // sigma k.dv, Bizon eq. 24
+  c_.sum_vn += gn;
+  c_.sum_vn2 += gn * gn;
+  c_.sum_e += e;
+  const std::size_t bin = static_cast<std::size_t>(gn / vn_bin_width_);
+  if (bin < c_.vn_histogram.size()) ++c_.vn_histogram[bin];
+  last_collision_[i] = last_collision_[j] = now_;
+  ++c_.collisions;
+  ++total_collisions_;
+  trajectory_changed(i);
+  trajectory_changed(j);
+  predict(i);
+  predict(j);
+  if (heating_.kind != HeatingKind::none) apply_heating();
+}
+
+template <class Law>
+void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions) {
+  while (c_.collisions < max_collisions) {
+    if (rebuild_every_ && total_collisions_ >= next_rebuild_) {
+      // deterministic in the collision count, whatever the split into advance() calls
+      next_rebuild_ += rebuild_every_;
+      rebuild();
+      continue;
+    }
+    const double t_stop = t_end - offset_;
+    const std::uint32_t i = heap_.top();
+    const double t = ev_time_[i];
+    if (!(t <= t_stop)) {
+      now_ = std::max(now_, t_stop);
+      return;
+    }
+    now_ = t;
+    ++c_.events;
+    const Event ev = ev_[i];
+    switch (ev.type) {
+      case ev_collision:
+        if (counter_[ev.partner] != ev.partner_counter) {
+          ++c_.stale;
+          move_to(i, now_);
+          predict(i);
+        } else {
+          process_collision(law, i, ev.partner);
+        }
+        break;
+      case ev_cell: process_cell(i); break;
+      case ev_wall: process_wall(i); break;
+      case ev_background: process_background(i); break;
+      default:
+        throw std::logic_error("edmd: a particle has no next event (a free particle in an unbounded box?)");
+    }
+  }
+}
+
+}  // namespace grainbath::edmd

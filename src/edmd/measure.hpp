@@ -1,0 +1,55 @@
+#pragma once
+// Configuration measurements of the EDMD engine (Bizon Sec. IV): the radial distribution
+// g(r), the parallel / perpendicular velocity correlations vs separation (Bizon eqs. 25-26)
+// and per-component velocity histograms. Taken on synchronised snapshots.
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include "operators/vec3.hpp"
+
+namespace grainbath::edmd {
+
+struct PairStatistics {
+  int dims = 3;
+  Vec3 L;
+  std::array<bool, 3> walls{false, false, false};
+  double rmax = 5.0;   // range of both g(r) and the correlations
+  double gr_bin = 0.02;
+  double corr_bin = 0.1;
+  std::vector<double> gr_counts;     // pair counts per bin (each pair once)
+  std::vector<double> corr_par, corr_perp, corr_counts;
+  std::uint64_t snapshots = 0;
+  double temperature_sum = 0.0;     // to normalise the correlations by T
+  std::size_t n = 0;
+
+  void init(int d, Vec3 box, std::array<bool, 3> w, double r_max, double grb, double cb);
+  // Adds one snapshot: positions x, velocities v (mean velocity removed by the caller).
+  void add(const std::vector<Vec3>& x, const std::vector<Vec3>& v, double temperature);
+  // g(r) at bin centres (ideal-gas normalisation for a periodic box).
+  std::vector<double> gr() const;
+  std::vector<double> gr_radii() const;
+  std::vector<double> corr_radii() const;
+  // <v1par v2par>/T and <v1perp . v2perp>/((D-1) T) per bin (Bizon eqs. 25-26).
+  std::vector<double> parallel() const;
+  std::vector<double> perpendicular() const;
+  // g at contact by a linear fit of g(r) over [1, 1 + width] extrapolated to r = 1.
+  double contact_value(double width = 0.1) const;
+};
+
+struct VelocityHistogram {
+  double vmax = 5.0;   // in units of sqrt(T)
+  int bins = 100;
+  std::array<std::vector<double>, 3> counts;
+  double total = 0.0;
+  void init(double v_max, int nbins);
+  void add(const std::vector<Vec3>& v, double temperature, int dims);
+  std::vector<double> density(int d) const;  // per unit v/sqrt(T)
+  std::vector<double> centres() const;
+  // Sonine coefficient a2 = <c^4> / <c^4>_Maxwell - 1 accumulated alongside
+  double c4_sum = 0.0, c2_sum = 0.0, samples = 0.0;
+};
+
+}  // namespace grainbath::edmd

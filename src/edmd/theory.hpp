@@ -1,0 +1,126 @@
+#pragma once
+// Reference formulas for the EDMD engine (units: sigma = 1, m = 1, k_B = 1).
+// Each function cites its source; the derivations are in docs/edmd.md.
+#include <cmath>
+#include <numbers>
+
+#include "operators/restitution.hpp"
+
+namespace grainbath::edmd::theory {
+
+// Number density from the packing (solid) fraction: 2D nu = n pi/4, 3D phi = n pi/6.
+inline double number_density(int dims, double packing) {
+  return dims == 2 ? 4.0 * packing / std::numbers::pi : 6.0 * packing / std::numbers::pi;
+}
+// Close packing: hexagonal disks pi/(2 sqrt 3), fcc spheres pi/(3 sqrt 2).
+inline double close_packing(int dims) {
+  return dims == 2 ? std::numbers::pi / (2.0 * std::sqrt(3.0)) : std::numbers::pi / (3.0 * std::sqrt(2.0));
+}
+
+// Henderson (1975) hard-disk fluid EOS: Z = (1 + nu^2/8) / (1 - nu)^2.
+inline double z_henderson(double nu) { return (1.0 + nu * nu / 8.0) / ((1.0 - nu) * (1.0 - nu)); }
+
+// Hard-disk fluid EOS fitted to the Kolafa-Rottner (2006) MD data (H. Liu 2020, eq. 1, stable
+// fluid): Z = (1 + nu^2/8 + nu^3/18 - 4 nu^4/21) / (1 - nu)^2. Agrees with Henderson to 0.2% at
+// nu <= 0.5 and corrects its overestimate near the hexatic transition.
+inline double z_disk_kr(double nu) {
+  const double n2 = nu * nu;
+  return (1.0 + n2 / 8.0 + n2 * nu / 18.0 - 4.0 * n2 * n2 / 21.0) / ((1.0 - nu) * (1.0 - nu));
+}
+
+// Carnahan-Starling hard-sphere EOS: Z = (1 + phi + phi^2 - phi^3) / (1 - phi)^3.
+inline double z_carnahan_starling(double phi) {
+  const double d = 1.0 - phi;
+  return (1.0 + phi + phi * phi - phi * phi * phi) / (d * d * d);
+}
+
+// Contact value g(sigma) consistent with the EOS through the virial route
+// Z = 1 + 2 nu g (2D), Z = 1 + 4 phi g (3D).
+inline double g_contact_from_z(int dims, double packing, double z) {
+  return (z - 1.0) / ((dims == 2 ? 2.0 : 4.0) * packing);
+}
+// Bizon eq. 5 (2D, "Carnahan-Starling" for disks = Henderson): G_CS = nu (16 - 7 nu) / (16 (1 - nu)^2),
+// g = G/nu = (1 - 7 nu/16)/(1 - nu)^2.
+inline double g_contact_disk_cs(double nu) { return (1.0 - 7.0 * nu / 16.0) / ((1.0 - nu) * (1.0 - nu)); }
+// 3D Carnahan-Starling contact value g = (1 - phi/2)/(1 - phi)^3.
+inline double g_contact_sphere_cs(double phi) { return (1.0 - 0.5 * phi) / std::pow(1.0 - phi, 3); }
+
+// Best available reference Z(packing) for elastic grains: KR fit (2D), CS (3D).
+inline double z_reference(int dims, double packing) {
+  return dims == 2 ? z_disk_kr(packing) : z_carnahan_starling(packing);
+}
+inline double g_contact_reference(int dims, double packing) {
+  return g_contact_from_z(dims, packing, z_reference(dims, packing));
+}
+
+// Enskog collision frequency per particle (collisions a particle takes per unit time):
+//   2D: omega = 2 n g sigma sqrt(pi T / m);  3D: omega = 4 n g sigma^2 sqrt(pi T / m).
+// (n g sigma^{D-1} * <|g.k| over the hemisphere of contact> with Maxwellian relative velocity.)
+inline double enskog_frequency(int dims, double packing, double g, double temperature) {
+  const double n = number_density(dims, packing);
+  const double c = std::sqrt(std::numbers::pi * temperature);
+  return (dims == 2 ? 2.0 : 4.0) * n * g * c;
+}
+
+// Bizon eq. 14 (2D): gamma0 = 16 nu G (1 - e^2) T^{3/2} / (pi^{3/2} sigma^3), the loss rate of
+// n T (energy per unit area) by inelastic collisions with constant e and molecular chaos.
+// In D dims the same derivation gives gamma0 = (1 - e^2)/4 <v_n^2>_c (n omega / 2)
+// with <v_n^2>_c = 4T: gamma0 = (1 - e^2) T n omega / 2.
+inline double gamma0(int dims, double packing, double g, double e, double temperature) {
+  const double n = number_density(dims, packing);
+  return 0.5 * (1.0 - e * e) * temperature * n * enskog_frequency(dims, packing, g, temperature);
+}
+
+// Collision-weighted distribution of the normal relative speed under molecular chaos
+// (Bizon, after eq. 33): P_c(v_n) = v_n/(2T) exp(-v_n^2/(4T)); <v_n^2>_c = 4T, <v_n>_c = sqrt(pi T).
+inline double normal_speed_density(double vn, double temperature) {
+  return vn / (2.0 * temperature) * std::exp(-vn * vn / (4.0 * temperature));
+}
+
+// <(1 - e(v_n)^2) v_n^2>_c over P_c by composite Simpson quadrature on [0, 12 sqrt(T)]
+// (Bizon eqs. 27-30 evaluated numerically rather than through incomplete gamma functions).
+template <class Law>
+double mean_loss_factor(const Law& law, double temperature) {
+  const int n = 4000;
+  const double hi = 12.0 * std::sqrt(temperature);
+  const double h = hi / n;
+  double s = 0.0;
+  for (int k = 0; k <= n; ++k) {
+    const double v = k * h;
+    const double e = restitution(law, v).e;
+    const double f = (1.0 - e * e) * v * v * normal_speed_density(v, temperature);
+    s += f * (k == 0 || k == n ? 1.0 : (k % 2 ? 4.0 : 2.0));
+  }
+  return s * h / 3.0;
+}
+
+// Bizon eqs. 29-30: gamma_e, the molecular-chaos loss rate with e depending on v_n:
+// gamma_e = (1/4) <(1 - e^2) v_n^2>_c * (n omega / 2).
+template <class Law>
+double gamma_e(const Law& law, int dims, double packing, double g, double temperature) {
+  const double n = number_density(dims, packing);
+  return 0.25 * mean_loss_factor(law, temperature) * 0.5 * n * enskog_frequency(dims, packing, g, temperature);
+}
+
+// van Noije-Ernst (1998) second Sonine coefficient of the homogeneous cooling state:
+// a2 = 16 (1 - e)(1 - 2 e^2) / (9 + 24 d - e (41 - 8 d) + 30 (1 - e) e^2).
+inline double a2_van_noije_ernst(int dims, double e) {
+  const double d = dims;
+  return 16.0 * (1.0 - e) * (1.0 - 2.0 * e * e) / (9.0 + 24.0 * d - e * (41.0 - 8.0 * d) + 30.0 * (1.0 - e) * e * e);
+}
+
+// Haff's law T(t) = T0 / (1 + t/t0)^2 with dT/dt = -zeta T, zeta = (2/D) gamma0 /(n T)
+// (energy density (D/2) n T) times the Sonine correction (1 + 3 a2 / 16).
+// Returns t0 = 2 / (zeta(T0)).
+inline double haff_time(int dims, double packing, double g, double e, double t0_temperature, bool sonine) {
+  const double n = number_density(dims, packing);
+  double zeta = (2.0 / dims) * gamma0(dims, packing, g, e, t0_temperature) / (n * t0_temperature);
+  if (sonine) zeta *= 1.0 + 3.0 * a2_van_noije_ernst(dims, e) / 16.0;
+  return 2.0 / zeta;
+}
+inline double haff_temperature(double t, double t0_temperature, double haff_t0) {
+  const double s = 1.0 + t / haff_t0;
+  return t0_temperature / (s * s);
+}
+
+}  // namespace grainbath::edmd::theory

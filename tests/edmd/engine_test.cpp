@@ -1,0 +1,113 @@
+// Engine-level tests: conservation, no overlaps, calendar, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "edmd/edmd.hpp"
+#include "edmd/theory.hpp"
+
+using namespace grainbath;
+using namespace grainbath::edmd;
+
+namespace {
+Config config_from(const std::string& toml) {
+  CaseReader r(toml, "test.toml");
+  Config c = read_config(r);
+  r.finish();
+  return c;
+}
+}  // namespace
+
+TEST(EdmdEngine, ElasticEnergyAndMomentumConservedToRoundOff) {
+  for (int dims : {2, 3}) {
+    Config c = config_from("[edmd]\ndimensions = " + std::to_string(dims) +
+                           "\nparticles = 500\npacking_fraction = 0.4\n");
+    const auto init = make_initial_state(c, 7);
+    Engine eng(make_setup(c, 7), init.positions, init.velocities);
+    eng.synchronize();
+    const double e0 = eng.kinetic_energy();
+    const Vec3 p0 = eng.momentum();
+    eng.advance(ElasticRestitution{}, kInf, 100000);
+    eng.synchronize();
+    EXPECT_EQ(eng.counters().collisions, 100000u);
+    EXPECT_NEAR(eng.kinetic_energy() / e0 - 1.0, 0.0, 1e-12) << dims;
+    EXPECT_NEAR(norm(eng.momentum() - p0), 0.0, 1e-10) << dims;
+    EXPECT_GE(eng.min_distance(), 1.0 - 1e-9) << dims;
+    EXPECT_TRUE(eng.calendar_valid());
+  }
+}
+
+TEST(EdmdEngine, WhiteNoiseConservesMomentum) {
+  Config c = config_from(
+      "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.5\n"
+      "[restitution]\nlaw = \"bizon\"\ne = 0.7\ncrossover = 1.0\n"
+      "[heating]\nmodel = \"white_noise\"\nkick = 0.5\n");
+  const auto init = make_initial_state(c, 3);
+  Engine eng(make_setup(c, 3), init.positions, init.velocities);
+  eng.synchronize();
+  const Vec3 p0 = eng.momentum();
+  const BizonRestitution law{0.7, 1.0};
+  eng.advance(law, kInf, 100000);
+  eng.synchronize();
+  EXPECT_GT(eng.counters().heating_energy, 0.0);
+  EXPECT_GT(eng.counters().energy_lost, 0.0);
+  EXPECT_NEAR(norm(eng.momentum() - p0), 0.0, 1e-10);
+  EXPECT_GE(eng.min_distance(), 1.0 - 1e-9);
+}
+
+TEST(EdmdEngine, HardWallsKeepGrainsInside) {
+  Config c = config_from(
+      "[edmd]\ndimensions = 3\nparticles = 512\npacking_fraction = 0.3\n[walls]\ndirections = [\"z\"]\n");
+  const auto init = make_initial_state(c, 5);
+  Engine eng(make_setup(c, 5), init.positions, init.velocities);
+  eng.synchronize();
+  const double e0 = eng.kinetic_energy();
+  eng.advance(ElasticRestitution{}, kInf, 50000);
+  eng.synchronize();
+  EXPECT_GT(eng.counters().wall_collisions, 0u);
+  EXPECT_NEAR(eng.kinetic_energy() / e0 - 1.0, 0.0, 1e-12);
+  for (std::size_t i = 0; i < eng.size(); ++i) {
+    EXPECT_GE(eng.position(i).z, 0.5 - 1e-9);
+    EXPECT_LE(eng.position(i).z, eng.length().z - 0.5 + 1e-9);
+  }
+  EXPECT_GE(eng.min_distance(), 1.0 - 1e-9);
+}
+
+TEST(EdmdEngine, SameSeedSameTrajectoryAndRebuildIsHarmless) {
+  Config c = config_from("[edmd]\ndimensions = 3\nparticles = 343\npacking_fraction = 0.3\n");
+  const auto init = make_initial_state(c, 11);
+  Engine a(make_setup(c, 11), init.positions, init.velocities);
+  Engine b(make_setup(c, 11), init.positions, init.velocities);
+  a.advance(ElasticRestitution{}, kInf, 20000);
+  b.advance(ElasticRestitution{}, kInf, 20000);
+  a.synchronize();
+  b.synchronize();
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a.position(i).x, b.position(i).x);
+    EXPECT_EQ(a.velocity(i).y, b.velocity(i).y);
+  }
+  b.rebuild();
+  b.advance(ElasticRestitution{}, kInf, 40000);
+  b.synchronize();
+  EXPECT_GE(b.min_distance(), 1.0 - 1e-9);
+}
+
+TEST(EdmdEngine, BadInputGivesClearErrors) {
+  Config c = config_from("[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.3\n");
+  auto init = make_initial_state(c, 1);
+  auto overlapping = init;
+  overlapping.positions[1] = overlapping.positions[0];
+  overlapping.positions[1].x += 0.5;
+  EXPECT_THROW(Engine(make_setup(c, 1), overlapping.positions, overlapping.velocities), std::invalid_argument);
+  auto outside = init;
+  outside.positions[3].x = -1.0;
+  EXPECT_THROW(Engine(make_setup(c, 1), outside.positions, outside.velocities), std::invalid_argument);
+  // above close packing, and walls that cut a 2D box
+  EXPECT_THROW(config_from("[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.95\n"), CaseError);
+  EXPECT_THROW(config_from("[edmd]\ndimensions = 3\nparticles = 100\npacking_fraction = 0.8\n"), CaseError);
+  EXPECT_THROW(config_from("[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.3\n[walls]\ndirections = [\"z\"]\n"),
+               CaseError);
+  EXPECT_THROW(config_from("[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.3\n[walls]\ndirections = [\"q\"]\n"),
+               CaseError);
+  EXPECT_THROW(config_from("[edmd]\ndimensions = 3\nparticles = 100\npacking_fraction = 0.3\nunknown_key = 1\n"), CaseError);
+}
