@@ -96,6 +96,10 @@ def density_mode(run, ctx):
             if rate is not None and rate_e:
                 axr.annotate(f"{(g - rate) / rate_e:+.1f}σ", (g, yi), textcoords="offset points", xytext=(0, 7),
                              ha="center", fontsize=8, color=col)
+    xs = [g for _, g, _ in entries] + ([rate - rate_e, rate + rate_e] if rate is not None and rate_e else [])
+    if xs:
+        pad = 0.15 * (max(xs) - min(xs)) or 0.05 * abs(max(xs)) or 0.1
+        axr.set_xlim(min(xs) - pad, max(xs) + pad)
     axr.set_yticks(yy)
     axr.set_yticklabels([e[0].replace(", ", ",\n", 1) for e in entries], fontsize=7.5)
     axr.set_ylim(-0.7, len(entries) - 0.3)

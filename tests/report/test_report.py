@@ -35,7 +35,40 @@ CASES = [
     ("free-cooling", ["dsmc.particles=3000", "dsmc.t_end=3", "dsmc.dt=0.02", "sampling.steady_from=1"],
      ["overview", "temperature", "a2", "distribution", "appendix"],
      ["temperature.final", "a2.mean", "theory.haff.temperature_at_t_end", "theory.haff.a2_van_noije_ernst"]),
+    ("@mode", [],  # spatial DSMC: a decaying density mode (case written below)
+     ["overview", "temperature", "mode", "profiles", "appendix"],
+     ["mode.decay_rate", "mode.decay_rate_stderr", "theory.hydro.decay_rate", "theory.hydro.decay_rate_kinetic"]),
 ]
+
+MODE_CASE = """[run]
+solver = "dsmc"
+seed = 5
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [16]
+[grains]
+temperature = 1.0
+profile = "mode"
+amplitude = 0.3
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.1
+[restitution]
+law = "power"
+beta = 0.2
+delta = 0.2
+[dsmc]
+particles = 6000
+dt = 0.01
+t_end = 1.5
+[sampling]
+every = 0.05
+steady_from = 0.5
+mode_fit_from = 0.2
+"""
 
 failures = []
 
@@ -69,8 +102,15 @@ def main():
     env = dict(os.environ, GRAINBATH_REPORT_STRICT="1")
 
     for case, sets, sections, keys in CASES:
+        case_dir = os.path.join(a.cases, case)
+        if case.startswith("@"):  # a case written here
+            case = case[1:]
+            case_dir = os.path.join(a.work, case + "-case")
+            os.makedirs(case_dir)
+            with open(os.path.join(case_dir, "case.toml"), "w") as f:
+                f.write(MODE_CASE)
         out = os.path.join(a.work, case)
-        cmd = [a.grainbath, "run", os.path.join(a.cases, case), "--out", out, "-q", "--set", "run.threads=1"]
+        cmd = [a.grainbath, "run", case_dir, "--out", out, "-q", "--set", "run.threads=1"]
         for s in sets:
             cmd += ["--set", s]
         r = subprocess.run(cmd, capture_output=True, text=True)
