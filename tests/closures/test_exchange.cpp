@@ -122,6 +122,9 @@ TEST_P(ExactExchange, MatchesQuadrature) {
       0.0, 14.0 * std::sqrt(th), 1e-12);
   const double dTdt = p.mass / 3.0 * rate * energy;
   EXPECT_NEAR(ex.dT_dt, dTdt, 1e-9 * rate * p.alpha * p.mass * s * s * s);
+  std::printf("[measure] exchange-vs-quadrature du %.2e dT %.2e (relative to the scale)\n",
+              std::abs(dudt_along + rate * p.alpha * mom) / (rate * p.alpha * s * s),
+              std::abs(ex.dT_dt - dTdt) / (rate * p.alpha * p.mass * s * s * s));
 }
 
 // Monte Carlo of the collision rule: v ~ N(u, T/m), w ~ N(uB, TB/mB), n uniform on S^2,
@@ -151,6 +154,10 @@ TEST_P(ExactExchange, MatchesMonteCarloOfTheCollisionRule) {
   for (int q = 0; q < 3; ++q)
     EXPECT_NEAR(ex.du_dt[q], mom[q].mean(), 5.0 * mom[q].se()) << "component " << q;
   EXPECT_NEAR(ex.dT_dt, en.mean(), 5.0 * en.se());
+  std::printf("[measure] exchange-vs-MC z du %.2f %.2f %.2f dT %.2f (rel. SE of dT %.1e)\n",
+              (ex.du_dt[0] - mom[0].mean()) / mom[0].se(), (ex.du_dt[1] - mom[1].mean()) / mom[1].se(),
+              (ex.du_dt[2] - mom[2].mean()) / mom[2].se(), (ex.dT_dt - en.mean()) / en.se(),
+              en.se() / std::abs(en.mean()));
 }
 
 INSTANTIATE_TEST_SUITE_P(Grid, ExactExchange,
@@ -224,6 +231,8 @@ TEST_P(Loss, MatchesQuadratureAndMonteCarlo) {
     st.add(p.n * 2.0 * std::abs(gn) * p.mass / 3.0 * (dot(cs, cs) - dot(c, c)));
   }
   EXPECT_NEAR(L, st.mean(), 5.0 * st.se());
+  std::printf("[measure] loss-vs-quadrature %.2e relative; loss-vs-MC z %.2f (rel. SE %.1e)\n",
+              std::abs(L - quad) / std::abs(quad), (L - st.mean()) / st.se(), st.se() / std::abs(st.mean()));
 }
 
 INSTANTIATE_TEST_SUITE_P(Grid, Loss,

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "closures/closures.hpp"
 #include "tests/closures/mc.hpp"
@@ -33,6 +34,8 @@ TEST_P(ChiMoments, MatchQuadrature) {
   const RadialMoment m = noncentral_chi_moment(k, A);
   const double q0 = quad_moment(k, A, 0), q1 = quad_moment(k, A, 1), q2 = quad_moment(k, A, 2);
   EXPECT_NEAR(m.value, q0, 1e-10 * q0) << "k=" << k << " A=" << A;
+  std::printf("[measure] chi k=%d A=%g: value %.1e d1 %.1e d2 %.1e (relative to m_k)\n", k, A,
+              std::abs(m.value - q0) / q0, std::abs(m.d1 - q1) / q0, std::abs(m.d2 - q2) / q0);
   EXPECT_NEAR(m.d1, q1, 1e-10 * q0) << "k=" << k << " A=" << A;
   EXPECT_NEAR(m.d2, q2, 1e-9 * q0) << "k=" << k << " A=" << A;
   if (A > 0.0) {
