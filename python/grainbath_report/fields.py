@@ -203,3 +203,72 @@ def profiles(run, ctx):
         s.text(f"The full 3D fields open in ParaView: `paraview {os.path.join(run.out_dir, 'fields.xdmf')}` "
                "(XDMF pointing into results.h5:/fields; cell data).")
     return s
+
+
+def shear(run, ctx):
+    """Background profile "shear" (u_B,x varying with y): grain u_x(y) and T(y) beside u_B,x(y)."""
+    if run.param("background.profile") != "shear" or not run.has("fields/y", "fields/velocity"):
+        return None
+    y = run.arr("fields/y")
+    u = run.arr("fields/velocity")                 # (nz, ny, nx, 3)
+    ux = u[..., 0].mean(axis=(0, 2))
+    T = run.arr("fields/temperature")
+    Ty = T.mean(axis=(0, 2)) if T is not None else None
+    A = run.param("background.amplitude", 0.0)
+    idx = run.param("background.wavenumber_index", 1)
+    L = run.param("domain.length")
+    s = Section("Shear profile u_x(y)", "shear")
+    fig, (ax, axT) = subplots(2, 1, figsize=(7.5, 6.0), sharex=True)
+    ax.plot(y, ux, **dict(SIM, marker="o", ms=3, label="DSMC grain u_x(y)"))
+    if isinstance(L, list) and len(L) > 1 and isinstance(A, (int, float)):
+        yy = np.linspace(0, float(L[1]), 300)
+        ax.plot(yy, A * np.sin(2 * math.pi * idx * yy / float(L[1])),
+                **theory_style("maxwell_dist", label="background u_B,x(y) (imposed)"))
+    ax.set_ylabel("u_x  [√(E/m)]")
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title("Grains dragged by a sheared background")
+    if Ty is not None:
+        Te = run.arr("fields/temperature_stderr")
+        err = None
+        if Te is not None:
+            cnt = Te.shape[0] * Te.shape[2]
+            err = np.sqrt(np.nansum(Te ** 2, axis=(0, 2))) / cnt
+        axT.errorbar(y, Ty, yerr=err, fmt="o-", ms=3, color="black", lw=1.0, capsize=0,
+                     label="DSMC grain T(y) ± std. error")
+        for c in ("maxwellian", "grad", "sonine"):
+            v = run.num(f"theory.equilibrium.{c}.T")
+            if v is not None:
+                axT.axhline(v, **theory_style(c, label=f"homogeneous T#, {c}"))
+        axT.legend(loc="best", fontsize=8)
+    axT.set_xlabel("position y  [λ]")
+    axT.set_ylabel("temperature  [E]")
+    s.figure(ctx.save(fig, "shear"),
+             "Time-averaged grain velocity along x and grain temperature across the shear (averaged over x and "
+             "z), beside the imposed background velocity and the homogeneous steady temperatures.")
+    return s
+
+
+def maps(run, ctx):
+    """2D/3D runs: colour maps of the time-averaged density and temperature (averaged over z)."""
+    if not run.has("fields/y", "fields/density"):
+        return None
+    x, y = run.arr("fields/x"), run.arr("fields/y")
+    n = run.arr("fields/density").mean(axis=0)
+    T = run.arr("fields/temperature")
+    fig, axes = subplots(1, 2 if T is not None else 1, figsize=(11.0, 4.4))
+    axes = np.atleast_1d(axes)
+    dx, dy = (x[1] - x[0]) if len(x) > 1 else 1.0, (y[1] - y[0]) if len(y) > 1 else 1.0
+    ext = [x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2]
+    for ax, data, lab, cmap in [(axes[0], n, "grain density n  [1/λ³]", "viridis")] + \
+            ([(axes[1], T.mean(axis=0), "grain temperature T  [E]", "inferno")] if T is not None else []):
+        im = ax.imshow(data, origin="lower", extent=ext, aspect="auto", cmap=cmap)
+        fig.colorbar(im, ax=ax, label=lab)
+        ax.set_xlabel("x  [λ]")
+        ax.set_ylabel("y  [λ]")
+        ax.grid(False)
+        ax.set_title(lab.split("  ")[0] + (" (averaged over z)" if run.has("fields/z") else ""))
+    s = Section("Field maps", "maps")
+    s.figure(ctx.save(fig, "field_maps"),
+             "Time-averaged cell fields (simulation only). The full fields, with velocity and heat flux, open in "
+             "ParaView from fields.xdmf.")
+    return s

@@ -20,6 +20,8 @@ SECTIONS = [
     # spatially resolved runs (DSMC with cells, hydrodynamic solvers)
     fields.density_mode,
     fields.profiles,
+    fields.shear,
+    fields.maps,
     # event-driven MD
     edmd.equation_of_state,
     edmd.temperature,
