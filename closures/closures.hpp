@@ -138,7 +138,12 @@ std::vector<RelaxationState> relax(Closure, const Parameters&, const RelaxationS
 
 // ---------------------------------------------------------------- reporting ----------------
 // Dotted key -> value, e.g. {"equilibrium.maxwellian.T", 0.97}: everything `grainbath theory`
-// prints (equilibria of all three closures, a2, expansion T0/T1/T2, diagnostics).
+// prints: equilibrium.u.{x,y,z}, equilibrium.{maxwellian,grad}.T, equilibrium.sonine.{T,a2},
+// expansion.{T0,T1,T2_maxwellian,T2_grad}, expansion.{first_order,second_order_maxwellian,
+// second_order_grad}.T, rates.momentum, diagnostics.{sonine_available,
+// negative_restitution_probability}. Throws ClosureError for invalid parameters. Where only
+// the Sonine closure has no steady state (very strong dissipation) its two keys are omitted
+// and diagnostics.sonine_available is 0.
 std::vector<std::pair<std::string, double>> theory_values(const Parameters&);
 
 }  // namespace grainbath::closures

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "closures/closures.hpp"
 #include "tests/closures/mc.hpp"
@@ -170,4 +171,34 @@ TEST(Sonine, WhiteNoiseLimitReproducesVanNoijeErnst) {
     std::printf("e=%.2f: T#/TB = %.4f, a2 = %.5f, van Noije-Ernst %.5f\n", e, eq.T, eq.a2, a2vne);
     EXPECT_NEAR(eq.a2, a2vne, 0.1 * std::abs(a2vne) + 2e-4);
   }
+}
+
+TEST(Sonine, StrongDissipationGivesLargeA2OrAClearRefusal) {
+  Parameters p = bath(0.8, 0.1, 0.0);
+  p.TB = 1.0, p.n = 1.0, p.nB = 1.0, p.eps = 5.0;
+  const SonineEquilibrium eq = equilibrium_sonine(p);  // a2 beyond the first bracket
+  EXPECT_GT(eq.a2, 0.1);
+  const MomentSources m = sonine_sources(p, {p.uB, eq.T, eq.a2});
+  EXPECT_LT(std::abs(m.da2_dt), 1e-10);
+  EXPECT_LT(std::abs(m.dT_dt), 1e-10);
+  p.eps = 50.0;
+  p.beta = 0.3;  // the fourth cumulant then grows without bound
+  try {
+    equilibrium_sonine(p);
+    ADD_FAILURE() << "expected ClosureError";
+  } catch (const ClosureError& e) {
+    EXPECT_NE(std::string(e.what()).find("no steady state"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("restitution.beta"), std::string::npos) << e.what();
+  }
+  const auto v = theory_values(p);  // the seed closures are still reported
+  bool has_sonine = false, has_maxwellian = false;
+  double available = -1;
+  for (const auto& [k, x] : v) {
+    has_sonine |= (k == "equilibrium.sonine.T");
+    has_maxwellian |= (k == "equilibrium.maxwellian.T");
+    if (k == "diagnostics.sonine_available") available = x;
+  }
+  EXPECT_FALSE(has_sonine);
+  EXPECT_TRUE(has_maxwellian);
+  EXPECT_EQ(available, 0.0);
 }
