@@ -62,7 +62,7 @@ def equation_of_state(run, ctx):
     s = Section("Equation of state: Z against the packing fraction", "eos")
     x = np.linspace(0.0, min(0.99 * close_packing(D), max(0.55 if D == 2 else 0.5, 1.15 * nu)), 300)
     fig, (ax, axr) = subplots(1, 2, figsize=(10.5, 4.3))
-    name = "Kolafa-Rottner fit (Liu 2020)" if D == 2 else "Carnahan-Starling"
+    name = "Kolafa-Rottner (Liu 2020)" if D == 2 else "Carnahan-Starling"
     ax.plot(x, z_reference(D, x), **theory_style("eos", label=f"elastic EOS: {name}"))
     if D == 2:
         ax.plot(x, z_henderson(x), **theory_style("eos2", label="elastic EOS: Henderson"))
@@ -134,27 +134,44 @@ def temperature(run, ctx):
     s = Section("EDMD time series: temperature, pressure, collision rate", "edmd-series")
     haff_t0 = run.num("haff.t0_theory")
     panels = 2 if run.has("series/Z") else 1
-    fig, axes = subplots(1, panels, figsize=(5.2 * panels, 4.2))
-    axes = np.atleast_1d(axes)
-    ax = axes[0]
     n = min(len(t), len(T))
-    ax.plot(t[:n], T[:n], **SIM)
+    t, T = t[:n], T[:n]
+    if haff_t0:
+        fig = plt.figure(figsize=(5.4 * panels, 6.0))
+        gs = fig.add_gridspec(2, panels, height_ratios=[2, 1])
+        ax = fig.add_subplot(gs[0, 0])
+        axh = fig.add_subplot(gs[1, 0], sharex=ax)
+        axes = [ax] + ([fig.add_subplot(gs[:, 1])] if panels > 1 else [])
+    else:
+        fig, axes = subplots(1, panels, figsize=(5.2 * panels, 4.2))
+        axes = np.atleast_1d(axes)
+        ax = axes[0]
+    ax.plot(t, T, **SIM)
     if haff_t0:
         T0 = run.num("temperature.initial") or T[0]
-        ax.plot(t, T0 / (1 + t / haff_t0) ** 2, **theory_style("haff", label=f"Haff, t₀ = {haff_t0:.4g} (with a₂)"))
+        haff = T0 / (1 + t / haff_t0) ** 2
+        curves = [("haff", haff_t0, f"Haff, t₀ = {haff_t0:.4g} (with a₂ correction)")]
         t0n = run.num("haff.t0_theory_no_a2")
         if t0n:
-            ax.plot(t, T0 / (1 + t / t0n) ** 2, **theory_style("maxwellian", label=f"Haff, t₀ = {t0n:.4g} (Maxwellian)"))
+            curves.append(("maxwellian", t0n, f"Haff, t₀ = {t0n:.4g} (Maxwellian)"))
         t0m = run.num("haff.t0_measured")
         if t0m:
-            ax.plot(t, T0 / (1 + t / t0m) ** 2, **theory_style("fit", lw=1.0, label=f"fit of T₀/(1+t/t₀)², t₀ = {t0m:.4g}"))
+            curves.append(("fit", t0m, f"fit of T₀/(1+t/t₀)², t₀ = {t0m:.4g}"))
+        for style, t0, lab in curves:
+            ax.plot(t, T0 / (1 + t / t0) ** 2, **theory_style(style, label=lab))
+            axh.plot(t, (T0 / (1 + t / t0) ** 2) / haff, **theory_style(style, label=lab))
+        axh.plot(t, T / haff, **SIM)
         ax.set_yscale("log")
+        axh.set_xlabel(TIME_LABEL)
+        axh.set_ylabel("T / T_Haff (with a₂)  [1]")
+        plt.setp(ax.get_xticklabels(), visible=False)
     else:
         Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
         if Tm is not None:
             ax.axhline(Tm, color="black", ls="--", lw=1, label=f"mean {fmt_pm(Tm, Te, 4)}")
-    ax.set_xlabel(TIME_LABEL)
-    ax.set_ylabel("temperature T  [E]")
+    if not haff_t0:
+        ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("temperature T  [E]" + ("  (log scale)" if haff_t0 else ""))
     ax.set_title("Temperature")
     ax.legend(loc="best", fontsize=8)
     if panels > 1:
@@ -167,6 +184,10 @@ def temperature(run, ctx):
         Zt = run.num("theory.Z")
         if Zt is not None:
             axz.axhline(Zt, **theory_style("eos", label=f"elastic EOS Z = {Zt:.4g}"))
+            e = run.num("restitution.mean_e")
+            if e is not None and e < 1 - 1e-12:
+                Zi = 1 + 0.5 * (1 + e) * (Zt - 1)
+                axz.axhline(Zi, **theory_style("sonine", label=f"1 + (1+⟨e⟩)/2 (Z_EOS − 1) = {Zi:.4g}"))
         axz.set_xlabel(TIME_LABEL)
         axz.set_ylabel("Z = P/(nT)  [dimensionless]")
         axz.set_title("Compressibility factor")
@@ -193,7 +214,18 @@ def pair_correlation(run, ctx):
         return None
     r, g = run.arr("observables/gr/r"), run.arr("observables/gr/g")
     s = Section("Radial distribution function g(r)", "gr")
-    fig, ax = subplots(figsize=(7.5, 4.3))
+    wide = r[-1] > 8.0
+    fig, axes = subplots(1, 2 if wide else 1, figsize=(11.0 if wide else 7.5, 4.3),
+                         gridspec_kw=dict(width_ratios=[1.3, 1]) if wide else None)
+    axes = np.atleast_1d(axes)
+    ax = axes[0]
+    if wide:
+        axw = axes[1]
+        axw.plot(r, g, **SIM)
+        axw.axhline(1, color="0.5", lw=0.8)
+        axw.set_xlabel("distance r  [σ]")
+        axw.set_ylabel("g(r)  [dimensionless]")
+        axw.set_title("Whole range")
     ax.plot(r, g, **dict(SIM, label="EDMD g(r)"))
     ax.axhline(1, color="0.5", lw=0.8, label="ideal gas, g = 1")
     marks = [("theory.g_contact", "o", "#0072B2", "g(σ⁺) from the EOS"),
@@ -205,8 +237,8 @@ def pair_correlation(run, ctx):
             ax.plot([1.0], [v], marker=mk, color=col, ms=8, ls="none", mfc="none", mew=1.8, label=f"{lab}: {v:.4g}")
     ax.set_xlabel("distance r  [σ]")
     ax.set_ylabel("g(r)  [dimensionless]")
-    ax.set_xlim(0.8, r[-1])
-    ax.set_title("Pair correlation")
+    ax.set_xlim(0.8, min(r[-1], 6.0))
+    ax.set_title("Pair correlation near contact" if wide else "Pair correlation")
     ax.legend(loc="upper right", fontsize=8)
     s.figure(ctx.save(fig, "edmd_gr"),
              "Radial distribution function (black) with three estimates of its contact value: from the equation "
@@ -225,10 +257,10 @@ def velocity_correlations(run, ctx):
     perp = run.arr(f"{base}/perpendicular") if run.has(f"{base}/perpendicular") else None
     s = Section("Velocity correlations vs separation", "velocity-correlations")
     fig, ax = subplots(figsize=(7.5, 4.3))
-    ok = np.isfinite(par)
+    ok = np.isfinite(par) & (r >= 1.0)  # no pairs closer than σ
     ax.plot(r[ok], par[ok], color="black", marker="o", ms=3, lw=1.1, label="parallel ⟨v₁∥ v₂∥⟩/T")
     if perp is not None:
-        okp = np.isfinite(perp)
+        okp = np.isfinite(perp) & (r >= 1.0)
         ax.plot(r[okp], perp[okp], color="black", marker="s", ms=3, mfc="white", lw=1.1, ls="--",
                 label="perpendicular ⟨v₁⊥·v₂⊥⟩/((D−1)T)")
     ax.axhline(0, **theory_style("maxwell_dist", lw=1.4, label="molecular chaos / elastic equilibrium: 0"))
