@@ -35,8 +35,18 @@ def main(argv):
     from .plotting import Context
     from .sections import SECTIONS
 
+    from .sweep import discover
     try:
         out_dir = locate_output(args.dir)
+    except ReportError as e:
+        runs = discover(os.path.abspath(args.dir)) if os.path.isdir(args.dir) else []
+        if len(runs) >= 2:
+            return sweep_report(os.path.abspath(args.dir), runs, args.out)
+        if len(runs) == 1:
+            out_dir = runs[0]
+        else:
+            return _fail(str(e))
+    try:
         run = RunData(out_dir)
     except ReportError as e:
         return _fail(str(e))
@@ -90,3 +100,37 @@ def main(argv):
         run.close()
     print(f"report: {htm}  ({len(ctx.saved)} plots, {len(sections)} sections; also report.md)")
     return 1 if (failures and strict) else 0
+
+
+def sweep_report(base, runs, out):
+    """Report over several runs found below `base`."""
+    from .data import ReportError
+    from .document import write_html, write_markdown
+    from .plotting import Context
+    from .sweep import build
+
+    report_dir = os.path.abspath(out) if out else os.path.join(base, "report")
+    try:
+        os.makedirs(report_dir, exist_ok=True)
+        for f in os.listdir(report_dir):
+            if f.endswith(".png"):
+                os.remove(os.path.join(report_dir, f))
+    except OSError as e:
+        return _fail(f"{report_dir}: cannot create the report directory ({e})")
+    ctx = Context(report_dir)
+    try:
+        sections = build(runs, ctx)
+    except ReportError as e:
+        return _fail(str(e))
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    title = f"grainbath sweep report: {os.path.basename(base.rstrip('/'))} ({len(runs)} runs)"
+    intro = (f"Runs found below `{base}`; report made {now}. Simulation in black, theory in colour; "
+             f"the data layout is documented in docs/OUTPUT.md.")
+    try:
+        write_markdown(os.path.join(report_dir, "report.md"), title, intro, sections)
+        write_html(os.path.join(report_dir, "report.html"), title, intro, sections)
+    except OSError as e:
+        return _fail(f"{report_dir}: cannot write the report ({e})")
+    print(f"report: {os.path.join(report_dir, 'report.html')}  (sweep of {len(runs)} runs, {len(ctx.saved)} plots; "
+          f"also report.md)")
+    return 0

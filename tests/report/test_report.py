@@ -156,6 +156,30 @@ def main():
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
         print(f"ok: {case}: {len(pngs)} plots, {len(keys)} key numbers checked")
 
+    # a sweep: runs below one directory differing in one parameter -> one report against it
+    sweep = os.path.join(a.work, "sweep")
+    for eps in ("0.1", "0.3"):
+        r = subprocess.run([a.grainbath, "run", os.path.join(a.cases, "equilibrium"), "--out",
+                            os.path.join(sweep, f"eps-{eps}"), "-q", "--set", "run.threads=1", "--set",
+                            f"background.knudsen={eps}", "--set", "dsmc.particles=2000", "--set", "dsmc.t_end=2",
+                            "--set", "dsmc.dt=0.02", "--set", "sampling.steady_from=0.5"], capture_output=True, text=True)
+        check(r.returncode == 0, f"sweep run eps={eps} failed: {r.stderr.strip()[-500:]}")
+    r = subprocess.run([a.grainbath, "report", sweep], capture_output=True, text=True, env=env)
+    check(r.returncode == 0, f"sweep report failed ({r.returncode}): {r.stderr.strip()[-2000:]}")
+    md_path = os.path.join(sweep, "report", "report.md")
+    if os.path.isfile(md_path):
+        md = open(md_path).read()
+        check('<a id="sweep-temperature-mean"></a>' in md and "`background.knudsen`" in md,
+              "sweep report lacks T# against background.knudsen")
+        for eps in ("0.1", "0.3"):
+            t = json.load(open(os.path.join(sweep, f"eps-{eps}", "summary.json")))["temperature"]["mean"]
+            check(fmt(t) in md, f"sweep report does not quote T# = {fmt(t)} of eps = {eps}")
+        pngs = re.findall(r"!\[[^\]]*\]\(([^)]+\.png)\)", md)
+        check(pngs and all(os.path.isfile(os.path.join(sweep, "report", p)) for p in pngs), "sweep plots missing")
+        print(f"ok: sweep: {len(pngs)} plots")
+    else:
+        check(False, "sweep report.md missing")
+
     # a directory without results: non-zero exit, one clear line on stderr
     empty = os.path.join(a.work, "empty")
     os.makedirs(empty)

@@ -1,0 +1,200 @@
+"""Reports over several runs (a parameter sweep): key numbers against the swept parameter,
+beside the theory each run computed for its own parameters.
+
+`grainbath report DIR` makes a sweep report when DIR holds no run itself but has run output
+directories (results.h5 + summary.json) below it, e.g. DIR/nu-0.1/, DIR/nu-0.2/ or
+DIR/*/output/.  The swept parameter is found by comparing the runs' resolved parameters.
+"""
+import math
+import os
+
+import numpy as np
+
+from .common import UNITS
+from .data import RunData
+from .document import Section, fmt, fmt_pm
+from .edmd import close_packing, packing_label, z_henderson, z_reference
+from .plotting import subplots, theory_style
+
+SKIP_DIRS = ("report",)
+
+
+def discover(path, depth=3):
+    """Output directories (holding results.h5 and summary.json) below path, sorted."""
+    found = []
+    for root, dirs, files in os.walk(path):
+        rel = os.path.relpath(root, path)
+        level = 0 if rel == "." else rel.count(os.sep) + 1
+        dirs[:] = sorted(d for d in dirs if d not in SKIP_DIRS and ".tmp-" not in d
+                         and not d.endswith(".previous") and not d.startswith("."))
+        if level >= depth:
+            dirs[:] = []
+        if "results.h5" in files and "summary.json" in files:
+            found.append(root)
+            dirs[:] = []
+    return sorted(found)
+
+
+# (summary key, error key, label, unit, [(theory key, style name, label)])
+DSMC_QUANTITIES = [
+    ("temperature.mean", "temperature.stderr", "steady temperature T#", "E", [
+        ("theory.equilibrium.maxwellian.T", "maxwellian", "local-Maxwellian root"),
+        ("theory.equilibrium.grad.T", "grad", "Grad root"),
+        ("theory.equilibrium.sonine.T", "sonine", "Sonine root"),
+        ("theory.expansion.first_order.T", None, "ε-expansion, 1st order"),
+        ("theory.expansion.second_order_maxwellian.T", None, "ε-expansion, 2nd order (Maxwellian)"),
+        ("theory.expansion.second_order_grad.T", None, "ε-expansion, 2nd order (Grad)")]),
+    ("a2.mean", "a2.stderr", "Sonine coefficient a₂", "1", [
+        ("theory.equilibrium.sonine.a2", "sonine", "Sonine closure"),
+        ("theory.haff.a2_van_noije_ernst", "haff", "van Noije-Ernst")]),
+    ("mode.decay_rate", "mode.decay_rate_stderr", "density-mode decay rate Γ", "√(E/m)/λ", [
+        ("theory.hydro.decay_rate", "hydro", "drift-diffusion (paper)"),
+        ("theory.hydro.decay_rate_kinetic", None, "drift-diffusion (kinetic)"),
+        ("theory.hydro.decay_rate_maxwellian_closure", "maxwellian", "local-Maxwellian closure"),
+        ("theory.hydro.decay_rate_grad_closure", "grad", "Grad closure")]),
+    ("profile.exponent", "profile.exponent_stderr", "profile exponent p (n ∝ T_B^−p)", "1", [
+        ("theory.hydro.thermal_diffusion_exponent", "hydro", "drift-diffusion (paper)"),
+        ("theory.hydro.thermal_diffusion_exponent_kinetic", None, "drift-diffusion (kinetic)")]),
+]
+EDMD_QUANTITIES = [
+    ("pressure.Z", "pressure.Z_stderr", "compressibility factor Z", "1", [("theory.Z", "eos", "reference EOS")]),
+    ("pressure.g_contact", None, "g(σ⁺) from Z", "1", [("theory.g_contact", "eos", "reference EOS")]),
+    ("g_r.contact_fit", None, "g(σ⁺) from g(r)", "1", [("theory.g_contact", "eos", "reference EOS")]),
+    ("collision.frequency_over_enskog", None, "collision frequency / Enskog", "1", []),
+    ("loss.gamma_over_gamma_e", None, "loss rate γ / γ_e", "1", []),
+    ("velocity.a2", None, "a₂", "1", []),
+    ("haff.ratio", None, "Haff time, measured / theory", "1", []),
+]
+PARAM_LABELS = {
+    "edmd.packing_fraction": "packing fraction ν (2D) or φ (3D)  [dimensionless]",
+    "background.knudsen": "Knudsen number ε  [dimensionless]",
+    "background.mass_ratio": "mass ratio α = m_B/(m+m_B)  [dimensionless]",
+    "background.density": "background density n_B  [1/λ³]",
+    "background.temperature": "background temperature T_B  [E]",
+    "background.amplitude": "background profile amplitude",
+    "grains.density": "grain density n  [1/λ³]",
+    "grains.temperature": "initial grain temperature  [E]",
+    "grains.amplitude": "initial mode amplitude  [dimensionless]",
+    "grains.wavenumber_index": "mode index (k = 2π·index/L_x)",
+    "restitution.e": "restitution coefficient e  [dimensionless]",
+    "restitution.beta": "restitution β  [dimensionless]",
+    "restitution.delta": "restitution exponent δ  [dimensionless]",
+    "dsmc.dt": "time step Δt  [λ/√(E/m)]",
+    "dsmc.particles": "simulated grains N",
+    "dsmc.t_end": "end time  [λ/√(E/m)]",
+    "edmd.particles": "grains N",
+    "edmd.temperature": "initial temperature  [E]",
+}
+EXTRA_COLOURS = ["#CC79A7", "#56B4E9", "#D55E00", "#999999"]
+EXTRA_STYLES = [(0, (5, 1, 1, 1)), (0, (1, 1)), (0, (3, 1, 1, 1, 1, 1)), "--"]
+
+
+def _numeric(v):
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def swept_parameters(runs):
+    """Parameters whose resolved values differ between runs (seed and threads excluded)."""
+    keys = sorted(set().union(*(r.params.keys() for r in runs)))
+    out = []
+    for k in keys:
+        if k in ("run.seed", "run.threads"):
+            continue
+        vals = [repr(r.params.get(k)) for r in runs]
+        if len(set(vals)) > 1:
+            out.append(k)
+    preferred = ["edmd.packing_fraction", "background.knudsen", "restitution.e", "restitution.beta",
+                 "restitution.delta", "background.mass_ratio", "domain.length", "grains.wavenumber_index"]
+    numeric = [k for k in out if all(_numeric(r.params.get(k)) for r in runs)]
+    numeric.sort(key=lambda k: preferred.index(k) if k in preferred else len(preferred))
+    return out, numeric
+
+
+def build(paths, ctx):
+    """Sections of a sweep report over the runs in `paths`."""
+    runs = [RunData(p) for p in paths]
+    solvers = sorted(set(r.solver for r in runs))
+    varied, numeric = swept_parameters(runs)
+    x_key = numeric[0] if numeric else None
+    group_keys = [k for k in varied if k != x_key]
+    sections = []
+    s = Section("Runs in this sweep", "runs")
+    s.text(" ".join(UNITS.get(sv, "") for sv in solvers))
+    s.text(f"{len(runs)} runs (solver{'s' if len(solvers) > 1 else ''} {', '.join(solvers)}). Parameters that differ "
+           f"between them: {', '.join(f'`{k}`' for k in varied) or 'none (repeats with different seeds?)'}."
+           + (f" Plotted against `{x_key}`" + (f", one series per value of {', '.join(f'`{k}`' for k in group_keys)}"
+                                                if group_keys else "") + "." if x_key else ""))
+    candidates = (DSMC_QUANTITIES if "dsmc" in solvers else []) + (EDMD_QUANTITIES if "edmd" in solvers else [])
+    quantities = [q for q in candidates if any(r.num(q[0]) is not None for r in runs)]
+    headers = ["run"] + [f"`{k}`" for k in varied] + [f"`{q[0]}`" for q in quantities]
+    rows = []
+    for r in runs:
+        rows.append([os.path.relpath(r.out_dir, os.path.commonpath(paths)) if len(paths) > 1 else r.out_dir] +
+                    [fmt(r.params.get(k)) if not isinstance(r.params.get(k), list) else str(r.params.get(k))
+                     for k in varied] +
+                    [fmt_pm(r.num(q[0]), r.num(q[1]) if q[1] else None) for q in quantities])
+    s.table(headers, rows, caption="Key numbers of every run (± std. error where the run gives one).")
+    s.text("Each run's own report: `grainbath report RUN_DIR`.")
+    sections.append(s)
+    if x_key is None:
+        for r in runs:
+            r.close()
+        return sections
+
+    groups = {}
+    for r in runs:
+        label = ", ".join(f"{k.split('.')[-1]} = {fmt(r.params.get(k))}" for k in group_keys)
+        groups.setdefault(label, []).append(r)
+    markers = ["o", "s", "D", "^", "v", "<", ">"]
+    for qi, (key, err_key, label, unit, theories) in enumerate(quantities):
+        fig, ax = subplots(figsize=(7.5, 4.6))
+        for gi, (glabel, grs) in enumerate(groups.items()):
+            grs = sorted(grs, key=lambda r: r.params[x_key])
+            x = np.array([r.params[x_key] for r in grs], dtype=float)
+            y = np.array([r.num(key) if r.num(key) is not None else np.nan for r in grs])
+            e = np.array([(r.num(err_key) or 0.0) if err_key else 0.0 for r in grs])
+            sim_label = "simulation" + (f" ({glabel})" if glabel else "")
+            ax.errorbar(x, y, yerr=e if np.any(e) else None, fmt=markers[gi % len(markers)], color="black", ms=5,
+                        capsize=3, ls="none",
+                        mfc="black" if gi == 0 else "white", label=sim_label)
+            dense_eos = key == "pressure.Z" and x_key == "edmd.packing_fraction"
+            extra = 0
+            for ti, (tkey, style, tlabel) in enumerate(theories):
+                if dense_eos and tkey == "theory.Z":
+                    continue  # drawn as a continuous curve below
+                ty = np.array([r.num(tkey) if r.num(tkey) is not None else np.nan for r in grs])
+                if np.all(np.isnan(ty)):
+                    continue
+                if style:
+                    st = theory_style(style)
+                else:
+                    st = dict(color=EXTRA_COLOURS[extra % 4], ls=EXTRA_STYLES[extra % 4], lw=1.5)
+                    extra += 1
+                st["label"] = tlabel + (f" ({glabel})" if glabel and gi == 0 and len(groups) > 1 else "")
+                if gi > 0:
+                    st["label"] = None
+                ax.plot(x, ty, marker=".", **st)
+        if key == "pressure.Z" and x_key == "edmd.packing_fraction":
+            dims = {int(r.param("edmd.dimensions", 3)) for r in runs}
+            for D in sorted(dims):
+                xs = np.linspace(0, min(0.98 * close_packing(D), 1.1 * max(r.params[x_key] for r in runs)), 300)
+                name = "Kolafa-Rottner (Liu 2020)" if D == 2 else "Carnahan-Starling"
+                ax.plot(xs, z_reference(D, xs), **theory_style("eos", label=f"elastic EOS, {name}"))
+                if D == 2:
+                    ax.plot(xs, z_henderson(xs), **theory_style("eos2", label="elastic EOS, Henderson"))
+            ax.set_xlabel(packing_label(min(dims)) + "  [dimensionless]")
+        else:
+            ax.set_xlabel(PARAM_LABELS.get(x_key, f"{x_key}  (unit: docs/CASE_FILE.md)"))
+            if x_key.endswith("particles"):
+                ax.set_xscale("log")
+        ax.set_ylabel(f"{label}  [{unit}]")
+        ax.set_title(f"{label} against {x_key.split('.')[-1]}")
+        ax.legend(loc="best", fontsize=7.5)
+        path = ctx.save(fig, f"sweep_{key.replace('.', '_')}")
+        sec = Section(f"{label} against `{x_key}`", f"sweep-{key.replace('.', '-')}")
+        sec.figure(path, f"{label} from every run (black, ± std. error) beside the theory values each run computed "
+                         f"for its own parameters (coloured), against the swept parameter `{x_key}`.")
+        sections.append(sec)
+    for r in runs:
+        r.close()
+    return sections
