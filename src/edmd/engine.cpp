@@ -108,7 +108,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
     comp(w_, d) = l / nc_[d];
   }
   if (dims_ == 2) nc_[2] = 1, w_.z = 1.0;
-  cap_ = dims_ == 2 ? 6 : 8;
+  cap_ = 4;  // grows (doubles) on overflow; small keeps the cell arrays cache-friendly
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -122,6 +122,9 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   last_collision_.assign(n_, -kInf);
   bg_time_.assign(n_, kInf);
   ev_time_.assign(n_, kInf);
+  coll_time_.assign(n_, kInf);
+  coll_partner_.assign(n_, 0);
+  coll_partner_counter_.assign(n_, 0);
   ev_.assign(n_, Event{});
   cellc_.assign(n_, {0, 0, 0});
   slot_.assign(n_, 0);
@@ -269,8 +272,116 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
   return roots.n > k ? roots.t[k] : kInf;
 }
 
+// Earliest collision of i with the grains of one cell (image shifted by `shift`); updates
+// the running best collision time and partner.
+inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
+                              double& best, std::uint32_t& partner) const {
+  const double t = ki.t;
+  const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
+  const int cnt = count_[cell];
+  for (int q = 0; q < cnt; ++q) {
+    const std::uint32_t j = m[q];
+    if (j == i) continue;
+    const Kin& kj = k_[j];
+    const double dtj = t - kj.t;
+    double tcol;
+    if (!accelerated_) {
+      const Vec3 dr = kj.r + dtj * kj.v + shift - ki.r;
+      const Vec3 dv = kj.v - ki.v;
+      const double b = dot(dr, dv);
+      if (b >= 0.0) continue;
+      const double q2 = dot(dr, dr) - 1.0;
+      if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;  // lower bound, no sqrt
+      const double dv2 = dot(dv, dv);
+      const double disc = b * b - dv2 * q2;
+      if (disc <= 0.0) continue;
+      tcol = q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc));
+    } else {
+      const Vec3 vj = kj.v + dtj * a_[j];
+      const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
+      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
+      if (!std::isfinite(tcol)) continue;
+    }
+    if (t + tcol < best) {
+      best = t + tcol;
+      partner = j;
+    }
+  }
+}
+
+// Scans the neighbouring cells of i: all 3^D of them (layer_dim < 0) or only the layer
+// at offset `layer_dir` in direction `layer_dim` (after a cell crossing: the other cells
+// were scanned before and their best collision is kept in coll_time_).
+void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
+  const Kin& ki = k_[i];
+  const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
+  const auto& c = cellc_[i];
+  double best = coll_time_[i];
+  std::uint32_t partner = coll_partner_[i];
+  int lo[3] = {-1, -1, dims_ == 3 ? -1 : 0}, hi[3] = {1, 1, dims_ == 3 ? 1 : 0};
+  if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
+  const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
+                        (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
+  if (interior) {  // fast path: no wrap, no image shift
+    const Vec3 zero{};
+    for (int dz = lo[2]; dz <= hi[2]; ++dz)
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) scan_cell(i, ki, ai, row + dx, zero, best, partner);
+      }
+  } else {
+    for (int dz = lo[2]; dz <= hi[2]; ++dz) {
+      int cz = c[2] + dz;
+      double sz = 0.0;
+      if (dims_ == 3) {
+        if (cz < 0) {
+          if (walls_[2]) continue;
+          cz += nc_[2], sz = -L_.z;
+        } else if (cz >= nc_[2]) {
+          if (walls_[2]) continue;
+          cz -= nc_[2], sz = L_.z;
+        }
+      }
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        int cy = c[1] + dy;
+        double sy = 0.0;
+        if (cy < 0) {
+          if (walls_[1]) continue;
+          cy += nc_[1], sy = -L_.y;
+        } else if (cy >= nc_[1]) {
+          if (walls_[1]) continue;
+          cy -= nc_[1], sy = L_.y;
+        }
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) {
+          int cx = c[0] + dx;
+          double sx = 0.0;
+          if (cx < 0) {
+            if (walls_[0]) continue;
+            cx += nc_[0], sx = -L_.x;
+          } else if (cx >= nc_[0]) {
+            if (walls_[0]) continue;
+            cx -= nc_[0], sx = L_.x;
+          }
+          scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best, partner);
+        }
+      }
+    }
+  }
+  coll_time_[i] = best;
+  coll_partner_[i] = partner;
+  if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+}
+
 void Engine::predict(std::uint32_t i) {
-  const Kin ki = k_[i];
+  coll_time_[i] = kInf;
+  scan_neighbours(i, -1, 0);
+  schedule(i);
+}
+
+// Next event of i = earliest of its stored best collision, its cell faces / walls and its
+// next background candidate.
+void Engine::schedule(std::uint32_t i) {
+  const Kin& ki = k_[i];
   const double t = ki.t;
   double best = kInf;
   Event ev{};
@@ -280,7 +391,6 @@ void Engine::predict(std::uint32_t i) {
   }
   const auto& c = cellc_[i];
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
-  // cell faces and walls
   for (int d = 0; d < dims_; ++d) {
     const double x = comp(ki.r, d), v = comp(ki.v, d), acc = comp(ai, d);
     const double lo = c[d] * comp(w_, d), hi = lo + comp(w_, d);
@@ -321,80 +431,15 @@ void Engine::predict(std::uint32_t i) {
       }
     }
   }
-  // collisions with grains in the 3^D neighbouring cells
-  const int zlo = dims_ == 3 ? -1 : 0, zhi = dims_ == 3 ? 1 : 0;
-  for (int dz = zlo; dz <= zhi; ++dz) {
-    int cz = c[2] + dz;
-    double sz = 0.0;
-    if (dims_ == 3) {
-      if (cz < 0) {
-        if (walls_[2]) continue;
-        cz += nc_[2], sz = -L_.z;
-      } else if (cz >= nc_[2]) {
-        if (walls_[2]) continue;
-        cz -= nc_[2], sz = L_.z;
-      }
-    }
-    for (int dy = -1; dy <= 1; ++dy) {
-      int cy = c[1] + dy;
-      double sy = 0.0;
-      if (cy < 0) {
-        if (walls_[1]) continue;
-        cy += nc_[1], sy = -L_.y;
-      } else if (cy >= nc_[1]) {
-        if (walls_[1]) continue;
-        cy -= nc_[1], sy = L_.y;
-      }
-      for (int dx = -1; dx <= 1; ++dx) {
-        int cx = c[0] + dx;
-        double sx = 0.0;
-        if (cx < 0) {
-          if (walls_[0]) continue;
-          cx += nc_[0], sx = -L_.x;
-        } else if (cx >= nc_[0]) {
-          if (walls_[0]) continue;
-          cx -= nc_[0], sx = L_.x;
-        }
-        const Vec3 shift{sx, sy, sz};
-        const int cell = cell_index(cx, cy, cz);
-        const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
-        const int cnt = count_[cell];
-        for (int q = 0; q < cnt; ++q) {
-          const std::uint32_t j = m[q];
-          if (j == i) continue;
-          const Kin& kj = k_[j];
-          const double dtj = t - kj.t;
-          double tcol;
-          if (!accelerated_) {
-            const Vec3 dr = kj.r + dtj * kj.v + shift - ki.r;
-            const Vec3 dv = kj.v - ki.v;
-            const double b = dot(dr, dv);
-            if (b >= 0.0) continue;
-            const double q2 = dot(dr, dr) - 1.0;
-            if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;  // lower bound, no sqrt
-            const double dv2 = dot(dv, dv);
-            const double disc = b * b - dv2 * q2;
-            if (disc <= 0.0) continue;
-            tcol = q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc));
-          } else {
-            const Vec3 vj = kj.v + dtj * a_[j];
-            const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
-            tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
-            if (!std::isfinite(tcol)) continue;
-          }
-          if (t + tcol < best) {
-            best = t + tcol;
-            ev.type = ev_collision;
-            ev.partner = j;
-            ev.partner_counter = counter_[j];
-          }
-        }
-      }
-    }
+  if (coll_time_[i] < best) {
+    best = coll_time_[i];
+    ev.type = ev_collision;
+    ev.partner = coll_partner_[i];
+    ev.partner_counter = coll_partner_counter_[i];
   }
   ev_time_[i] = best;
   ev_[i] = ev;
-  heap_.update(i);
+  heap_.update(i, best);
 }
 
 void Engine::process_cell(std::uint32_t i) {
@@ -408,7 +453,13 @@ void Engine::process_cell(std::uint32_t i) {
   if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
   else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
   insert_cell(i);
-  predict(i);
+  // keep the best collision found so far unless its partner moved on; scan only the new layer
+  if (std::isfinite(coll_time_[i]) && counter_[coll_partner_[i]] != coll_partner_counter_[i]) {
+    predict(i);
+  } else {
+    scan_neighbours(i, d, dir);
+    schedule(i);
+  }
 }
 
 void Engine::process_wall(std::uint32_t i) {
@@ -530,7 +581,7 @@ void Engine::rebuild() {
   now_ = 0.0;
   ++rebuilds_;
   for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
-  heap_.reset(n_, ev_time_.data());
+  heap_.reset(n_);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
 }
 

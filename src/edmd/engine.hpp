@@ -141,7 +141,11 @@ class Engine {
   };
 
   void move_to(std::uint32_t i, double t);
-  void predict(std::uint32_t i);
+  void predict(std::uint32_t i);   // full scan + schedule
+  void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
+  void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
+  void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, double& best,
+                 std::uint32_t& partner) const;
   void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
   void insert_cell(std::uint32_t i);
   void remove_cell(std::uint32_t i);
@@ -182,6 +186,9 @@ class Engine {
   std::vector<double> last_collision_;
   std::vector<double> bg_time_;
   std::vector<double> ev_time_;
+  std::vector<double> coll_time_;                  // best predicted collision (absolute time)
+  std::vector<std::uint32_t> coll_partner_;
+  std::vector<std::uint64_t> coll_partner_counter_;
   std::vector<Event> ev_;
   std::vector<std::array<int, 3>> cellc_;
   std::vector<std::uint32_t> slot_;
@@ -257,7 +264,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     }
     const double t_stop = t_end - offset_;
     const std::uint32_t i = heap_.top();
-    const double t = ev_time_[i];
+    const double t = heap_.top_key();
     if (!(t <= t_stop)) {
       now_ = std::max(now_, t_stop);
       return;
