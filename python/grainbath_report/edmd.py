@@ -177,7 +177,9 @@ def temperature(run, ctx):
     if panels > 1:
         Zs = run.arr("series/Z")
         axz = axes[1]
-        axz.plot(t[:len(Zs)], Zs, **dict(SIM, lw=0.9, label="Z per sampling interval"))
+        # per-interval series have one value fewer than the sample times: plot at interval midpoints
+        tz = 0.5 * (t[:-1] + t[1:]) if len(Zs) == len(t) - 1 else t[:len(Zs)]
+        axz.plot(tz, Zs[:len(tz)], **dict(SIM, lw=0.9, label="Z per sampling interval"))
         Zm = run.num("pressure.Z")
         if Zm is not None:
             axz.axhline(Zm, color="black", ls="--", lw=1.2, label=f"EDMD Z = {fmt_pm(Zm, run.num('pressure.Z_stderr'), 4)}")
