@@ -41,7 +41,16 @@ def overview(run, ctx):
                        ("restitution.e", "restitution e"), ("restitution.beta", "restitution β"),
                        ("restitution.delta", "restitution δ"),
                        ("edmd.dimensions", "dimensions"), ("edmd.particles", "particles"),
-                       ("edmd.packing_fraction", "packing fraction ν")]:
+                       ("edmd.packing_fraction", "packing fraction ν (2D) / φ (3D)"),
+                       ("edmd.equilibrate", "equilibration [collisions per particle]"),
+                       ("edmd.collisions", "measurement [collisions per particle]"),
+                       ("heating.model", "heat bath"), ("heating.kick", "white-noise kick"),
+                       ("heating.temperature", "heat-bath temperature"),
+                       ("walls.directions", "walls"), ("sampling.free_cooling", "free cooling")]:
+        if key.startswith("background.") and key != "background.density" and not p.get("background.density"):
+            continue  # no background medium: its other keys are defaults of no consequence
+        if key.startswith("heating.") and key != "heating.model" and p.get("heating.model") in (None, "none"):
+            continue
         if key in p:
             v = p[key]
             rows.append([label, f"`{key}`", fmt(v) if not isinstance(v, list) else str(v)])
@@ -57,7 +66,8 @@ def overview(run, ctx):
         e = run.num(err_key) if err_key else None
         key_rows.append([label, f"`{key}`", fmt(v), fmt(e) if e is not None else ""])
 
-    row("steady temperature T (window mean)", "temperature.mean", "temperature.stderr")
+    row("mean temperature T over the run" if run.solver == "edmd" else "steady temperature T (window mean)",
+        "temperature.mean", "temperature.stderr")
     row("final temperature", "temperature.final")
     row("Sonine coefficient a₂ (window mean)", "a2.mean", "a2.stderr")
     row("final a₂", "a2.final")
@@ -66,6 +76,10 @@ def overview(run, ctx):
     row("g(σ) from Z", "pressure.g_contact")
     row("g(σ) from fit of g(r)", "g_r.contact_fit")
     row("a₂ (EDMD)", "velocity.a2")
+    row("mean restitution ⟨e⟩", "restitution.mean_e")
+    row("collision frequency / Enskog", "collision.frequency_over_enskog")
+    row("loss rate / molecular-chaos loss rate", "loss.gamma_over_gamma_e")
+    row("Haff time, measured / theory", "haff.ratio")
     row("T#, local-Maxwellian closure", "theory.equilibrium.maxwellian.T")
     row("T#, Grad closure", "theory.equilibrium.grad.T")
     row("T#, Sonine closure", "theory.equilibrium.sonine.T")

@@ -111,6 +111,9 @@ def equation_of_state(run, ctx):
     if run.num("theory.Z_henderson") is not None:
         rows.append(["Z, Henderson (`theory.Z_henderson`)", fmt(run.num("theory.Z_henderson")),
                      deviation(Z, Ze, run.num("theory.Z_henderson"))])
+    if e is not None and e < 1 - 1e-12 and run.num("theory.Z") is not None:
+        Zi = 1 + 0.5 * (1 + e) * (run.num("theory.Z") - 1)
+        rows.append(["Z, EOS with collisional part × (1+⟨e⟩)/2", fmt(Zi), deviation(Z, Ze, Zi)])
     for label, key in [("g(σ) from Z (`pressure.g_contact`)", "pressure.g_contact"),
                        ("g(σ) from the EOS (`theory.g_contact`)", "theory.g_contact"),
                        ("g(σ) from the collision rate (`collision.g_contact_from_rate`)", "collision.g_contact_from_rate"),
@@ -120,7 +123,9 @@ def equation_of_state(run, ctx):
         if run.num(key) is not None:
             rows.append([label, fmt(run.num(key)), ""])
     s.table(["quantity", "value", "theory − EDMD"], rows)
-    s.text("Z is one point per run; a sweep over the packing fraction (one run per ν) traces the curve.")
+    s.text("Z is one point per run. To trace the curve, run the case at several packing fractions into "
+           "directories below one folder (`--set edmd.packing_fraction=0.3 --out sweep/nu-0.3`, ...) and "
+           "`grainbath report sweep`.")
     return s
 
 
