@@ -337,14 +337,15 @@ def steady_temperature(run, ctx):
     markers = {"maxwellian": "s", "grad": "D", "sonine": "^", "exp1": "v", "exp2m": "<", "exp2g": ">"}
     for yi, (label, v, kind) in zip(y, pts):
         if kind is None:
-            ax.axvspan(Tm - 2 * Te, Tm + 2 * Te, color="0.88", lw=0, label="DSMC ± 2σ")
-            ax.axvspan(Tm - Te, Tm + Te, color="0.7", lw=0, label="DSMC ± 1σ")
-            ax.errorbar([Tm], [yi], xerr=[Te], fmt="o", color="black", ms=6, capsize=4)
+            if Te:
+                ax.axvspan(Tm - 2 * Te, Tm + 2 * Te, color="0.88", lw=0, label="DSMC ± 2σ")
+                ax.axvspan(Tm - Te, Tm + Te, color="0.7", lw=0, label="DSMC ± 1σ")
+            ax.errorbar([Tm], [yi], xerr=[Te] if Te else None, fmt="o", color="black", ms=6, capsize=4)
         else:
             ax.plot([v], [yi], marker=markers[kind], color=colours[kind], ms=8, ls="none")
             ax.annotate(f"{v:.5g} ({(v - Tm) / Te:+.1f}σ)" if Te else f"{v:.5g}", (v, yi),
                         textcoords="offset points", xytext=(0, 8), ha="center", fontsize=7.5, color=colours[kind])
-    vals = [p[1] for p in pts] + [Tm - 2 * Te, Tm + 2 * Te]
+    vals = [p[1] for p in pts] + ([Tm - 2 * Te, Tm + 2 * Te] if Te else [])
     lo, hi = min(vals), max(vals)
     pad = 0.2 * (hi - lo) if hi > lo else 1e-3 * abs(hi)
     ax.set_xlim(lo - pad, hi + pad)
@@ -353,7 +354,8 @@ def steady_temperature(run, ctx):
     ax.set_yticklabels([p[0] for p in pts])
     ax.set_xlabel(f"steady temperature T#  [{T_UNIT}]")
     ax.set_title("Steady temperature: DSMC (black) vs theory (coloured)")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8)
+    if Te:
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=8)
     ax.ticklabel_format(axis="x", useOffset=False)
     s.figure(ctx.save(fig, "steady_temperature"),
              "Steady grain temperature T#: DSMC window mean with 1σ and 2σ bands (std. error from block "
@@ -408,7 +410,7 @@ def distribution(run, ctx):
              "thermal speed √(T/m) (black points, x darkest) beside the unit Maxwellian (dashed) and the "
              "Maxwellian with the first Sonine correction using the measured a₂ (dotted).")
     # relative deviation, components pooled, with Poisson errors
-    if N:
+    if N and np.any(_gauss(z) * N * w * 3 >= 20):
         hm = h.mean(axis=0)
         counts = hm * N * w * 3
         g = _gauss(z)
