@@ -1,18 +1,45 @@
 // Strict case-file reader on toml++ (header-only, compiled here with NDEBUG: Debian's
 // toml++ 3.3.0 aborts on some malformed inputs when its asserts are enabled).
-#ifndef NDEBUG
+// GRAINBATH_TOML_ASSERTS (fuzz/ only) keeps toml++'s assertions on instead, so the fuzzer
+// reports inputs that break toml++'s internal assumptions.
+#ifdef GRAINBATH_TOML_ASSERTS
+#undef NDEBUG
+#elif !defined(NDEBUG)
 #define NDEBUG
 #endif
 #include "core/case_file.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #define TOML_EXCEPTIONS 1
+#ifdef GRAINBATH_TOML_ASSERTS
+// Fuzzing diagnostic: report toml++'s assertions, except one known to be benign (parse_key
+// asserts that a key starts with a key character, then handles the other case itself with
+// a syntax error: e.g. "[|").
+#include <cstdlib>
+#include <cstring>
+inline void grainbath_toml_assert_failed(const char* expr, const char* file, int line) {
+  if (std::strcmp(expr, "is_bare_key_character(*cp) || is_string_delimiter(*cp)") == 0) return;
+  std::fprintf(stderr, "%s:%d: toml++ assertion failed: %s\n", file, line, expr);
+  std::abort();
+}
+#define TOML_ASSERT(expr) ((expr) ? (void)0 : grainbath_toml_assert_failed(#expr, __FILE__, __LINE__))
+#endif
+#include <toml++/impl/preprocessor.h>
+// With NDEBUG, toml++ turns its assertions into optimiser assumptions (__builtin_assume under
+// clang). Some are false on malformed input (see above), which would make them undefined
+// behaviour; toml++'s parser handles those cases itself, so the assumptions are dropped.
+#undef TOML_ASSUME
+#define TOML_ASSUME(...) static_assert(true)
 #include <toml++/toml.h>
 
 namespace grainbath {
@@ -21,7 +48,10 @@ namespace {
 
 std::string format_real(double x) {
   char buf[64];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
+  for (int digits = 15; digits <= 17; ++digits) {  // the shortest form that reads back exactly
+    std::snprintf(buf, sizeof buf, "%.*g", digits, x);
+    if (std::isnan(x) || std::strtod(buf, nullptr) == x) break;
+  }
   std::string s = buf;
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
   return s;
@@ -39,19 +69,6 @@ std::string describe_node(const toml::node& n) {
     default: os << "a date/time"; break;
   }
   return os.str();
-}
-
-std::string node_text(const toml::node& n) {
-  if (auto v = n.value_exact<double>()) return format_real(*v);
-  if (auto v = n.value_exact<std::int64_t>()) return std::to_string(*v);
-  if (auto v = n.value_exact<bool>()) return *v ? "true" : "false";
-  if (auto v = n.value_exact<std::string>()) return "\"" + *v + "\"";
-  if (auto a = n.as_array()) {
-    std::string s = "[";
-    for (std::size_t i = 0; i < a->size(); ++i) s += (i ? ", " : "") + node_text(*a->get(i));
-    return s + "]";
-  }
-  return "<table>";
 }
 
 std::string fmt_hex(unsigned c) {
@@ -90,17 +107,36 @@ std::string join(const std::set<std::string>& s) {
 
 }  // namespace
 
+// Problems are printed one per line: control characters that come from the case (a string
+// value "a\nb", a quoted key, a file name) are shown escaped, never raw.
+static std::string one_line(std::string_view s) {
+  std::string out;
+  out.reserve(s.size());
+  for (const char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c == '\n') out += "\\n";
+    else if (c == '\r') out += "\\r";
+    else if (c == '\t') out += "\\t";
+    else if (c < 0x20 || c == 0x7f) out += "\\x" + fmt_hex(c);
+    else out += ch;
+  }
+  return out;
+}
+
 std::string CaseProblem::to_string() const {
-  std::string s = file;
+  std::string s = one_line(file);
   if (line > 0) s += ":" + std::to_string(line);
   s += ": ";
-  if (!key.empty()) s += key + ": ";
-  return s + message;
+  if (!key.empty()) s += one_line(key) + ": ";
+  return s + one_line(message);
 }
 
 static std::string join_problems(const std::vector<CaseProblem>& problems) {
   std::string s;
-  for (const auto& p : problems) s += (s.empty() ? "" : "\n") + p.to_string();
+  for (const auto& p : problems) {
+    if (!s.empty()) s += '\n';
+    s += p.to_string();
+  }
   return s;
 }
 
@@ -123,56 +159,308 @@ std::string Bounds::describe() const {
   return "a finite number";
 }
 
-std::vector<CaseProblem> scan_case_bytes(std::string_view text, const std::string& file) {
-  std::vector<CaseProblem> out;
+namespace {
+
+// Strict UTF-8: returns the sequence length at t[i] (0 if invalid) and its code point.
+std::size_t utf8_decode(std::string_view t, std::size_t i, char32_t& cp) {
+  const auto b = [&](std::size_t k) { return i + k < t.size() ? static_cast<unsigned char>(t[i + k]) : 0u; };
+  const unsigned c0 = b(0);
+  auto cont = [&](std::size_t k, unsigned lo = 0x80, unsigned hi = 0xBF) { return b(k) >= lo && b(k) <= hi; };
+  if (c0 >= 0xC2 && c0 <= 0xDF && cont(1)) {
+    cp = ((c0 & 0x1F) << 6) | (b(1) & 0x3F);
+    return 2;
+  }
+  if (c0 >= 0xE0 && c0 <= 0xEF) {
+    const unsigned lo = c0 == 0xE0 ? 0xA0 : 0x80, hi = c0 == 0xED ? 0x9F : 0xBF;  // no overlongs, no surrogates
+    if (cont(1, lo, hi) && cont(2)) {
+      cp = ((c0 & 0x0F) << 12) | ((b(1) & 0x3F) << 6) | (b(2) & 0x3F);
+      return 3;
+    }
+  }
+  if (c0 >= 0xF0 && c0 <= 0xF4) {
+    const unsigned lo = c0 == 0xF0 ? 0x90 : 0x80, hi = c0 == 0xF4 ? 0x8F : 0xBF;  // <= U+10FFFF
+    if (cont(1, lo, hi) && cont(2) && cont(3)) {
+      cp = ((c0 & 0x07) << 18) | ((b(1) & 0x3F) << 12) | ((b(2) & 0x3F) << 6) | (b(3) & 0x3F);
+      return 4;
+    }
+  }
+  return 0;
+}
+
+std::string unicode_escape(char32_t cp) {
+  char b[16];
+  if (cp <= 0xFFFF) std::snprintf(b, sizeof b, "\\u%04X", static_cast<unsigned>(cp));
+  else std::snprintf(b, sizeof b, "\\U%08X", static_cast<unsigned>(cp));
+  return b;
+}
+
+// Printable form of a piece of the case file for a message: ASCII kept, anything else \xNN.
+std::string printable(std::string_view s, std::size_t max_len = 60) {
+  std::string out;
+  for (const char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c >= 0x7f) out += "\\x" + fmt_hex(c);
+    else out += ch;
+    if (out.size() >= max_len) return out + "...";
+  }
+  return out;
+}
+
+std::string_view trim(std::string_view s) {
+  const auto a = s.find_first_not_of(" \t\r");
+  if (a == std::string_view::npos) return {};
+  const auto b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+// Best effort, for messages about bytes and syntax (there is no parsed key yet): the key a
+// line defines ("section.key"), or the table header on it ("[section]"); searching upwards
+// for the statement a continuation line belongs to (a multi-line array or string).
+std::string key_near_line(std::string_view text, int line) {
+  std::vector<std::string_view> lines;
+  for (std::size_t a = 0;;) {
+    const auto nl = text.find('\n', a);
+    lines.push_back(text.substr(a, nl == std::string_view::npos ? std::string_view::npos : nl - a));
+    if (nl == std::string_view::npos) break;
+    a = nl + 1;
+  }
+  if (line < 1 || line > static_cast<int>(lines.size())) return "";
+  auto header = [](std::string_view l) -> std::string_view {
+    l = trim(l);
+    if (l.empty() || l[0] != '[') return {};
+    const auto close = l.rfind(']', l.find('#'));
+    return close == std::string_view::npos ? l : l.substr(0, close + 1);
+  };
+  auto key_of = [](std::string_view l) -> std::string_view {
+    l = trim(l);
+    if (l.empty() || l[0] == '#' || l[0] == '[') return {};
+    const auto eq = l.find('=');
+    if (eq == std::string_view::npos || eq == 0) return {};
+    return trim(l.substr(0, eq));
+  };
+  std::string_view key;
+  int at = line;
+  for (; at >= 1; --at) {
+    const std::string_view l = lines[static_cast<std::size_t>(at - 1)];
+    if (!header(l).empty()) {
+      if (at == line) return printable(header(l));
+      break;
+    }
+    if (!(key = key_of(l)).empty()) break;
+  }
+  if (key.empty()) return "";
+  for (int h = at - 1; h >= 1; --h) {
+    std::string_view hd = header(lines[static_cast<std::size_t>(h - 1)]);
+    if (hd.empty()) continue;
+    while (!hd.empty() && (hd.front() == '[' || hd.front() == ' ')) hd.remove_prefix(1);
+    while (!hd.empty() && (hd.back() == ']' || hd.back() == ' ')) hd.remove_suffix(1);
+    return printable(std::string(hd) + "." + std::string(key));
+  }
+  return printable(key);
+}
+
+struct PreparedText {
+  std::string ascii;  // what toml++ parses: the same TOML, pure ASCII, same line numbers
+  std::vector<CaseProblem> problems;
+};
+
+// toml++ 3.3.0 classifies non-ASCII code points outside strings with functions that reach
+// __builtin_unreachable for some of them (is_non_ascii_horizontal_whitespace), and its
+// value scanner reads ahead past quotes on malformed input, so "outside a string" cannot be
+// decided reliably by a separate pre-scan. Instead toml++ is given only ASCII: control
+// bytes and non-ASCII bytes outside strings/comments are problems; UTF-8 inside strings is
+// rewritten as \uXXXX escapes (literal strings become equivalent basic strings); comments
+// are kept with non-ASCII bytes replaced. Valid TOML means the same after the rewrite;
+// whatever our tokenisation of malformed input, toml++ never sees a byte >= 0x80.
+PreparedText prepare_case_text(std::string_view text, const std::string& file) {
+  PreparedText p;
+  std::string& out = p.ascii;
+  out.reserve(text.size() + text.size() / 8 + 16);
   int line = 1;
   enum { plain, comment, basic, literal, ml_basic, ml_literal } state = plain;
-  auto starts = [&](std::size_t i, std::string_view s) { return text.substr(i, s.size()) == s; };
-  for (std::size_t i = 0; i < text.size(); ++i) {
+  auto add = [&](int at, std::string message) {
+    if (p.problems.size() < 5) p.problems.push_back({file, at, key_near_line(text, at), std::move(message)});
+  };
+  auto run_of = [&](std::size_t i, char q) {
+    std::size_t n = 0;
+    while (i + n < text.size() && text[i + n] == q) ++n;
+    return n;
+  };
+  std::size_t i = 0;
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") i = 3;  // a UTF-8 byte-order mark: skipped, as toml++ would
+  for (; i < text.size(); ++i) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
     if (c == '\n') {
       ++line;
-      if (state == comment || state == basic || state == literal) state = plain;
+      if (state == comment || state == basic || state == literal) state = plain;  // unterminated: toml++ says so
+      out += '\n';
       continue;
     }
     if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7f) {
-      out.push_back({file, line, "", "control byte 0x" + fmt_hex(c) + " in the file: a case file is text (is it binary?)"});
-      if (out.size() >= 5) return out;
+      add(line, "control byte 0x" + fmt_hex(c) + " in the file: a case file is text (is it binary?)");
+      out += ' ';
+      continue;
+    }
+    if (c >= 0x80) {
+      char32_t cp = 0;
+      const std::size_t len = utf8_decode(text, i, cp);
+      if (len == 0) {
+        add(line, "byte 0x" + fmt_hex(c) + " is not valid UTF-8 (a case file is UTF-8 text)");
+        out += '?';
+        continue;
+      }
+      switch (state) {
+        case plain:
+          add(line, "non-ASCII character " + printable(text.substr(i, len)) +
+                        " outside a string or comment (only strings and comments may hold UTF-8)");
+          out += '?';
+          break;
+        case comment: out += '?'; break;
+        default: out += unicode_escape(cp); break;  // inside a string
+      }
+      i += len - 1;
       continue;
     }
     switch (state) {
       case plain:
-        if (c == '#') state = comment;
-        else if (starts(i, "\"\"\"")) { state = ml_basic; i += 2; }
-        else if (starts(i, "'''")) { state = ml_literal; i += 2; }
-        else if (c == '"') state = basic;
-        else if (c == '\'') state = literal;
-        else if (c >= 0x80) {
-          out.push_back({file, line, "", "non-ASCII byte outside a string or comment (only strings and comments may hold UTF-8)"});
-          if (out.size() >= 5) return out;
-          // skip the rest of this UTF-8 sequence
-          while (i + 1 < text.size() && (static_cast<unsigned char>(text[i + 1]) & 0xC0) == 0x80) ++i;
+        if (c == '#') {
+          state = comment;
+          out += '#';
+        } else if (c == '"' || c == '\'') {
+          const bool ml = run_of(i, static_cast<char>(c)) >= 3;
+          state = c == '"' ? (ml ? ml_basic : basic) : (ml ? ml_literal : literal);
+          out += ml ? "\"\"\"" : "\"";  // a literal string becomes a basic one
+          if (ml) i += 2;
+        } else {
+          out += static_cast<char>(c);
         }
         break;
+      case comment:
+        out += static_cast<char>(c);
+        break;
+      case basic:
+      case ml_basic:
+        if (c == '\\') {
+          out += '\\';
+          if (i + 1 < text.size() && text[i + 1] != '\n') {
+            const unsigned char e = static_cast<unsigned char>(text[i + 1]);
+            if (e >= 0x80) {
+              add(line, "invalid escape sequence: a backslash before a non-ASCII character");
+              out += '?';
+            } else if ((e < 0x20 && e != '\t' && e != '\r') || e == 0x7f) {
+              add(line, "control byte 0x" + fmt_hex(e) + " in the file: a case file is text (is it binary?)");
+              out += ' ';
+            } else {
+              out += static_cast<char>(e);
+            }
+            ++i;
+          }
+        } else if (c == '"') {
+          const std::size_t n = state == ml_basic ? run_of(i, '"') : 1;
+          if (state == basic || n >= 3) state = plain;
+          out.append(n, '"');
+          i += n - 1;
+        } else {
+          out += static_cast<char>(c);
+        }
+        break;
+      case literal:
+      case ml_literal:
+        if (c == '\'') {
+          const std::size_t n = state == ml_literal ? run_of(i, '\'') : 1;
+          if (state == literal) {
+            out += '"';
+            state = plain;
+          } else if (n >= 3) {
+            if (n > 5) add(line, "TOML syntax error: a multi-line literal string ends with more than five quotes");
+            out.append(n - 3, '\'');
+            out += "\"\"\"";
+            state = plain;
+          } else {
+            out.append(n, '\'');
+          }
+          i += n - 1;
+        } else if (c == '\\') {
+          out += "\\\\";
+        } else if (c == '"') {
+          out += "\\\"";
+        } else {
+          out += static_cast<char>(c);
+        }
+        break;
+    }
+  }
+  return p;
+}
+
+constexpr std::size_t kMaxCaseBytes = 1 << 20;
+
+constexpr int kMaxKeyDotsPerLine = 128, kMaxKeyDots = 1000;
+
+// toml++ builds and walks tables recursively: a header [a.a.a....] with 10^5 parts
+// overflows the stack. Counts the dots outside strings and comments that can nest tables
+// (not the decimal point of a number that starts a value) and the braces of inline tables;
+// a case file needs a handful, so generous limits per line and per file stop the recursion.
+std::optional<CaseProblem> too_deep(std::string_view t, const std::string& file) {
+  int line = 1, on_line = 0, total = 0;
+  enum { plain, comment, basic, ml_basic } state = plain;
+  auto report = [&](const std::string& what) {
+    return CaseProblem{file, line, key_near_line(t, line), "too deeply nested keys or tables (" + what + ")"};
+  };
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const char c = t[i];
+    if (c == '\n') {
+      ++line;
+      on_line = 0;
+      if (state == comment || state == basic) state = plain;
+      continue;
+    }
+    switch (state) {
+      case comment: break;
       case basic:
         if (c == '\\') ++i;
         else if (c == '"') state = plain;
         break;
-      case literal:
-        if (c == '\'') state = plain;
-        break;
       case ml_basic:
-        if (c == '\\') ++i;
-        else if (starts(i, "\"\"\"")) { state = plain; i += 2; }
+        if (c == '\\' && i + 1 < t.size() && t[i + 1] != '\n') ++i;
+        else if (t.substr(i, 3) == "\"\"\"") {
+          while (i + 1 < t.size() && t[i + 1] == '"') ++i;
+          state = plain;
+        }
         break;
-      case ml_literal:
-        if (starts(i, "'''")) { state = plain; i += 2; }
+      case plain: {
+        if (c == '#') { state = comment; break; }
+        if (c == '"') {
+          if (t.substr(i, 3) == "\"\"\"") { state = ml_basic; i += 2; }
+          else state = basic;
+          break;
+        }
+        bool nests = c == '{';
+        if (c == '.') {
+          // a decimal point: digits (after an optional sign) right after a value delimiter
+          std::size_t j = i;
+          while (j > 0 && (std::isdigit(static_cast<unsigned char>(t[j - 1])) || t[j - 1] == '_')) --j;
+          if (j > 0 && (t[j - 1] == '+' || t[j - 1] == '-')) --j;
+          const bool digits_before = j < i && std::isdigit(static_cast<unsigned char>(t[i - 1]));
+          const bool value_start = j == 0 || std::string_view("=[,{ \t\r\n").find(t[j - 1]) != std::string_view::npos;
+          const bool digit_after = i + 1 < t.size() && std::isdigit(static_cast<unsigned char>(t[i + 1]));
+          nests = !(digits_before && value_start && digit_after);
+        }
+        if (nests) {
+          if (++on_line > kMaxKeyDotsPerLine) return report("more than " + std::to_string(kMaxKeyDotsPerLine) + " levels on one line");
+          if (++total > kMaxKeyDots) return report("more than " + std::to_string(kMaxKeyDots) + " in the file");
+        }
         break;
-      case comment:
-        break;
+      }
     }
   }
-  return out;
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<CaseProblem> scan_case_bytes(std::string_view text, const std::string& file) {
+  return prepare_case_text(text, file).problems;
 }
 
 struct CaseReader::Impl {
@@ -196,13 +484,17 @@ struct CaseReader::Impl {
 CaseReader::CaseReader(std::string text, std::string file)
     : impl_(std::make_unique<Impl>()), text_(std::move(text)), file_(std::move(file)) {
   impl_->file = file_;
-  auto bad = scan_case_bytes(text_, file_);
-  if (!bad.empty()) throw CaseError(std::move(bad));
+  if (text_.size() > kMaxCaseBytes)
+    throw CaseError({{file_, 0, "", "the file is " + std::to_string(text_.size()) + " bytes; a case file is at most " +
+                                        std::to_string(kMaxCaseBytes) + " bytes of text"}});
+  PreparedText prepared = prepare_case_text(text_, file_);
+  if (!prepared.problems.empty()) throw CaseError(std::move(prepared.problems));
+  if (auto deep = too_deep(prepared.ascii, file_)) throw CaseError({*deep});
   try {
-    impl_->root = toml::parse(std::string_view(text_), std::string_view(file_));
+    impl_->root = toml::parse(std::string_view(prepared.ascii), std::string_view(file_));
   } catch (const toml::parse_error& e) {
-    throw CaseError({{file_, static_cast<int>(e.source().begin.line), "",
-                      "TOML syntax error: " + std::string(e.description())}});
+    const int line = static_cast<int>(e.source().begin.line);
+    throw CaseError({{file_, line, key_near_line(text_, line), "TOML syntax error: " + std::string(e.description())}});
   }
 }
 
@@ -221,6 +513,8 @@ CaseReader CaseReader::from_directory(const std::string& case_dir) {
     throw CaseError({{case_dir, 0, "", "not a directory (expected a case directory holding case.toml)"}});
   if (!fs::exists(path, ec))
     throw CaseError({{path.string(), 0, "", "missing: a case directory must hold case.toml"}});
+  if (!fs::is_regular_file(path, ec))
+    throw CaseError({{path.string(), 0, "", "not a regular file (expected the case's TOML text)"}});
   std::ifstream in(path, std::ios::binary);
   if (!in) throw CaseError({{path.string(), 0, "", "cannot be read (permissions?)"}});
   std::ostringstream ss;
@@ -228,7 +522,10 @@ CaseReader CaseReader::from_directory(const std::string& case_dir) {
   std::string text = ss.str();
   if (text.find_first_not_of(" \t\r\n") == std::string::npos)
     throw CaseError({{path.string(), 0, "", "the file is empty: expected at least a [run] section"}});
-  return CaseReader(std::move(text), path.string());
+  CaseReader reader(std::move(text), path.string());
+  if (reader.impl_->root.empty())
+    throw CaseError({{path.string(), 0, "", "the file holds no settings (only comments?): expected at least a [run] section"}});
+  return reader;
 }
 
 void CaseReader::apply_override(const std::string& assignment) {
@@ -239,28 +536,42 @@ void CaseReader::apply_override(const std::string& assignment) {
   const std::string section = assignment.substr(0, dot);
   const std::string key = assignment.substr(dot + 1, eq - dot - 1);
   const std::string value = assignment.substr(eq + 1);
-  if (!scan_case_bytes(value, "--set").empty())
-    throw CaseError({{"--set", 0, section + "." + key, "the value holds control or non-ASCII bytes"}});
-  toml::table parsed;
-  try {
-    parsed = toml::parse(std::string_view(std::string("v = ") + value), std::string_view("--set"));
-  } catch (const toml::parse_error&) {
-    try {
-      parsed = toml::parse(std::string_view(std::string("v = \"") + value + "\""), std::string_view("--set"));  // a bare word: a string
-    } catch (const toml::parse_error& e) {
-      throw CaseError({{"--set", 0, section + "." + key, "cannot parse the value '" + value + "': " +
-                                                             std::string(e.description())}});
-    }
+  const std::string dotted = section + "." + key;
+  for (const char ch : assignment) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if ((c < 0x20 && c != '\t') || c == 0x7f)
+      throw CaseError({{"--set", 0, dotted, "the override holds control bytes"}});
   }
+  // The value in TOML syntax; failing that, a bare word is taken as a string.
+  std::string error;
+  auto parse_value = [&](const std::string& toml_text) -> std::optional<toml::table> {
+    PreparedText prepared = prepare_case_text(toml_text, "--set");
+    if (!prepared.problems.empty()) {
+      if (error.empty()) error = prepared.problems.front().message;
+      return std::nullopt;
+    }
+    try {
+      toml::table t = toml::parse(std::string_view(prepared.ascii), std::string_view("--set"));
+      if (t.size() != 1 || !t.get("v")) return std::nullopt;
+      return t;
+    } catch (const toml::parse_error& e) {
+      if (error.empty()) error = std::string(e.description());
+      return std::nullopt;
+    }
+  };
+  std::optional<toml::table> parsed = parse_value("v = " + value);
+  if (!parsed) parsed = parse_value("v = \"" + value + "\"");
+  if (!parsed)
+    throw CaseError({{"--set", 0, dotted, "cannot parse the value '" + value + "': " + error}});
   toml::table* sec = impl_->root.get_as<toml::table>(section);
   if (!sec) {
     if (impl_->root.contains(section))
-      throw CaseError({{"--set", 0, section + "." + key, "'" + section + "' is not a section"}});
+      throw CaseError({{"--set", 0, dotted, "'" + section + "' is not a section"}});
     impl_->root.insert(section, toml::table{});
     sec = impl_->root.get_as<toml::table>(section);
   }
-  sec->insert_or_assign(key, *parsed.get("v"));
-  impl_->overridden.insert(section + "." + key);
+  sec->insert_or_assign(key, *parsed->get("v"));
+  impl_->overridden.insert(dotted);
 }
 
 bool CaseReader::has(std::string_view section, std::string_view key) const {
@@ -489,6 +800,11 @@ void CaseReader::finish() {
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);
   for (const auto& [k, node] : impl_->root) {
     const std::string section(k.str());
+    if (node.is_array_of_tables()) {
+      problems_.push_back({file_, static_cast<int>(node.source().begin.line), "[[" + section + "]]",
+                           "an array of tables: expected a single [" + section + "] section"});
+      continue;
+    }
     if (!node.is_table()) {
       problems_.push_back({file_, static_cast<int>(node.source().begin.line), section,
                            "a top-level key outside any [section]; keys belong in sections such as " +
