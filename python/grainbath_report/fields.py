@@ -3,6 +3,7 @@ cell fields (/fields, with fields.xdmf for ParaView).  Layout: docs/OUTPUT.md, "
 import math
 import os
 import re
+import xml.etree.ElementTree as ET
 
 import numpy as np
 
@@ -121,6 +122,47 @@ def density_mode(run, ctx):
     return s
 
 
+def check_xdmf(run):
+    """(attributes checked, [problems]) for OUT/fields.xdmf against results.h5: every HDF DataItem
+    must name an existing dataset of the stated shape, and cell data must match the topology."""
+    path = os.path.join(run.out_dir, "fields.xdmf")
+    if not os.path.isfile(path):
+        return 0, []
+    problems, checked = [], 0
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as e:
+        return 0, [f"fields.xdmf is not well-formed XML: {e}"]
+    topo = root.find(".//Topology")
+    cells = None
+    if topo is None:
+        problems.append("no Topology element")
+    else:
+        nodes = [int(v) for v in topo.get("Dimensions", "").split()]
+        cells = [n - 1 for n in nodes]
+    for att in root.iter("Attribute"):
+        item = att.find("DataItem")
+        name = att.get("Name")
+        if item is None or item.get("Format") != "HDF":
+            continue
+        checked += 1
+        ref = (item.text or "").strip()
+        fname, _, dset = ref.partition(":")
+        dims = [int(v) for v in item.get("Dimensions", "").split()]
+        if os.path.basename(fname) != "results.h5":
+            problems.append(f"{name}: points to {fname}, not results.h5")
+            continue
+        if dset.lstrip("/") not in run.h5:
+            problems.append(f"{name}: {dset} missing from results.h5")
+            continue
+        shape = list(run.h5[dset.lstrip("/")].shape)
+        if shape != dims:
+            problems.append(f"{name}: Dimensions {dims} but {dset} has shape {shape}")
+        if att.get("Center") == "Cell" and cells and dims[:3] != cells:
+            problems.append(f"{name}: cell data {dims[:3]} but the topology has {cells} cells")
+    return checked, problems
+
+
 def _field(run, name):
     a = run.arr(f"fields/{name}")
     if a is None:
@@ -202,6 +244,13 @@ def profiles(run, ctx):
     if os.path.isfile(os.path.join(run.out_dir, "fields.xdmf")):
         s.text(f"The full 3D fields open in ParaView: `paraview {os.path.join(run.out_dir, 'fields.xdmf')}` "
                "(XDMF pointing into results.h5:/fields; cell data).")
+        checked, problems = check_xdmf(run)
+        if problems:
+            s.text("**fields.xdmf problems** (ParaView may refuse the file):\n\n" +
+                   "\n".join(f"- {p}" for p in problems))
+        else:
+            s.text(f"fields.xdmf checked: {checked} attributes, each pointing at a dataset of results.h5 with the "
+                   f"stated shape, consistent with the mesh.")
     return s
 
 

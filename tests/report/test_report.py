@@ -154,6 +154,9 @@ def main():
         for k, v in leaves("", summary):
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
+        if os.path.isfile(os.path.join(out, "fields.xdmf")):
+            check("fields.xdmf checked:" in md and "fields.xdmf problems" not in md,
+                  f"{case}: fields.xdmf does not match results.h5 (see report.md)")
         print(f"ok: {case}: {len(pngs)} plots, {len(keys)} key numbers checked")
 
     # a sweep: runs below one directory differing in one parameter -> one report against it
