@@ -131,7 +131,9 @@ struct Expansion {
 Expansion expansion(const Parameters&);
 
 // ---------------------------------------------------------------- relaxation ---------------
-// Integrates the homogeneous relaxation ODEs (GSL odeiv2, rk8pd, rel. tol. 1e-10) from the
+// Integrates the homogeneous relaxation ODEs with error control (GSL odeiv2: rk8pd, rel. tol.
+// 1e-10, for maxwellian and grad; msbdf with a finite-difference Jacobian, rel. tol. 1e-9, for
+// the quadrature-based sonine system, which is stiff for small eps) from the
 // initial state at t = 0 and returns the state at each requested time (non-decreasing, >= 0).
 std::vector<RelaxationState> relax(Closure, const Parameters&, const RelaxationState& initial,
                                    const std::vector<double>& times);

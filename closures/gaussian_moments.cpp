@@ -81,4 +81,60 @@ RadialMoment noncentral_chi_moment(int k, double A) {
   return {m, d1, d1 / A, d2};
 }
 
+ChiMoments135 noncentral_chi_moments_135(double A) {
+  if (!(A >= 0.0) || !std::isfinite(A))
+    throw std::invalid_argument("noncentral_chi_moments_135: A must be finite and >= 0");
+  static const double mu[3] = {central_chi_moment(1), central_chi_moment(3), central_chi_moment(5)};
+  static const int ks[3] = {1, 3, 5};
+  ChiMoments135 out{};
+  RadialMoment* res[3] = {&out.m1, &out.m3, &out.m5};
+  if (A < 1.0) {
+    // Kummer series (docs eq. C2), the three k together; terms fall like (A^2/2)^n/n!.
+    const double A2 = A * A;
+    for (int q = 0; q < 3; ++q) {
+      const int k = ks[q];
+      double t = 1.0, sum = 1.0, d1a = 0.0, d2 = 0.0, Apow = 1.0;
+      for (int n = 1; n <= 40; ++n) {
+        t *= (-0.5 * k + n - 1) * (-0.5) / ((1.5 + n - 1) * n);
+        const double term = t * Apow;
+        sum += term * A2;
+        d1a += 2.0 * n * term;
+        d2 += 2.0 * n * (2.0 * n - 1) * term;
+        Apow *= A2;
+        if (std::abs(term) < 1e-18 * (1.0 + std::abs(d2)) && n > 3) break;
+      }
+      *res[q] = {mu[q] * sum, mu[q] * d1a * A, mu[q] * d1a, mu[q] * d2};
+    }
+    return out;
+  }
+  // Closed form (docs eq. C3): h_j for j = 0..6 from one set of truncated moments M_i.
+  const double phi = kInvSqrt2Pi * std::exp(-0.5 * A * A);
+  double M[7], Apw[7], h[7];
+  M[0] = 0.5 * std::erfc(A / kSqrt2);
+  M[1] = -phi;
+  Apw[0] = 1.0;
+  for (int i = 1; i < 7; ++i) Apw[i] = Apw[i - 1] * A;
+  for (int i = 2; i < 7; ++i) M[i] = (i - 1) * M[i - 2] - ((i - 1) % 2 ? -Apw[i - 1] : Apw[i - 1]) * phi;
+  static const double C[7][7] = {{1}, {1, 1}, {1, 2, 1}, {1, 3, 3, 1}, {1, 4, 6, 4, 1},
+                                 {1, 5, 10, 10, 5, 1}, {1, 6, 15, 20, 15, 6, 1}};
+  static const double Ez[7] = {1, 0, 1, 0, 3, 0, 15};
+  for (int j = 0; j < 7; ++j) {
+    double full = 0.0, lower = 0.0;
+    for (int i = 0; i <= j; ++i) {
+      const double c = C[j][i] * Apw[j - i];
+      full += c * Ez[i];
+      lower += c * M[i];
+    }
+    h[j] = full - 2.0 * lower;
+  }
+  for (int q = 0; q < 3; ++q) {
+    const int k = ks[q];
+    const double m = h[k + 1] / A;
+    const double d1 = (k + 1) * h[k] / A - h[k + 1] / (A * A);
+    const double d2 = (k + 1) * k * h[k - 1] / A - 2.0 * (k + 1) * h[k] / (A * A) + 2.0 * h[k + 1] / (A * A * A);
+    *res[q] = {m, d1, d1 / A, d2};
+  }
+  return out;
+}
+
 }  // namespace grainbath::closures

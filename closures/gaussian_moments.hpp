@@ -23,6 +23,13 @@ struct RadialMoment {
 // closed form above; both to ~1e-15 relative.
 RadialMoment noncentral_chi_moment(int k, double A);
 
+// m_1, m_3 and m_5 with derivatives in one pass (one erfc, one exp): the same formulas as
+// noncentral_chi_moment, arranged for the Sonine quadrature's inner loop.
+struct ChiMoments135 {
+  RadialMoment m1, m3, m5;
+};
+ChiMoments135 noncentral_chi_moments_135(double A);
+
 // E|z|^y for z ~ N(0, I_3), any real y > -3: 2^{y/2} G((y+3)/2) / G(3/2).
 double central_chi_moment(double y);
 

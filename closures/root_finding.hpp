@@ -11,4 +11,9 @@ double brent_root(const std::function<double(double)>& f, double lo, double hi, 
                   const std::string& what);
 // T# of the maxwellian or grad closure (Bisi-Spiga eq. 27, docs eq. G11).
 double equilibrium_temperature_gaussian(Closure, const Parameters&);
+// relax() with an explicit choice of integrator: stiff = GSL msbdf with a finite-difference
+// Jacobian, otherwise rk8pd (used by relax for sonine and the others respectively; exposed
+// so the tests can check one against the other).
+std::vector<RelaxationState> relax_integrator(Closure, const Parameters&, const RelaxationState&,
+                                              const std::vector<double>& times, bool stiff);
 }  // namespace grainbath::closures

@@ -181,9 +181,20 @@ SonineMoments sonine_background(const Parameters& p, const std::array<double, 3>
   // |c| on [0, 13 sqrt(th)] (e^{-84} beyond), mu = cos(c, U) on [-1,1]; at U = 0 the
   // integrand is isotropic and one direction carries the whole sphere (weight 2).
   static const Rule rho_rule = gauss_legendre(24, 0.0, 13.0, 3);
-  static const Rule mu_rule = gauss_legendre(32, -1.0, 1.0);
-  const Rule iso{{1.0}, {2.0}};
-  const Rule& mr = (Umag > 0.0) ? mu_rule : iso;
+  // The integrand is entire in mu and grows like exp(x mu) with x ~ 6 |U| sqrt(th)/thB over
+  // the bulk of the c-Gaussian (the background moments grow like exp(A^2/2)), so n
+  // Gauss-Legendre nodes leave an error ~ x^{2n}/(2n)!: pick n to keep it below 1e-13.
+  static const Rule mu8 = gauss_legendre(8, -1.0, 1.0), mu16 = gauss_legendre(16, -1.0, 1.0),
+                    mu32 = gauss_legendre(32, -1.0, 1.0), mu48 = gauss_legendre(48, -1.0, 1.0),
+                    mu64 = gauss_legendre(64, -1.0, 1.0);
+  static const Rule iso{{1.0}, {2.0}};
+  const double x = 6.0 * Umag * std::sqrt(th) / thB;
+  const Rule& mr = (Umag == 0.0) ? iso
+                   : x < 1.0     ? mu8
+                   : x < 4.0     ? mu16
+                   : x < 15.0    ? mu32
+                   : x < 25.0    ? mu48
+                                 : mu64;
   const double alpha = p.alpha;
   double mom = 0.0, d2 = 0.0, d4 = 0.0;
   const double norm = 2.0 * kPi * std::pow(2.0 * kPi, -1.5);  // azimuth * Gaussian normalisation
@@ -200,9 +211,8 @@ SonineMoments sonine_background(const Parameters& p, const std::array<double, 3>
       std::array<double, 3> a;  // g | c ~ N(c + U, thB I):  x = g/sqrt(thB) ~ N(a, I)
       for (int i = 0; i < 3; ++i) a[i] = (c[i] + U[i]) / sqB;
       const double A = std::sqrt(dot(a, a));
-      const RadialMoment m1 = noncentral_chi_moment(1, A);
-      const RadialMoment m3 = noncentral_chi_moment(3, A);
-      const RadialMoment m5 = noncentral_chi_moment(5, A);
+      const ChiMoments135 cm = noncentral_chi_moments_135(A);
+      const RadialMoment &m1 = cm.m1, &m3 = cm.m3, &m5 = cm.m5;
       const double c2 = rho * rho, ac = dot(a, c);
       // docs eq. C4 (Stein): E|g|^k, E[|g| g], E[|g|^3 g], E[|g| g g^T] contracted with c
       const double Eg3 = thB * sqB * m3.value, Eg5 = thB * thB * sqB * m5.value;

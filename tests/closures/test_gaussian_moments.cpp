@@ -59,6 +59,20 @@ TEST(ChiMoments, SeriesAndClosedFormAgreeAtTheSwitch) {
   }
 }
 
+TEST(ChiMoments, OnePassVersionEqualsTheSingleMoments) {
+  for (double A : {0.0, 1e-4, 0.3, 0.999, 1.0, 1.7, 4.0, 11.0}) {
+    const ChiMoments135 all = noncentral_chi_moments_135(A);
+    const RadialMoment* got[3] = {&all.m1, &all.m3, &all.m5};
+    for (int q = 0; q < 3; ++q) {
+      const RadialMoment ref = noncentral_chi_moment(2 * q + 1, A);
+      EXPECT_NEAR(got[q]->value, ref.value, 1e-14 * ref.value) << A;
+      EXPECT_NEAR(got[q]->d1, ref.d1, 1e-13 * ref.value) << A;
+      EXPECT_NEAR(got[q]->d1_over_A, ref.d1_over_A, 1e-13 * ref.value) << A;
+      EXPECT_NEAR(got[q]->d2, ref.d2, 1e-13 * ref.value) << A;
+    }
+  }
+}
+
 TEST(ChiMoments, CentralMomentsAreKnownValues) {
   // E|z| = 2 sqrt(2/pi), E|z|^2 = 3, E|z|^3 = 8 sqrt(2/pi) for z ~ N(0, I_3).
   EXPECT_NEAR(central_chi_moment(1.0), 2.0 * std::sqrt(2.0 / M_PI), 1e-15);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "closures/closures.hpp"
+#include "closures/root_finding.hpp"
 
 using namespace grainbath::closures;
 
@@ -86,6 +87,24 @@ TEST(Relax, AllClosuresApproachTheirEquilibrium) {
     EXPECT_NEAR(out[1].T, equilibrium_temperature(c, p), 1e-8) << to_string(c);
     if (c == Closure::sonine) {
       EXPECT_NEAR(out[1].a2, equilibrium_a2_sonine(p), 1e-8);
+    }
+  }
+}
+
+// relax() integrates the Sonine system with BDF (finite-difference Jacobian) and the others
+// with rk8pd; both integrators must give the same trajectories.
+TEST(Relax, StiffAndExplicitIntegratorsAgree) {
+  Parameters p = base(0.15);
+  p.delta = 0.2;
+  const RelaxationState init{{1.2, -0.3, 0.0}, 1.8, 0.05};
+  const std::vector<double> times{0.0, 0.05, 0.2, 0.7, 2.0, 6.0};
+  for (Closure c : {Closure::maxwellian, Closure::sonine}) {
+    const auto a = relax_integrator(c, p, init, times, true);
+    const auto b = relax_integrator(c, p, init, times, false);
+    for (size_t k = 0; k < times.size(); ++k) {
+      EXPECT_NEAR(a[k].T, b[k].T, 1e-7 * b[k].T) << to_string(c) << " t=" << times[k];
+      EXPECT_NEAR(a[k].u[0], b[k].u[0], 1e-7) << to_string(c) << " t=" << times[k];
+      EXPECT_NEAR(a[k].a2, b[k].a2, 1e-7) << to_string(c) << " t=" << times[k];
     }
   }
 }
