@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -67,6 +68,12 @@ double drift_diffusion_decay_rate(const DriftDiffusionCoefficients& c, double nB
 namespace {
 using cplx = std::complex<double>;
 
+// FFTW's planner is not thread-safe: plan creation and destruction are serialised.
+std::mutex& fftw_planner_mutex() {
+  static std::mutex m;
+  return m;
+}
+
 // phi1(z) = (e^z - 1)/z, phi2(z) = (e^z - 1 - z)/z^2, with Taylor series near 0 to avoid
 // cancellation (|z| < 0.2: 14 terms give full double precision).
 void etd_phis(cplx z, cplx& e, cplx& p1, cplx& p2) {
@@ -108,6 +115,7 @@ struct SpectralSolver::Impl {
 
   explicit Impl(const Grid& grid) : g(grid), dim(grid.dim) {}
   ~Impl() {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     if (fwd) fftw_destroy_plan(fwd);
     if (bwd) fftw_destroy_plan(bwd);
     if (rbuf) fftw_free(rbuf);
@@ -165,11 +173,14 @@ SpectralSolver::SpectralSolver(const Background& bg, const DriftDiffusionCoeffic
   for (int a = 0; a < d; ++a) m.nfft[a] = g.n[d - 1 - a];
   m.nr = g.size();
   m.nc = m.nr / g.n[0] * (g.n[0] / 2 + 1);
-  m.rbuf = fftw_alloc_real(m.nr);
-  m.cbuf = fftw_alloc_complex(m.nc);
-  // FFTW_ESTIMATE: no timing-based planning, so runs are bit-reproducible.
-  m.fwd = fftw_plan_dft_r2c(d, m.nfft.data(), m.rbuf, m.cbuf, FFTW_ESTIMATE);
-  m.bwd = fftw_plan_dft_c2r(d, m.nfft.data(), m.cbuf, m.rbuf, FFTW_ESTIMATE);
+  {
+    std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+    m.rbuf = fftw_alloc_real(m.nr);
+    m.cbuf = fftw_alloc_complex(m.nc);
+    // FFTW_ESTIMATE: no timing-based planning, so runs are bit-reproducible.
+    m.fwd = fftw_plan_dft_r2c(d, m.nfft.data(), m.rbuf, m.cbuf, FFTW_ESTIMATE);
+    m.bwd = fftw_plan_dft_c2r(d, m.nfft.data(), m.cbuf, m.rbuf, FFTW_ESTIMATE);
+  }
   if (!m.fwd || !m.bwd) throw std::runtime_error("FFTW could not create the spectral plans.");
 
   // Wavevectors of the r2c layout: index = i0 + (n0/2+1) (i1 + n1 i2).

@@ -14,7 +14,8 @@ std::vector<std::pair<std::string, double>> hydro_theory_values(const HydroTheor
   kinetic.Dhat = kin.Dhat;
   kinetic.p = kin.p;
   kinetic.name = "kinetic";
-  out.emplace_back("hydro.diffusion_coefficient", paper.D(p.nB, p.TB));  // Bisi-Spiga eq. 36
+  // Bisi-Spiga eq. 36 (validates nB, TB, eps, alpha, m).
+  out.emplace_back("hydro.diffusion_coefficient", diffusion_coefficient_paper(p.alpha, p.mass, p.nB, p.TB, p.eps));
   out.emplace_back("hydro.diffusion_coefficient_kinetic", kinetic.D(p.nB, p.TB));
   out.emplace_back("hydro.diffusion_ratio_kinetic_over_paper", kin.Dhat / paper.Dhat);
   out.emplace_back("hydro.thermal_diffusion_exponent", paper.p);
