@@ -347,6 +347,43 @@ def normal_speed(run, ctx):
 
 
 # ---------------------------------------------------------------------------------------
+def check_h5md(run):
+    """Departures of the snapshot layout from H5MD 1.1 (h5md group and particles/all box and
+    position element), as a list of one-line problems (empty: conforming)."""
+    f, p = run.h5, []
+    if "h5md" not in f:
+        return ["no /h5md group"]
+    h = f["h5md"]
+    v = np.asarray(h.attrs.get("version", []))
+    if not (v.dtype.kind in "iu" and v.shape == (2,)):
+        p.append(f"/h5md attribute version must be an integer array [major, minor], found {v.tolist()!r}")
+    for grp, keys in (("author", ("name",)), ("creator", ("name", "version"))):
+        if grp not in h:
+            p.append(f"/h5md/{grp} group missing (attributes {', '.join(keys)})")
+        else:
+            p += [f"/h5md/{grp} lacks attribute {k}" for k in keys if k not in h[grp].attrs]
+    box = f.get("particles/all/box")
+    if box is None:
+        p.append("/particles/all/box missing")
+    else:
+        dim = np.asarray(box.attrs.get("dimension", -1))
+        if dim.dtype.kind not in "iu":
+            p.append(f"box attribute dimension must be an integer, found {dim.dtype} {dim.tolist()}")
+        b = np.asarray(box.attrs.get("boundary", []))
+        D = int(dim) if dim.size == 1 else 0
+        vals = [x.decode() if isinstance(x, bytes) else str(x) for x in np.atleast_1d(b).tolist()]
+        if len(vals) != D or any(x not in ("periodic", "none") for x in vals):
+            p.append(f"box attribute boundary must be {D} strings 'periodic' or 'none', found {vals}")
+        if "edges" not in box:
+            p.append("box/edges missing")
+    pos = f.get("particles/all/position")
+    if pos is not None:
+        p += [f"position/{k} missing" for k in ("value", "step", "time") if k not in pos]
+        if "step" in pos and pos["step"].dtype.kind not in "iu":
+            p.append("position/step must be integer")
+    return p
+
+
 def snapshot(run, ctx):
     """Last H5MD frame: the grains in the box (2D) or a slab of it (3D)."""
     p = "particles/all/position/value"
@@ -383,6 +420,12 @@ def snapshot(run, ctx):
     s.figure(ctx.save(fig, "edmd_snapshot"),
              "Positions in the last stored frame of /particles/all/position (H5MD); grains drawn to scale "
              "(diameter σ). Clusters and voids show inelastic clustering.")
-    s.text(f"{ds.shape[0]} frames of {ds.shape[1]} grains in results.h5 (H5MD 1.1 layout: "
-           "`/particles/all/position/{value,time,step}`, `/particles/all/box`); open them with any H5MD reader.")
+    s.text(f"{ds.shape[0]} frames of {ds.shape[1]} grains in results.h5 (H5MD layout: "
+           "`/particles/all/position/{value,time,step}`, `/particles/all/box`).")
+    problems = check_h5md(run)
+    if problems:
+        s.text("**H5MD conformance** (H5MD 1.1 readers may reject the file):\n\n" +
+               "\n".join(f"- {x}" for x in problems))
+    else:
+        s.text("The snapshot layout conforms to H5MD 1.1 (h5md, author, creator, box, position element).")
     return s
