@@ -12,6 +12,12 @@ UNITS = {
 }
 
 
+def homogeneous_background(run):
+    """True unless the run imposes a spatial background profile (then homogeneous steady-state
+    theory does not describe the domain as a whole)."""
+    return run.param("background.profile", "uniform") == "uniform"
+
+
 def deviation(sim, err, theory):
     """'Δ = …, … σ, … %' of theory relative to the simulation."""
     if sim is None or theory is None:
@@ -25,9 +31,57 @@ def deviation(sim, err, theory):
     return ", ".join(parts)
 
 
+GLANCE = [
+    # (quantity, simulation key, error key, [(theory label, theory key)])
+    ("steady temperature T#", "temperature.mean", "temperature.stderr",
+     [("Sonine closure root", "theory.equilibrium.sonine.T"), ("Grad closure root", "theory.equilibrium.grad.T"),
+      ("local-Maxwellian closure root", "theory.equilibrium.maxwellian.T"),
+      ("ε-expansion, 1st order", "theory.expansion.first_order.T")]),
+    ("a₂ (steady)", "a2.mean", "a2.stderr", [("Sonine closure", "theory.equilibrium.sonine.a2"),
+                                              ("van Noije-Ernst (cooling state)", "theory.haff.a2_van_noije_ernst")]),
+    ("T(t_end), free cooling", "temperature.final", None, [("Haff's law", "theory.haff.temperature_at_t_end")]),
+    ("density-mode decay rate", "mode.decay_rate", "mode.decay_rate_stderr",
+     [("Grad closure", "theory.hydro.decay_rate_grad_closure"),
+      ("local-Maxwellian closure", "theory.hydro.decay_rate_maxwellian_closure"),
+      ("drift-diffusion (paper)", "theory.hydro.decay_rate"),
+      ("drift-diffusion (kinetic)", "theory.hydro.decay_rate_kinetic")]),
+    ("profile exponent p", "profile.exponent", "profile.exponent_stderr",
+     [("drift-diffusion (paper)", "theory.hydro.thermal_diffusion_exponent"),
+      ("drift-diffusion (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic")]),
+    ("compressibility factor Z", "pressure.Z", "pressure.Z_stderr", [("reference EOS (elastic)", "theory.Z")]),
+    ("g(σ⁺) from g(r)", "g_r.contact_fit", None, [("reference EOS", "theory.g_contact")]),
+    ("Haff time t₀", "haff.t0_measured", None, [("with a₂ correction", "haff.t0_theory")]),
+]
+
+
+def glance_rows(run):
+    rows = []
+    for quantity, key, err_key, theories in GLANCE:
+        v = run.num(key)
+        if v is None:
+            continue
+        if key == "temperature.final" and run.num("theory.haff.temperature_at_t_end") is None:
+            continue
+        if key == "temperature.mean" and run.num("theory.equilibrium.sonine.T") is None:
+            continue
+        if key in ("temperature.mean", "a2.mean") and not homogeneous_background(run):
+            continue  # imposed profile: the homogeneous T#, a2 are no prediction for the whole domain
+        e = run.num(err_key) if err_key else None
+        for label, tkey in theories:
+            t = run.num(tkey)
+            if t is not None:
+                rows.append([quantity, fmt_pm(v, e), label, fmt(t), deviation(v, e, t)])
+    return rows
+
+
 def overview(run, ctx):
     s = Section("Run and key numbers", "overview")
     p = run.params
+    glance = glance_rows(run)
+    if glance:
+        s.table(["quantity", "simulation", "theory", "value", "theory − simulation (abs., in σ, rel.)"], glance,
+                caption="Simulation against theory at a glance (σ: the simulation's standard error; it does not "
+                        "include time-step or finite-N bias).")
     rows = [["solver", "`run.solver`", run.solver],
             ["grainbath version", "`run.version`", run.get("run.version", run.root_attr("grainbath_version"))],
             ["seed", "`run.seed`", fmt(run.get("run.seed", run.root_attr("seed")))]]

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from .common import deviation
+from .common import deviation, homogeneous_background
 from .document import Section, fmt, fmt_pm
 from .plotting import SIM, SIM_POINTS, plt, subplots, theory_style
 
@@ -316,7 +316,7 @@ def steady_temperature(run, ctx):
     """Steady T# from DSMC beside the closures' roots and the ε-expansions."""
     if not _is_dsmc(run) or run.num("theory.equilibrium.maxwellian.T") is None:
         return None
-    if run.has("fields") or run.has("mode"):  # spatial run: T# of the homogeneous theory does not apply globally
+    if not homogeneous_background(run):  # imposed profile: the homogeneous T# does not describe the domain
         return None
     Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
     if Tm is None:
