@@ -87,8 +87,8 @@ def temperature(run, ctx):
         if N:
             noise = T * math.sqrt(2.0 / (3.0 * N))
             axr.fill_between(t, -noise, noise, color="0.85", lw=0, label="±1σ noise of one DSMC sample, T√(2/3N)")
-        axr.plot(t, d, color="0.55", lw=0.8, label=f"DSMC − {ref}")
         k = len(t) // 40
+        axr.plot(t, d, color="0.55" if k >= 4 else "black", lw=0.8 if k >= 4 else 1.1, label=f"DSMC − {ref}")
         if k >= 4:
             axr.plot(_running(t, k), _running(d, k), color="black", lw=1.8,
                      label=f"DSMC − {ref}, running mean of {k} samples")
