@@ -406,9 +406,14 @@ def snapshot(run, ctx):
     else:
         pts, title = x, f"{len(x)} disks"
     from matplotlib.collections import EllipseCollection
-    ax.add_collection(EllipseCollection(np.ones(len(pts)), np.ones(len(pts)), np.zeros(len(pts)), units="xy",
-                                        offsets=pts[:, :2], offset_transform=ax.transData,
-                                        facecolors="#56B4E9", edgecolors="black", linewidths=0.3))
+    kw = dict(units="xy", offsets=pts[:, :2], facecolors="#56B4E9", edgecolors="black", linewidths=0.3)
+    try:
+        coll = EllipseCollection(np.ones(len(pts)), np.ones(len(pts)), np.zeros(len(pts)),
+                                 offset_transform=ax.transData, **kw)
+    except TypeError:  # matplotlib < 3.6
+        coll = EllipseCollection(np.ones(len(pts)), np.ones(len(pts)), np.zeros(len(pts)),
+                                 transOffset=ax.transData, **kw)
+    ax.add_collection(coll)
     ax.set_xlim(0, L[0])
     ax.set_ylim(0, L[1])
     ax.set_aspect("equal")
