@@ -329,10 +329,13 @@ def normal_speed(run, ctx):
     s = Section("Normal relative speed at collision", "normal-speed")
     fig, ax = subplots(figsize=(7.0, 4.2))
     ax.plot(x, d, **SIM_POINTS)
-    xx = np.linspace(0, x[-1], 400)
+    nz = np.nonzero(d > 0)[0]
+    hi = max(6.0, 1.1 * float(x[nz[-1]])) if len(nz) else float(x[-1])
+    xx = np.linspace(0, hi, 400)
     ax.plot(xx, xx / 2 * np.exp(-xx ** 2 / 4), **theory_style("maxwell_dist", label="molecular chaos: (x/2) e^(−x²/4)"))
     ax.set_xlabel("normal relative speed at contact v_n / √(T/m)  [dimensionless]")
-    ax.set_ylabel("probability density per collision  [per unit v_n/√(T/m)]")
+    ax.set_xlim(0, hi)
+    ax.set_ylabel("probability density  [per unit v_n/√(T/m)]")
     ax.set_title("Collision-weighted normal speed (Bizon et al. Fig. 10)")
     ax.legend(loc="best")
     s.figure(ctx.save(fig, "edmd_normal_speed"),
