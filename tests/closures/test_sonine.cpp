@@ -33,16 +33,20 @@ double S2(double x) { return 0.5 * x * x - 2.5 * x + 1.875; }
 
 TEST(Sonine, ReducesToMaxwellianClosureAtZeroA2) {
   for (double delta : {0.0, 0.2, 1.0}) {
-    const Parameters p = bath(0.4, delta == 1.0 ? 0.02 : 0.1, delta);
-    for (double T : {0.4, 1.2, 3.0})
-      for (double drift : {0.0, 0.7, 2.5}) {
-        const std::array<double, 3> u{p.uB[0] + drift, p.uB[1], p.uB[2] - 0.5 * drift};
+    Parameters p = bath(0.4, delta == 1.0 ? 0.02 : 0.1, delta);
+    for (double alpha : {0.15, 0.4, 0.85}) {
+    p.alpha = alpha;
+    for (double T : {0.36, 1.2, 3.6})  // T/TB = 0.3, 1, 3
+      for (double drift : {0.0, 0.1, 0.7, 1.5, 3.0}) {  // |U| in units of s
+        const double sd = drift * relative_speed_scale(p, T) / std::sqrt(1.25);
+        const std::array<double, 3> u{p.uB[0] + sd, p.uB[1], p.uB[2] - 0.5 * sd};
         const SonineMoments bg = sonine_background(p, u, T, 0.0);
         const Exchange ex = maxwellian_exchange_exact(p, u, T);
         const double scale = p.nB / p.eps * p.alpha * std::pow(relative_speed_scale(p, T), 3) * p.mass;
-        for (int a = 0; a < 3; ++a) EXPECT_NEAR(bg.du_dt[a], ex.du_dt[a], 1e-11 * scale);
-        EXPECT_NEAR(p.mass * bg.dc2_dt / 3.0, ex.dT_dt, 1e-11 * scale);
+        for (int a = 0; a < 3; ++a) EXPECT_NEAR(bg.du_dt[a], ex.du_dt[a], 1e-12 * scale) << alpha << " " << T << " " << drift;
+        EXPECT_NEAR(p.mass * bg.dc2_dt / 3.0, ex.dT_dt, 1e-12 * scale);
       }
+    }
     for (double T : {0.4, 1.2})
       EXPECT_NEAR(p.mass * sonine_grain_grain(p, T, 0.0).dc2_dt / 3.0, maxwellian_loss(p, T),
                   1e-11 * std::abs(maxwellian_loss(p, T)));
