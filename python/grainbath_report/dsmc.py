@@ -289,7 +289,8 @@ def sonine_a2(run, ctx):
     ax.set_title("Second Sonine coefficient")
     ax.legend(loc="best")
     s.figure(ctx.save(fig, "a2"),
-             "a₂(t) measured in DSMC (black; one sample has noise ≈ √(8/15N)) beside the Sonine closure's "
+             f"a₂(t) measured in DSMC (black; one sample has noise ≈ √(8/15N)"
+             f"{' = ' + fmt(math.sqrt(8 / (15 * N)), 2) if N else ''}) beside the Sonine closure's "
              "a₂(t) and its steady value (or the van Noije-Ernst value of the homogeneous cooling state).")
     rows = [["DSMC, window mean (`a2.mean`)", fmt_pm(m, e), ""]]
     if a2eq is not None:

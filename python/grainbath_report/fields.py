@@ -56,7 +56,6 @@ def density_mode(run, ctx):
     ax.semilogy(t[pos], A[pos], **dict(SIM, label="DSMC amplitude"))
     if isinstance(N, (int, float)) and N > 0:
         ax.axhline(2 / math.sqrt(N), color="0.55", lw=1, ls=":", label="noise level 2/√N")
-    t0 = t[0]
     if rate is not None and icpt is not None:
         ax.semilogy(t, np.exp(icpt - rate * t), **theory_style("fit", label=f"fit: Γ = {fmt_pm(rate, rate_e, 4)}"))
     base = icpt if icpt is not None else math.log(A[0])

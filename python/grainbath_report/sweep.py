@@ -5,7 +5,6 @@ beside the theory each run computed for its own parameters.
 directories (results.h5 + summary.json) below it, e.g. DIR/nu-0.1/, DIR/nu-0.2/ or
 DIR/*/output/.  The swept parameter is found by comparing the runs' resolved parameters.
 """
-import math
 import os
 
 import numpy as np
