@@ -10,7 +10,7 @@
 //         e = 1 - 2 beta |g.n|^delta (unclamped)                        (Bisi-Spiga eqs. 5, 6)
 // Three closures are provided:
 //   maxwellian: f = local Maxwellian (n, u, T), exact Gaussian exchange terms (docs eqs. C1-C9)
-//   grad:       f = M_TB(v - uB) * [1 + U.c/thB + kappa (c^2/thB - 3)], the quadratic-entropy
+//   grad:       f = M_TB(v - uB) * [1 + U.c/th0 + kappa (c^2/th0 - 3)], th0 = TB/m, the quadratic-entropy
 //               maximiser w.r.t. J_EL (docs eqs. G1-G12)
 //   sonine:     f = M_T(v - u) * [1 + a2 S2(m c^2 / 2T)], a2 as a fourth field, collision terms
 //               by quadrature of the collision rule (docs eqs. S1-S10)

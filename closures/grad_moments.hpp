@@ -3,8 +3,8 @@
 //
 // Maximising the quadratic entropy -int f^2/M d3v (M = grain-mass Maxwellian at the background
 // uB, TB, the equilibrium of J_EL; Bisi-Spiga eq. 15) at fixed n, u, T gives (docs eq. G2)
-//   f = n M(v) [1 + U.c/thB + kappa (c^2/thB - 3)],  c = v - uB,  U = u - uB,  thB = TB/m,
-//   kappa = (3 (T - TB)/m + |U|^2) / (6 thB).
+//   f = n M(v) [1 + U.c/th0 + kappa (c^2/th0 - 3)],  c = v - uB,  U = u - uB,  th0 = TB/m,
+//   kappa = (3 (T - TB)/m + |U|^2) / (6 th0).
 // The streaming terms of Bisi-Spiga eq. 18 then close as (docs eqs. G4, G5)
 //   P = n T I + n m (|U|^2/3 I - U U^T),   q = (n/2) [5 (TB - T) + m |U|^2/3] U.
 #include <array>
