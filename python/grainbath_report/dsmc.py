@@ -266,11 +266,13 @@ def sonine_a2(run, ctx):
     s = Section("Non-Gaussianity: Sonine coefficient a₂(t)", "a2")
     fig, ax = subplots(figsize=(7.0, 4.2))
     _shade_window(ax, run, t)
-    ax.plot(t, a2, **SIM)
     k = len(t) // 40
     if k >= 4:
-        ax.plot(_running(t, k), _running(a2, k), color="black", lw=2.4, alpha=0.45,
+        ax.plot(t, a2, color="0.6", lw=0.8, label="DSMC")
+        ax.plot(_running(t, k), _running(a2, k), color="black", lw=2.0,
                 label=f"DSMC, running mean of {k} samples")
+    else:
+        ax.plot(t, a2, **dict(SIM, label="DSMC"))
     m, e = run.num("a2.mean"), run.num("a2.stderr")
     t0 = run.param("sampling.steady_from")
     if m is not None and isinstance(t0, (int, float)):
@@ -281,8 +283,8 @@ def sonine_a2(run, ctx):
     if vne is not None:
         ax.axhline(vne, **theory_style("haff", label=f"van Noije-Ernst a₂ = {vne:.4g}"))
     a2eq = run.num("theory.equilibrium.sonine.a2")
-    if a2eq is not None:
-        ax.axhline(a2eq, color="#009E73", lw=0.8, ls="-", alpha=0.7, label=f"Sonine steady a₂ = {a2eq:.4g}")
+    if a2eq is not None and not run.has("theory/sonine/a2"):
+        ax.axhline(a2eq, **theory_style("sonine", label=f"Sonine closure, steady a₂ = {a2eq:.4g}"))
     ax.axhline(0, color="black", lw=0.6)
     ax.set_xlabel(TIME_LABEL)
     ax.set_ylabel("a₂ = 3⟨c⁴⟩/(5⟨c²⟩²) − 1  [dimensionless]")
