@@ -169,9 +169,7 @@ def build(paths, ctx):
                 else:
                     st = dict(color=EXTRA_COLOURS[extra % 4], ls=EXTRA_STYLES[extra % 4], lw=1.5)
                     extra += 1
-                st["label"] = tlabel + (f" ({glabel})" if glabel and gi == 0 and len(groups) > 1 else "")
-                if gi > 0:
-                    st["label"] = None
+                st["label"] = (tlabel + (" (each series)" if len(groups) > 1 else "")) if gi == 0 else None
                 ax.plot(x, ty, marker=".", **st)
         if key == "pressure.Z" and x_key == "edmd.packing_fraction":
             dims = {int(r.param("edmd.dimensions", 3)) for r in runs}
