@@ -133,7 +133,10 @@ def build(paths, ctx):
                      for k in varied] +
                     [fmt_pm(r.num(q[0]), r.num(q[1]) if q[1] else None) for q in quantities])
     s.table(headers, rows, caption="Key numbers of every run (± std. error where the run gives one).")
-    s.text("Each run's own report: `grainbath report RUN_DIR`.")
+    have_reports = [r for r in runs if os.path.isfile(os.path.join(r.out_dir, "report", "report.html"))]
+    s.text("Each run's own report: `grainbath report RUN_DIR`" +
+           (f" (already made for {len(have_reports)} of the runs: RUN_DIR/report/report.html)." if have_reports
+            else "."))
     sections.append(s)
     if x_key is None:
         for r in runs:
