@@ -53,6 +53,8 @@ double energy_balance(Closure c, const Parameters& p, double T) {
   return sources(c, p, st).dT_dt;
 }
 
+}  // namespace
+
 void check_restitution(const Parameters& p, double T) {
   const double P = negative_restitution_probability(p, T);
   if (P > kMaxNegativeRestitutionProbability) {
@@ -65,7 +67,6 @@ void check_restitution(const Parameters& p, double T) {
     throw ClosureError(os.str());
   }
 }
-}  // namespace
 
 double equilibrium_temperature_gaussian(Closure c, const Parameters& p) {
   validate(p);

@@ -70,6 +70,9 @@ std::vector<RelaxationState> relax_integrator(Closure c, const Parameters& p,
                                               const std::vector<double>& times, bool stiff) {
   validate(p);
   if (!(initial.T > 0.0)) throw ClosureError("relax: the initial grain temperature must be > 0");
+  // The unclamped power law must stay e >= 0 at the hottest temperature of the relaxation
+  // (the initial one, or TB which it approaches).
+  check_restitution(p, std::max(initial.T, p.TB));
   const size_t dim = (c == Closure::sonine) ? 5 : 4;
   OdeContext ctx{c, &p, {}};
   gsl_odeiv2_system sys{&rhs, &jacobian, dim, &ctx};

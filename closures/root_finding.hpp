@@ -9,6 +9,9 @@ namespace grainbath::closures {
 // GSL Brent on [lo, hi]; throws ClosureError(what + ...) without a sign change.
 double brent_root(const std::function<double(double)>& f, double lo, double hi, double rel_tol,
                   const std::string& what);
+// Throws ClosureError naming restitution.beta/delta if P(e < 0) at temperature T exceeds
+// kMaxNegativeRestitutionProbability (docs eq. C12).
+void check_restitution(const Parameters&, double T);
 // T# of the maxwellian or grad closure (Bisi-Spiga eq. 27, docs eq. G11).
 double equilibrium_temperature_gaussian(Closure, const Parameters&);
 // relax() with an explicit choice of integrator: stiff = GSL msbdf with a finite-difference

@@ -187,7 +187,7 @@ SonineMoments sonine_background(const Parameters& p, const std::array<double, 3>
   // The integrand is entire in mu; the background moments grow like exp(A^2/2) off the real
   // axis, i.e. like exp(x mu) with x = rho |U|/thB, and rho reaches ~8 sqrt(th) where the
   // c-Gaussian still matters. The node count grows with x; the thresholds were set so that the
-  // a2 = 0 case reproduces the closed-form exchange (C5, C6) to 1e-11 up to |U| = 3 s and
+  // a2 = 0 case reproduces the closed-form exchange (C5, C6) to 1e-12 up to |U| = 3 s and
   // T/TB from 0.3 to 3 (test Sonine.ReducesToMaxwellianClosureAtZeroA2).
   static const Rule mu8 = gauss_legendre(8, -1.0, 1.0), mu16 = gauss_legendre(16, -1.0, 1.0),
                     mu32 = gauss_legendre(32, -1.0, 1.0), mu64 = gauss_legendre(64, -1.0, 1.0),

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "closures/closures.hpp"
 #include "closures/root_finding.hpp"
@@ -112,4 +113,16 @@ TEST(Relax, StiffAndExplicitIntegratorsAgree) {
 TEST(Relax, RejectsDecreasingTimes) {
   const Parameters p = base(0.1);
   EXPECT_THROW(relax(Closure::maxwellian, p, {{0, 0, 0}, 1.0, 0.0}, {1.0, 0.5}), ClosureError);
+}
+
+TEST(Relax, RefusesAStartWhereThePowerLawGoesNegative) {
+  Parameters p = base(0.05);
+  p.delta = 1.0;  // e < 0 once |g.n| > 10: P = 1e-11 at T = TB = 1, 4 % of collisions at T = 8
+  EXPECT_NO_THROW(relax(Closure::maxwellian, p, {{0, 0, 0}, 0.5, 0.0}, {0.0, 0.1}));
+  try {
+    relax(Closure::maxwellian, p, {{0, 0, 0}, 8.0, 0.0}, {0.0, 0.1});
+    ADD_FAILURE() << "expected ClosureError";
+  } catch (const ClosureError& e) {
+    EXPECT_NE(std::string(e.what()).find("restitution.beta"), std::string::npos) << e.what();
+  }
 }
