@@ -297,6 +297,82 @@ TEST_F(BadInput, DsmcOutOfRangeEveryParameter) {
   }
 }
 
+Case spatial_case() {
+  Case c = dsmc_case();
+  c.set("domain", "dimensions", "1").set("domain", "length", "[10.0]").set("domain", "cells", "[10]");
+  c.set("domain", "boundaries", "[\"periodic\"]");
+  return c;
+}
+
+TEST_F(BadInput, DsmcSpatialOutOfRangeEveryParameter) {
+  write_text(case_file(), spatial_case().text());
+  auto probe = grainbath({"check", case_dir().string()});
+  if (probe.err.find("unknown section [domain]") != std::string::npos ||
+      probe.err.find("[domain]: unknown section") != std::string::npos)
+    GTEST_SKIP() << "this build has no spatial DSMC";
+  ASSERT_TRUE(probe.exited && probe.code == 0) << "the minimal spatial case should pass: " << probe.describe();
+  const std::string sine = "\"isobaric_sine\"", mode = "\"mode\"";
+  const std::vector<Range> cases = {
+      {"domain", "dimensions", "0", "expected an integer in [1, 3], found 0"},
+      {"domain", "dimensions", "4", "found 4"},
+      {"domain", "length", "[0.0]", "element 0: expected a value in > 0.0"},
+      {"domain", "length", "[10.0, 10.0]", "expected an array of 1 numbers"},
+      {"domain", "cells", "[0]", "element 0: expected a value in [1.0, 10000000.0]"},
+      {"domain", "cells", "[2.5]", "expected a whole number of cells"},
+      {"domain", "cells", "[1e8]", "[1.0, 10000000.0]"},
+      {"domain", "boundaries", "[\"wall\"]", "unknown boundary \"wall\""},
+      {"domain", "boundaries", "[\"periodic\", \"specular\"]", "a periodic face needs a periodic opposite face"},
+      {"domain", "boundaries", "[\"open\", \"open\", \"open\"]", "expected 1 name (all faces), 1 (one per axis) or 2"},
+      {"domain", "wall_temperature", "0.0", "> 0.0"},
+      {"background", "amplitude", "1.0", "(-1.0, 1.0)", {{"background.profile", sine}}},
+      {"background", "wavenumber_index", "0", "found 0", {{"background.profile", sine}}},
+      {"background", "profile", "\"shear\"", "needs dimensions >= 2"},
+      {"background", "profile", "\"sine\"", "unknown value \"sine\""},
+      {"grains", "amplitude", "-1.0", "(-1.0, 1.0)", {{"grains.profile", mode}}},
+      {"grains", "wavenumber_index", "0", "found 0", {{"grains.profile", mode}}},
+      {"sampling", "field_batches", "1", "[2, 1024]"},
+      {"sampling", "mode_fit_from", "-1.0", ">= 0.0", {{"grains.profile", mode}}},
+      {"sampling", "mode_fit_to", "0.0", "> 0.0", {{"grains.profile", mode}}},
+      {"dsmc", "particles", "15", "at least 2 particles per cell"},
+      {"checkpoint", "every", "-1.0", ">= 0.0"},
+      {"checkpoint", "every_minutes", "-1.0", ">= 0.0"},
+  };
+  for (const auto& t : cases) {
+    SCOPED_TRACE(t.sec + "." + t.key + " = " + t.value);
+    const Case c = with(spatial_case(), t);
+    expect_rejected(c.text(), {{c.line_of(t.sec, t.key), t.sec + "." + t.key, t.what}});
+  }
+  // A profile that needs a domain, in a homogeneous case.
+  Case h = dsmc_case();
+  h.set("background", "profile", sine);
+  expect_rejected(h.text(), {{h.line_of("background", "profile"), "background.profile", "needs a spatial run"}});
+}
+
+TEST_F(BadInput, BackgroundFileThatIsNotHdf5) {
+  // profile = "file" reads a user-supplied HDF5 grid: missing, garbage, truncated, a directory.
+  write_text(case_file(), spatial_case().text());
+  auto probe = grainbath({"check", case_dir().string()});
+  if (!(probe.exited && probe.code == 0)) GTEST_SKIP() << "this build has no spatial DSMC";
+  std::mt19937 rng(3);
+  std::string garbage(4096, '\0');
+  for (auto& b : garbage) b = static_cast<char>(rng() & 0xff);
+  std::string hdf5_head = "\x89HDF\r\n\x1a\n" + garbage.substr(0, 200);  // a signature, then garbage
+  struct F { std::string name, content; bool dir; };
+  for (const F& f : {F{"missing.h5", "", false}, F{"garbage.h5", garbage, false}, F{"head.h5", hdf5_head, false},
+                     F{"empty.h5", "", false}, F{"adir.h5", "", true}}) {
+    SCOPED_TRACE(f.name);
+    fs::remove_all(case_dir() / f.name);
+    if (f.dir) fs::create_directories(case_dir() / f.name);
+    else if (f.name != "missing.h5") write_text(case_dir() / f.name, f.content);
+    Case c = spatial_case();
+    c.set("background", "profile", "\"file\"").set("background", "file", "\"" + f.name + "\"");
+    expect_rejected(c.text(), {{c.line_of("background", "file"), "background.file", f.name}});
+  }
+  Case c = spatial_case();
+  c.set("background", "profile", "\"file\"");
+  expect_rejected(c.text(), {{0, "background.file", "missing: profile = \"file\" needs file"}});
+}
+
 TEST_F(BadInput, CheckRejectsToo) {
   Case c = dsmc_case();
   c.set("dsmc", "dt", "0.0");
