@@ -33,8 +33,8 @@ struct HydroTheoryParams {
 //   hydro.diffusion_coefficient_kinetic    Sonine-Galerkin, converged
 //   hydro.thermal_diffusion_exponent_kinetic, hydro.kinetic_sonine_order, hydro.kinetic_sonine_change
 //   with k: hydro.decay_rate (D k^2, paper), hydro.decay_rate_kinetic, and the closures'
-//   finite-eps mode rates hydro.decay_rate_maxwellian_closure, hydro.decay_rate_grad_closure
-//   (when the closure sources are available, see closure1d.hpp).
+//   finite-eps mode rates hydro.decay_rate_maxwellian_closure, hydro.decay_rate_grad_closure,
+//   hydro.decay_rate_sonine_closure (closure1d.hpp).
 std::vector<std::pair<std::string, double>> hydro_theory_values(const HydroTheoryParams& p);
 
 }  // namespace grainbath::hydro

@@ -42,6 +42,7 @@ std::vector<std::pair<std::string, double>> hydro_theory_values(const HydroTheor
     mp.delta = p.delta;
     out.emplace_back("hydro.decay_rate_maxwellian_closure", mode_decay_rate(ModeModel::maxwellian_closure, mp, k));
     out.emplace_back("hydro.decay_rate_grad_closure", mode_decay_rate(ModeModel::grad_closure, mp, k));
+    out.emplace_back("hydro.decay_rate_sonine_closure", mode_decay_rate(ModeModel::sonine_closure, mp, k));
   }
   return out;
 }
