@@ -19,6 +19,7 @@ RATE_THEORY = [
      dict(color="#D55E00", ls=(0, (5, 1, 1, 1)), lw=1.6)),
     ("theory.hydro.decay_rate_maxwellian_closure", "local-Maxwellian closure (finite ε)", dict(color="#0072B2", ls="--", lw=1.6)),
     ("theory.hydro.decay_rate_grad_closure", "Grad closure (finite ε)", dict(color="#E69F00", ls="-.", lw=1.6)),
+    ("theory.hydro.decay_rate_sonine_closure", "Sonine closure (finite ε)", dict(color="#009E73", ls=":", lw=2.0)),
 ]
 
 

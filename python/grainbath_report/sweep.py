@@ -50,7 +50,8 @@ DSMC_QUANTITIES = [
         ("theory.hydro.decay_rate", "hydro", "drift-diffusion (paper)"),
         ("theory.hydro.decay_rate_kinetic", None, "drift-diffusion (kinetic)"),
         ("theory.hydro.decay_rate_maxwellian_closure", "maxwellian", "local-Maxwellian closure"),
-        ("theory.hydro.decay_rate_grad_closure", "grad", "Grad closure")]),
+        ("theory.hydro.decay_rate_grad_closure", "grad", "Grad closure"),
+        ("theory.hydro.decay_rate_sonine_closure", "sonine", "Sonine closure")]),
     ("profile.exponent", "profile.exponent_stderr", "profile exponent p (n ∝ T_B^−p)", "1", [
         ("theory.hydro.thermal_diffusion_exponent", "hydro", "drift-diffusion (paper)"),
         ("theory.hydro.thermal_diffusion_exponent_kinetic", None, "drift-diffusion (kinetic)")]),
