@@ -14,7 +14,7 @@ namespace grainbath::closures {
 namespace {
 constexpr double kSqrt2OverPi = 0.79788456080286535588;
 
-extern "C" double trampoline(double x, void* params) {
+double trampoline(double x, void* params) {
   return (*static_cast<const std::function<double(double)>*>(params))(x);
 }
 }  // namespace

@@ -17,12 +17,12 @@ struct OdeContext {
   std::string failure;
 };
 
-extern "C" int rhs(double, const double y[], double dydt[], void* params);
+int rhs(double, const double y[], double dydt[], void* params);
 
 // Forward-difference Jacobian for the stiff (BDF) integration of the Sonine system, whose
 // right-hand side is a quadrature (no closed-form derivative). Steps are relative to the
 // natural scale of each variable.
-extern "C" int jacobian(double t, const double y[], double* dfdy, double dfdt[], void* params) {
+int jacobian(double t, const double y[], double* dfdy, double dfdt[], void* params) {
   auto* ctx = static_cast<OdeContext*>(params);
   const int dim = ctx->closure == Closure::sonine ? 5 : 4;
   double f0[5], f1[5], yp[5];
@@ -40,7 +40,7 @@ extern "C" int jacobian(double t, const double y[], double* dfdy, double dfdt[],
   return GSL_SUCCESS;
 }
 
-extern "C" int rhs(double, const double y[], double dydt[], void* params) {
+int rhs(double, const double y[], double dydt[], void* params) {
   auto* ctx = static_cast<OdeContext*>(params);
   if (!(y[3] > 0.0) || !std::isfinite(y[3])) return GSL_EBADFUNC;
   try {
