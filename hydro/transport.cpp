@@ -256,10 +256,14 @@ DriftDiffusionCoefficients kinetic_coefficients(double alpha, double mass, doubl
     const KineticTransport k = kinetic_transport(alpha);
     c.Dhat = k.Dhat;
     c.p = k.p;
+    c.sonine_order = k.order;
+    c.converged = k.converged;
   } else {
     const SonineGalerkin s = sonine_galerkin_sequence(alpha, sonine_order).back();
     c.Dhat = s.Dhat;
     c.p = s.p();
+    c.sonine_order = sonine_order;
+    c.converged = false;  // a fixed truncation, not a converged value
   }
   c.name = "kinetic";
   return c;

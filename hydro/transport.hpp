@@ -80,6 +80,8 @@ struct DriftDiffusionCoefficients {
   double Dhat = 0.0;  // D = eps Dhat sqrt(TB/m) / nB
   double p = 1.0;     // thermal-diffusion exponent
   std::string name;   // "paper" or "kinetic"
+  int sonine_order = 1;        // Sonine polynomials behind Dhat and p (paper: 1)
+  bool converged = true;       // kinetic: kinetic_transport reached its tolerance
   double mass_ratio() const;  // m/mB = (1-alpha)/alpha
   double D(double nB, double TB) const;
 };
