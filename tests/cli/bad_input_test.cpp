@@ -589,6 +589,42 @@ TEST_F(BadInput, OutputOnAFilesystemNobodyCanWrite) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+TEST_F(BadInput, OutputOnAReadOnlyMount) {
+  // A read-only tmpfs in a private mount namespace (stops root too; needs CAP_SYS_ADMIN).
+  write_text(case_file(), dsmc_case().text());
+  const fs::path mnt = tmp / "ro";
+  fs::create_directories(mnt);
+  const auto before = listing(tmp.path());
+  int pipefd[2];
+  ASSERT_EQ(::pipe(pipefd), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::close(pipefd[0]);
+    if (::unshare(CLONE_NEWNS) != 0 || ::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0 ||
+        ::mount("tmpfs", mnt.c_str(), "tmpfs", MS_RDONLY, "size=64k") != 0)
+      ::_exit(77);
+    RunOptions opt;
+    opt.cwd = work();
+    auto r = run_binary({kBinary, "run", case_dir().string(), "--out", (mnt / "out").string(), "--quiet"}, opt);
+    const std::string report = r.describe();
+    if (::write(pipefd[1], report.data(), report.size()) < 0) ::_exit(99);
+    ::_exit(r.exited ? r.code : 100);
+  }
+  ::close(pipefd[1]);
+  std::string report;
+  char buf[4096];
+  for (ssize_t n; (n = ::read(pipefd[0], buf, sizeof buf)) > 0;) report.append(buf, static_cast<std::size_t>(n));
+  ::close(pipefd[0]);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  if (WEXITSTATUS(status) == 77) GTEST_SKIP() << "cannot mount a tmpfs here (no CAP_SYS_ADMIN)";
+  EXPECT_EQ(WEXITSTATUS(status), 2) << report;
+  EXPECT_NE(report.find("error: " + (mnt / "out").string()), std::string::npos) << report;
+  EXPECT_EQ(listing(tmp.path()), before);
+}
+
 TEST_F(BadInput, OutputDirectoryWithoutWritePermission) {
   if (::geteuid() == 0) GTEST_SKIP() << "root ignores directory permissions (covered by the /proc and file cases)";
   write_text(case_file(), dsmc_case().text());
