@@ -11,23 +11,30 @@ namespace {
 inline double& comp(Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
 inline double comp(const Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
 
-// Earliest t >= 0 with x + v t + acc t^2 / 2 = bound, approached from the side x is on; inf if
-// never. Used for cell faces and walls under constant acceleration (air table).
-double quadratic_hit(double x, double v, double acc, double bound) {
+// Earliest t >= 0 with x + v t + acc t^2 / 2 = bound while moving outward through it
+// (velocity v + acc t of sign `out`: +1 for an upper face, -1 for a lower one); inf if never.
+// Requiring the outward direction stops a grain that sits on a face by round-off from
+// crossing back and forth at the same instant. Cell faces and walls under the constant
+// acceleration of the air table.
+double quadratic_hit(double x, double v, double acc, double bound, double out) {
   const double A = 0.5 * acc, B = v, C = x - bound;
+  double r1, r2;
   if (A == 0.0) {
     if (B == 0.0) return kInf;
-    const double t = -C / B;
-    return t >= 0.0 ? t : (C * B > 0.0 ? kInf : 0.0);
+    r1 = r2 = -C / B;
+  } else {
+    const double disc = B * B - 4.0 * A * C;
+    if (disc < 0.0) return kInf;
+    const double s = std::sqrt(disc);
+    const double q = -0.5 * (B + (B >= 0.0 ? s : -s));
+    r1 = q / A;
+    r2 = (q != 0.0) ? C / q : r1;
+    if (r1 > r2) std::swap(r1, r2);
   }
-  const double disc = B * B - 4.0 * A * C;
-  if (disc < 0.0) return kInf;
-  const double s = std::sqrt(disc);
-  const double q = -0.5 * (B + (B >= 0.0 ? s : -s));
-  double r1 = q / A, r2 = (q != 0.0) ? C / q : r1;
-  if (r1 > r2) std::swap(r1, r2);
-  if (r1 >= 0.0) return r1;
-  if (r2 >= 0.0) return r2;
+  for (double r : {r1, r2}) {
+    const double t = std::max(r, 0.0);
+    if (r >= -1e-12 * (1.0 + std::abs(r2)) && out * (v + acc * t) > 0.0) return t;
+  }
   return kInf;
 }
 
@@ -252,6 +259,12 @@ void Engine::trajectory_changed(std::uint32_t i) {
 
 double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const {
   // |dr + dv t + da t^2/2|^2 - sigma^2 = 0: first root where the distance falls to sigma.
+  // Cheap rejection: the gap cannot close within tmax.
+  if (std::isfinite(tmax)) {
+    const double reach = std::sqrt(dot(dv, dv)) * tmax + 0.5 * std::sqrt(dot(da, da)) * tmax * tmax;
+    const double gap = std::sqrt(dot(dr, dr)) - 1.0;
+    if (gap > reach) return kInf;
+  }
   const Vec3 s = 0.5 * da;
   Poly p;
   p.c[4] = dot(s, s);
@@ -417,8 +430,8 @@ void Engine::schedule(std::uint32_t i) {
     } else {
       const double bh = high_wall ? comp(L_, d) - 0.5 : hi;
       const double bl = low_wall ? 0.5 : lo;
-      const double th = (x >= bh && v >= 0.0) ? 0.0 : quadratic_hit(x, v, acc, bh);
-      const double tl = (x <= bl && v <= 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl);
+      const double th = (x >= bh && v > 0.0) ? 0.0 : quadratic_hit(x, v, acc, bh, 1.0);
+      const double tl = (x <= bl && v < 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl, -1.0);
       if (t + th < best) {
         best = t + th;
         ev.type = high_wall ? ev_wall : ev_cell;

@@ -123,4 +123,40 @@ inline double haff_temperature(double t, double t0_temperature, double haff_t0) 
   return t0_temperature / (s * s);
 }
 
+// Temperature relaxation of Maxwellian grains (mass 1) in the background medium (elastic
+// grain-medium collisions, rate K |g| per grain, K = nB/eps, alpha = mB/(m + mB)); re-derived
+// in docs/edmd.md from the centre-of-mass form of Bisi-Spiga eq. 3: per collision
+// dE = m alpha V.(<g'> - g), <g'> = 0 (3D, isotropic), -g/3 (2D hard disks), and
+// <|g| V.g> = (T - TB) <|g|^3> / (M (s1 + s2)), s1 = T/m, s2 = TB/mB:
+//   3D: dT/dt = -(16/3) sqrt(2/pi) alpha (1-alpha) K sqrt(s1 + s2) (T - TB)
+//   2D: dT/dt = -4 sqrt(pi/2)      alpha (1-alpha) K sqrt(s1 + s2) (T - TB)
+inline double background_heating_rate(int dims, double T, double TB, double K, double alpha) {
+  const double mB = alpha / (1.0 - alpha);
+  const double c = dims == 3 ? 16.0 / 3.0 * std::sqrt(2.0 / std::numbers::pi) : 4.0 * std::sqrt(std::numbers::pi / 2.0);
+  return -c * alpha * (1.0 - alpha) * K * std::sqrt(T + TB / mB) * (T - TB);
+}
+
+// Bizon eq. 27 with the Enskog factor: collisional cooling dT/dt = -(2/D) gamma_e(T) / n.
+template <class Law>
+double collisional_cooling_rate(const Law& law, int dims, double packing, double g, double T) {
+  return -(2.0 / dims) * gamma_e(law, dims, packing, g, T) / number_density(dims, packing);
+}
+
+// Steady granular temperature in the medium: background heating = collisional cooling
+// (Maxwellian grains, molecular chaos, g(sigma) from the reference EOS). Bisection on (0, TB].
+template <class Law>
+double steady_temperature_medium(const Law& law, int dims, double packing, double TB, double K, double alpha) {
+  const double g = g_contact_reference(dims, packing);
+  auto f = [&](double T) {
+    return background_heating_rate(dims, T, TB, K, alpha) + collisional_cooling_rate(law, dims, packing, g, T);
+  };
+  double lo = 1e-8 * TB, hi = TB;
+  if (f(hi) >= 0.0) return TB;
+  for (int it = 0; it < 200; ++it) {
+    const double m = 0.5 * (lo + hi);
+    (f(m) > 0.0 ? lo : hi) = m;
+  }
+  return 0.5 * (lo + hi);
+}
+
 }  // namespace grainbath::edmd::theory
