@@ -15,6 +15,7 @@
 #include "core/summary.hpp"
 #include "dsmc/checkpoint.hpp"
 #include "dsmc/dsmc.hpp"
+#include "edmd/edmd.hpp"
 
 namespace grainbath::cli {
 
@@ -25,7 +26,15 @@ namespace {
 std::atomic<bool> g_stop{false};
 extern "C" void on_signal(int) { g_stop.store(true); }
 
-using SolverConfig = std::variant<dsmc::Config>;
+using SolverConfig = std::variant<dsmc::Config, edmd::Config>;
+
+// Solver dispatch: one overload per engine.
+std::vector<std::pair<std::string, double>> solver_theory(const dsmc::Config& c) { return dsmc::theory_values(c); }
+std::vector<std::pair<std::string, double>> solver_theory(const edmd::Config& c) { return edmd::theory_values(c); }
+void solver_run(const dsmc::Config& c, const RunContext& ctx, Summary& s) { dsmc::run(c, ctx, s); }
+void solver_run(const edmd::Config& c, const RunContext& ctx, Summary& s) { edmd::run(c, ctx, s); }
+bool keep_checkpoints(const dsmc::Config& c) { return c.checkpoint.keep; }
+bool keep_checkpoints(const edmd::Config&) { return false; }
 
 struct LoadedCase {
   CaseReader reader;
@@ -39,10 +48,10 @@ struct LoadedCase {
 LoadedCase load_case(const RunArgs& a) {
   CaseReader reader = CaseReader::from_directory(a.case_dir);
   for (const auto& o : a.overrides) reader.apply_override(o);
-  const std::string solver = reader.choice("run", "solver", "dsmc", {"dsmc"});
+  const std::string solver = reader.choice("run", "solver", "dsmc", {"dsmc", "edmd"});
   const auto seed = static_cast<std::uint64_t>(reader.integer("run", "seed", 1, 0, INT64_MAX));
   const int threads = static_cast<int>(reader.integer("run", "threads", 0, 0, 4096));
-  SolverConfig config = dsmc::read_config(reader);
+  SolverConfig config = solver == "edmd" ? SolverConfig(edmd::read_config(reader)) : SolverConfig(dsmc::read_config(reader));
   reader.finish();
   return LoadedCase{std::move(reader), solver, seed, threads, std::move(config)};
 }
@@ -98,7 +107,7 @@ int command_theory(const RunArgs& a) {
   try {
     LoadedCase lc = load_case(a);
     Summary s;
-    std::visit([&](const auto& cfg) { s.set_all("", dsmc::theory_values(cfg)); }, lc.config);
+    std::visit([&](const auto& cfg) { s.set_all("", solver_theory(cfg)); }, lc.config);
     std::fputs(s.to_json().c_str(), stdout);
     return 0;
   } catch (const CaseError& e) {
@@ -142,12 +151,12 @@ int command_run(const RunArgs& a) {
     std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu) -> %s\n", GRAINBATH_VERSION,
                  lc->reader.file().c_str(), lc->solver.c_str(), static_cast<unsigned long long>(lc->seed),
                  out.string().c_str());
-    std::visit([&](const auto& cfg) { dsmc::run(cfg, ctx, summary); }, lc->config);
+    std::visit([&](const auto& cfg) { solver_run(cfg, ctx, summary); }, lc->config);
     summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
     summary.set("run.version", std::string(GRAINBATH_VERSION));
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
     dir->commit();
-    const bool keep = std::visit([](const auto& cfg) { return cfg.checkpoint.keep; }, lc->config);
+    const bool keep = std::visit([](const auto& cfg) { return keep_checkpoints(cfg); }, lc->config);
     std::error_code ec;
     if (!keep) fs::remove_all(ctx.checkpoint_dir, ec);
   } catch (const std::exception& e) {
@@ -167,15 +176,23 @@ int command_list_models() {
     for (const auto& k : m.keys) std::printf("             - %s\n", k.c_str());
   }
   std::string kind;
-  for (const auto& m : dsmc::dsmc_models()) {
+  std::vector<ModelDescription> models = dsmc::dsmc_models();
+  for (const auto& m : edmd::edmd_models()) {
+    ModelDescription e = m;
+    e.kind = "EDMD " + e.kind;
+    models.push_back(e);
+  }
+  for (const auto& m : models) {
     if (m.kind != kind) {
       kind = m.kind;
-      std::printf("\n%s%s:\n", static_cast<char>(std::toupper(kind[0])), (kind.substr(1) + "s").c_str());
+      const std::string plural = kind.back() == 'y' ? kind.substr(0, kind.size() - 1) + "ies" : kind + "s";
+      std::printf("\n%c%s:\n", std::toupper(static_cast<unsigned char>(plural[0])), plural.substr(1).c_str());
     }
     std::printf("  %-14s %s\n", m.name.c_str(), m.summary.c_str());
     for (const auto& k : m.keys) std::printf("                 - %s\n", k.c_str());
   }
-  std::printf("\nSolvers ([run] solver = ...):\n  dsmc           direct simulation Monte Carlo (homogeneous, or 1-3D with [domain])\n");
+  std::printf("\nSolvers ([run] solver = ...):\n  dsmc           direct simulation Monte Carlo (homogeneous, or 1-3D with [domain])\n"
+              "  edmd           event-driven hard disks (2D) / hard spheres (3D)\n");
   return 0;
 }
 

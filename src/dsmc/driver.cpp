@@ -155,13 +155,14 @@ void sample(State& s, const Config& c, double t) {
   ts.bath_collisions.push_back(s.counters.bath_collisions);
   ts.grain_collisions.push_back(s.counters.grain.collisions);
   if (c.spatial() && c.grains.profile == GrainProfile::mode) {
+    // projection on the mode advected with the background drift, A(t) = 2 Re <exp(ik(x - uB_x t))>:
+    // unbiased (unlike |<exp(ikx)>|, which has a noise floor) and free of the phase drift
     const double k = c.wavenumber();
-    double sc = 0, ss = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      sc += std::cos(k * p.x[i]);
-      ss += std::sin(k * p.x[i]);
-    }
-    ts.mode_amplitude.push_back(2.0 * std::hypot(sc, ss) / static_cast<double>(n));
+    const double phase = k * c.background.velocity.x * t;
+    const double cp = std::cos(phase), sp = std::sin(phase);
+    double a = 0;
+    for (std::size_t i = 0; i < n; ++i) a += std::cos(k * p.x[i]) * cp + std::sin(k * p.x[i]) * sp;
+    ts.mode_amplitude.push_back(2.0 * a / static_cast<double>(n));
   }
   if (!std::isfinite(mo.temperature) || !std::isfinite(mo.a2))
     throw std::runtime_error("non-finite temperature or a2 at t = " + std::to_string(t) +

@@ -55,6 +55,10 @@ LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, con
   if (sigma.empty()) var *= red;
   else if (red > 1) var *= red;
   if (correlated) {
+    // correlated residuals: inflate by the ratio of the blocked to the naive standard error
+    // of the (weighted) residuals
+    if (!sigma.empty())
+      for (std::size_t k = 0; k < n; ++k) res[k] /= sigma[k];
     const MeanError blocked = block_average(res);
     double v = 0;
     for (double r : res) v += r * r;
@@ -184,14 +188,17 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
     f.write("/mode/t", ts.t);
     f.write("/mode/amplitude", ts.mode_amplitude);
     f.write_scalar("/mode/wavenumber", c.wavenumber());
-    const double noise = 2.0 / std::sqrt(static_cast<double>(c.particles));
-    std::vector<double> tx, ly;
+    // the projection's noise: sqrt(2/N) (variance of 2 cos(kx) for uniform x is 2); fit ln A
+    // where A > 5 noise, weighting each point by its noise in ln A, noise / A
+    const double noise = std::sqrt(2.0 / static_cast<double>(c.particles));
+    std::vector<double> tx, ly, ls;
     for (std::size_t k = 0; k < samples; ++k)
       if (ts.t[k] >= c.mode_fit_from && ts.t[k] <= c.mode_fit_to && ts.mode_amplitude[k] > 5 * noise) {
         tx.push_back(ts.t[k]);
         ly.push_back(std::log(ts.mode_amplitude[k]));
+        ls.push_back(noise / ts.mode_amplitude[k]);
       }
-    const LineFit lf = fit_line(tx, ly, {}, true);
+    const LineFit lf = fit_line(tx, ly, ls, true);
     summary.set("mode.decay_rate", -lf.slope);
     summary.set("mode.decay_rate_stderr", lf.slope_stderr);
     summary.set("mode.fit_points", static_cast<std::int64_t>(lf.points));

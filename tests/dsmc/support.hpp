@@ -22,8 +22,9 @@ struct CaseRun {
 };
 
 inline CaseRun run_dsmc(const std::string& toml, std::uint64_t seed, int threads = 0,
-                        const std::string& tag = "run") {
-  CaseReader reader(toml, "test.toml");
+                        const std::string& tag = "run", const std::filesystem::path& checkpoint_dir = {},
+                        bool resume = false) {
+  CaseReader reader(toml, "/tmp/test.toml");
   reader.accept("run", "solver");
   dsmc::Config cfg = dsmc::read_config(reader);
   reader.finish();
@@ -40,6 +41,8 @@ inline CaseRun run_dsmc(const std::string& toml, std::uint64_t seed, int threads
   ctx.quiet = true;
   ctx.case_text = toml;
   ctx.resolved = reader.resolved();
+  ctx.checkpoint_dir = checkpoint_dir;
+  ctx.resume = resume;
   dsmc::run(cfg, ctx, out.summary);
   return out;
 }

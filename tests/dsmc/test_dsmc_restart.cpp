@@ -1,0 +1,136 @@
+// Exact continuation (Issue #8): a run of 2N steps equals a run of N steps, checkpoint,
+// resume, N steps -- bitwise in results.h5 and in every summary.json number except the
+// wall-clock performance block. Homogeneous and spatial. A corrupt newest checkpoint is
+// detected by its checksum and the previous one is used.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+
+#include "support.hpp"
+
+using grainbath::testing::run_dsmc;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string file_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void expect_same_physics(const grainbath::Summary& a, const grainbath::Summary& b) {
+  for (const auto& [k, v] : a.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
+    ASSERT_NE(b.get(k), nullptr) << k;
+    EXPECT_EQ(v, *b.get(k)) << k;
+  }
+}
+
+const char* kHomogeneous = R"(
+[grains]
+temperature = 1.4
+drift = [0.4, 0.0, 0.0]
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.2
+[restitution]
+law = "power"
+beta = 0.15
+delta = 0.2
+[dsmc]
+particles = 20000
+dt = 0.01
+t_end = 1.0
+[sampling]
+every = 0.05
+steady_from = 0.5
+[checkpoint]
+every = 0.25
+keep = true
+)";
+
+const char* kSpatial = R"(
+[domain]
+dimensions = 2
+length = [2.0, 1.0]
+cells = [10, 5]
+boundaries = ["periodic", "periodic", "diffuse", "specular"]
+[grains]
+temperature = 1.2
+profile = "mode"
+amplitude = 0.3
+[background]
+mass_ratio = 0.3
+density = 1.0
+temperature = 1.0
+knudsen = 0.3
+profile = "isobaric_sine"
+amplitude = 0.2
+[restitution]
+law = "constant"
+e = 0.9
+[dsmc]
+particles = 20000
+dt = 0.01
+t_end = 1.0
+[sampling]
+every = 0.05
+steady_from = 0.3
+field_batches = 4
+[checkpoint]
+every = 0.25
+keep = true
+)";
+
+void check_exact_continuation(const char* toml, const std::string& tag) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + tag + "-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const auto full = run_dsmc(toml, 21, 0, tag + "-full", ck);
+  // the run kept the checkpoints at t = 0.5 and 0.75 (two newest); resume from t = 0.5
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_EQ(files.size(), 2u);
+  fs::remove(files.back());
+  const auto resumed = run_dsmc(toml, 21, 2, tag + "-resumed", ck, true);
+  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
+  expect_same_physics(full.summary, resumed.summary);
+  fs::remove_all(ck);
+}
+
+}  // namespace
+
+TEST(DsmcRestart, HomogeneousContinuesBitwise) { check_exact_continuation(kHomogeneous, "hom"); }
+TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(kSpatial, "spa"); }
+
+TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-corrupt-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const auto full = run_dsmc(kHomogeneous, 5, 0, "corrupt-full", ck);
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_EQ(files.size(), 2u);
+  // truncate the newest checkpoint half-way
+  const auto size = fs::file_size(files.back());
+  fs::resize_file(files.back(), size / 2);
+  testing::internal::CaptureStderr();
+  const auto resumed = run_dsmc(kHomogeneous, 5, 0, "corrupt-resumed", ck, true);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("corrupt"), std::string::npos) << err;
+  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
+  fs::remove_all(ck);
+}
+
+TEST(DsmcRestart, ChangedCaseIsRefused) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-changed-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  run_dsmc(kHomogeneous, 5, 0, "changed-full", ck);
+  std::string other = kHomogeneous;
+  other.replace(other.find("beta = 0.15"), 11, "beta = 0.25");
+  EXPECT_THROW(run_dsmc(other, 5, 0, "changed-resumed", ck, true), std::invalid_argument);
+  fs::remove_all(ck);
+}

@@ -1,0 +1,149 @@
+// Spatial DSMC (Issue #4): particle number under each boundary rule, advection with the
+// background drift, and the density-mode decay rate at small eps against the kinetic
+// (Sonine-Galerkin) diffusion coefficient of hydro/.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "hydro/hydro.hpp"
+#include "support.hpp"
+
+using grainbath::testing::run_dsmc;
+
+namespace {
+std::string box(const std::string& boundaries, const std::string& extra = "") {
+  return R"(
+[domain]
+dimensions = 2
+length = [1.0, 1.0]
+cells = [8, 8]
+boundaries = )" + boundaries + R"(
+wall_temperature = 2.0
+[grains]
+temperature = 1.0
+[background]
+density = 0.0
+[restitution]
+law = "constant"
+e = 0.9
+[dsmc]
+particles = 6000
+dt = 0.01
+t_end = 2.0
+[sampling]
+every = 0.1
+steady_from = 1.0
+)" + extra;
+}
+}  // namespace
+
+TEST(DsmcSpatial, ParticleNumberUnderEachBoundaryRule) {
+  for (const char* b : {R"(["periodic"])", R"(["specular"])", R"(["diffuse"])", R"(["periodic", "diffuse"])"}) {
+    const auto run = run_dsmc(box(b), 3, 0, "bnd");
+    const auto count = run.series("/timeseries/particles");
+    for (double c : count) ASSERT_EQ(c, 6000.0) << b;
+    EXPECT_LT(std::abs(run.summary.number("energy.budget_relative_residual")), 1e-10) << b;
+  }
+  // diffuse walls at T = 2 heat the cooling grains: the wall energy input is positive
+  const auto hot = run_dsmc(box(R"(["diffuse"])"), 3, 0, "hot");
+  EXPECT_GT(hot.summary.number("energy.wall_input_per_grain"), 0.0);
+  // open faces: particles leave, and every one is counted
+  const auto open = run_dsmc(box(R"(["open", "periodic"])"), 3, 0, "open");
+  const double left = open.summary.number("counters.particles_removed");
+  EXPECT_GT(left, 1000.0);
+  EXPECT_EQ(open.summary.number("counters.particles_final") + left, 6000.0);
+  EXPECT_LT(std::abs(open.summary.number("energy.budget_relative_residual")), 1e-10);
+}
+
+TEST(DsmcSpatial, GrainsAdvectWithTheBackgroundDrift) {
+  const auto run = run_dsmc(R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [20]
+[grains]
+temperature = 1.0
+profile = "mode"
+amplitude = 0.2
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+velocity = [0.7, 0.0, -0.3]
+knudsen = 0.1
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 40000
+dt = 0.01
+t_end = 2.0
+[sampling]
+every = 0.05
+steady_from = 1.0
+)",
+                            8, 0, "drift");
+  const auto t = run.series("/timeseries/t");
+  const auto u = run.series("/timeseries/velocity");
+  // after a few momentum relaxation times the mean grain velocity is uB (Bisi-Spiga eq. 32)
+  double ux = 0, uz = 0;
+  int k = 0;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (t[i] >= 1.0) {
+      ux += u[3 * i];
+      uz += u[3 * i + 2];
+      ++k;
+    }
+  // thermal noise of the mean of 40000 velocities: sqrt(T/m/N) = 0.005
+  EXPECT_NEAR(ux / k, 0.7, 0.02);
+  EXPECT_NEAR(uz / k, -0.3, 0.02);
+}
+
+// At small eps the mode decays at D k^2 with the kinetic D (elastic grains: T = TB, so the
+// density dependence of T# that shifts the rate at O(eps^2) is absent). kε = 0.126. The
+// error bar comes from independent replicas (the fit's own error ignores that the mode's
+// thermal fluctuations are correlated over the decay time itself).
+TEST(DsmcSpatial, ModeDecayRateMatchesKineticDiffusionAtSmallEps) {
+  const double eps = 0.05, alpha = 0.5, L = 2.5;
+  const char* toml = R"(
+[domain]
+dimensions = 1
+length = [2.5]
+cells = [25]
+[grains]
+temperature = 1.0
+profile = "mode"
+amplitude = 0.3
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.05
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 60000
+dt = 0.004
+t_end = 6.0
+[sampling]
+every = 0.04
+steady_from = 0.0
+mode_fit_from = 0.2
+fields = false
+)";
+  std::vector<double> rates;
+  for (int r = 0; r < 6; ++r) rates.push_back(run_dsmc(toml, 100 + r, 0, "mode").summary.number("mode.decay_rate"));
+  double mean = 0, var = 0;
+  for (double x : rates) mean += x;
+  mean /= rates.size();
+  for (double x : rates) var += (x - mean) * (x - mean);
+  const double err = std::sqrt(var / (rates.size() - 1) / rates.size());
+  const double k = 2 * std::numbers::pi / L;
+  const double D = grainbath::hydro::diffusion_coefficient_kinetic(alpha, 1.0, 1.0, 1.0, eps);
+  const double Dp = grainbath::hydro::diffusion_coefficient_paper(alpha, 1.0, 1.0, 1.0, eps);
+  std::printf("mode decay: DSMC %.5f +- %.5f (6 replicas), kinetic D k^2 = %.5f, paper %.5f\n", mean, err, D * k * k,
+              Dp * k * k);
+  EXPECT_GT(err, 0.0);
+  EXPECT_LT(err, 0.02 * mean);
+  EXPECT_NEAR(mean, D * k * k, 4 * err);
+}
