@@ -361,6 +361,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const double Gs = (Z - 1.0) / (1.0 + mean_e);
   summary.set("pressure.G_s", Gs);
   summary.set("pressure.g_contact", Gs / (pref * c.packing_fraction));
+  // the same with the collision-weighted (1 + e): the virial sums (1 + e) g_n / 2, so with a
+  // speed-dependent e the relevant average is <(1 + e) g_n> / <g_n>, not 1 + <e>
+  const double w_e = f.sum_vn > 0 ? 2.0 * f.virial / f.sum_vn : 2.0;
+  summary.set("pressure.g_contact_weighted_e", (Z - 1.0) / (w_e * pref * c.packing_fraction));
   const double g_ref = theory::g_contact_reference(D, c.packing_fraction);
   summary.set("theory.Z", theory::z_reference(D, c.packing_fraction));
   summary.set("theory.g_contact", g_ref);
