@@ -103,6 +103,16 @@ int command_check(const RunArgs& a) {
   }
 }
 
+int command_check_quiet(const RunArgs& a) {
+  try {
+    load_case(a);
+    return 0;
+  } catch (const CaseError& e) {
+    for (const auto& p : e.problems()) std::fprintf(stderr, "error: %s\n", p.to_string().c_str());
+    return 2;
+  }
+}
+
 int command_theory(const RunArgs& a) {
   try {
     LoadedCase lc = load_case(a);

@@ -12,9 +12,18 @@ struct RunArgs {
   bool resume = false;
 };
 
+struct SweepArgs {
+  std::string case_dir;
+  std::vector<std::string> overrides;  // section.key=v1,v2,...
+  std::string out_dir;
+  int jobs = 0;                        // 0: number of cores
+};
+
 // Exit codes: 0 success, 1 run failure, 2 bad input (case file, overrides, paths).
 int command_run(const RunArgs&);
 int command_check(const RunArgs&);
+int command_check_quiet(const RunArgs&);  // like check, messages only on problems
+int command_sweep(const SweepArgs&);
 int command_theory(const RunArgs&);
 int command_list_models();
 int command_report(const std::string& dir, const char* argv0);

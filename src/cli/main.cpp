@@ -47,6 +47,13 @@ int main(int argc, char** argv) {
 
   auto* list = app.add_subcommand("list-models", "List every restitution law, heat bath, boundary and background profile with its keys");
 
+  grainbath::cli::SweepArgs sweep_args;
+  auto* sweep = app.add_subcommand("sweep", "Run every combination of --set section.key=v1,v2,... and tabulate the results");
+  sweep->add_option("case_dir", sweep_args.case_dir, "Case directory holding case.toml")->required();
+  sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
+  sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
+  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once (default: number of cores)");
+
   std::string report_dir;
   auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
   report->add_option("dir", report_dir, "Case directory or output directory")->required();
@@ -60,6 +67,7 @@ int main(int argc, char** argv) {
   if (*check) return grainbath::cli::command_check(check_args);
   if (*theory) return grainbath::cli::command_theory(theory_args);
   if (*list) return grainbath::cli::command_list_models();
+  if (*sweep) return grainbath::cli::command_sweep(sweep_args);
   if (*report) return grainbath::cli::command_report(report_dir, argv[0]);
   return 1;
 }

@@ -1,0 +1,310 @@
+// grainbath sweep CASE_DIR --set section.key=v1,v2,... : runs every combination of the
+// listed values as a separate `grainbath run` (in parallel up to --jobs), then gathers the
+// variants' summary.json into one table (sweep.tsv with every number, sweep.md with the
+// headline columns) and one plot (scripts/plot_sweep.py, if Python with matplotlib is there).
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "cli/commands.hpp"
+#include "core/case_file.hpp"
+#include "core/run_support.hpp"
+
+namespace grainbath::cli {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Splits "a,b,[1,2],c" at top-level commas (not inside brackets or quotes).
+std::vector<std::string> split_values(const std::string& s) {
+  std::vector<std::string> out;
+  std::string cur;
+  int depth = 0;
+  bool quoted = false;
+  for (char ch : s) {
+    if (ch == '"') quoted = !quoted;
+    if (!quoted && (ch == '[' || ch == '{')) ++depth;
+    if (!quoted && (ch == ']' || ch == '}')) --depth;
+    if (ch == ',' && depth == 0 && !quoted) {
+      out.push_back(cur);
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+// A minimal reader for the summary.json grainbath writes: flattens every number (and
+// boolean) to "a.b.c" -> value. Strings are skipped.
+struct FlatJson {
+  const std::string& s;
+  std::size_t i = 0;
+  std::map<std::string, double> out;
+  void ws() {
+    while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i]))) ++i;
+  }
+  std::string str() {
+    std::string r;
+    ++i;  // opening quote
+    while (i < s.size() && s[i] != '"') {
+      if (s[i] == '\\') ++i;
+      if (i < s.size()) r += s[i++];
+    }
+    ++i;
+    return r;
+  }
+  void value(const std::string& key) {
+    ws();
+    if (i >= s.size()) throw std::runtime_error("truncated JSON");
+    if (s[i] == '{') {
+      ++i;
+      ws();
+      if (s[i] == '}') {
+        ++i;
+        return;
+      }
+      for (;;) {
+        ws();
+        const std::string k = str();
+        ws();
+        ++i;  // ':'
+        value(key.empty() ? k : key + "." + k);
+        ws();
+        if (s[i] == ',') {
+          ++i;
+          continue;
+        }
+        ++i;  // '}'
+        return;
+      }
+    }
+    if (s[i] == '"') {
+      str();
+      return;
+    }
+    if (s.compare(i, 4, "true") == 0) {
+      out[key] = 1;
+      i += 4;
+      return;
+    }
+    if (s.compare(i, 5, "false") == 0) {
+      out[key] = 0;
+      i += 5;
+      return;
+    }
+    if (s.compare(i, 4, "null") == 0) {
+      out[key] = NAN;
+      i += 4;
+      return;
+    }
+    std::size_t used = 0;
+    out[key] = std::stod(s.substr(i, 40), &used);
+    i += used;
+  }
+};
+
+std::map<std::string, double> read_summary(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) throw std::runtime_error(p.string() + ": missing (did the run fail?)");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string text = ss.str();
+  FlatJson j{text};
+  j.value("");
+  return j.out;
+}
+
+std::string sanitize(const std::string& s) {
+  std::string r;
+  for (char c : s) r += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
+  return r;
+}
+
+}  // namespace
+
+int command_sweep(const SweepArgs& a) {
+  // parse the swept keys
+  std::vector<std::pair<std::string, std::vector<std::string>>> axes;
+  for (const auto& o : a.overrides) {
+    const auto eq = o.find('=');
+    if (eq == std::string::npos) {
+      std::fprintf(stderr, "error: --set %s: expected section.key=value1,value2,...\n", o.c_str());
+      return 2;
+    }
+    axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));
+  }
+  std::vector<std::vector<std::string>> variants{{}};
+  for (const auto& [key, values] : axes) {
+    std::vector<std::vector<std::string>> next;
+    for (const auto& v : variants)
+      for (const auto& value : values) {
+        auto w = v;
+        w.push_back(key + "=" + value);
+        next.push_back(w);
+      }
+    variants.swap(next);
+  }
+  // validate every variant before running any
+  int bad = 0;
+  for (const auto& v : variants) {
+    RunArgs ra;
+    ra.case_dir = a.case_dir;
+    ra.overrides = v;
+    if (command_check_quiet(ra) != 0) ++bad;
+  }
+  if (bad) {
+    std::fprintf(stderr, "%d of %zu variants are invalid; nothing was run.\n", bad, variants.size());
+    return 2;
+  }
+  const fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "sweep" : fs::path(a.out_dir);
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) {
+    std::fprintf(stderr, "error: %s: cannot create the sweep directory\n", out.string().c_str());
+    return 2;
+  }
+  const int jobs = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
+  const std::string self = fs::canonical("/proc/self/exe").string();
+  std::vector<fs::path> dirs;
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    std::string name = "variant-" + std::to_string(k);
+    for (const auto& kv : variants[k]) name += "_" + sanitize(kv.substr(kv.find('.') + 1));
+    dirs.push_back(out / name);
+  }
+  std::fprintf(stderr, "sweep: %zu variants, %d at a time, into %s\n", variants.size(), jobs, out.string().c_str());
+  std::size_t next = 0, done = 0;
+  int running = 0, failed = 0;
+  std::map<pid_t, std::size_t> children;
+  const auto start = std::chrono::steady_clock::now();
+  while (done < variants.size()) {
+    while (running < jobs && next < variants.size()) {
+      std::vector<std::string> args = {self, "run", a.case_dir, "--out", dirs[next].string(), "-q"};
+      for (const auto& kv : variants[next]) {
+        args.push_back("--set");
+        args.push_back(kv);
+      }
+      if (jobs > 1) {
+        args.push_back("--set");
+        args.push_back("run.threads=1");  // the variants share the cores
+      }
+      const fs::path log = dirs[next].string() + ".log";
+      const pid_t pid = fork();
+      if (pid == 0) {
+        std::FILE* f = std::fopen(log.c_str(), "w");
+        if (f) {
+          dup2(fileno(f), STDOUT_FILENO);
+          dup2(fileno(f), STDERR_FILENO);
+        }
+        std::vector<char*> argv;
+        for (auto& s : args) argv.push_back(s.data());
+        argv.push_back(nullptr);
+        execv(self.c_str(), argv.data());
+        _exit(127);
+      }
+      children[pid] = next++;
+      ++running;
+    }
+    int status = 0;
+    const pid_t pid = wait(&status);
+    if (pid <= 0) break;
+    const std::size_t k = children[pid];
+    --running;
+    ++done;
+    const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (!ok) ++failed;
+    std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(), ok ? "done  " : "FAILED",
+                 dirs[k].filename().string().c_str(), wall_seconds_since(start));
+  }
+  // gather
+  std::vector<std::map<std::string, double>> rows(variants.size());
+  std::set<std::string> columns;
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    try {
+      rows[k] = read_summary(dirs[k] / "summary.json");
+      for (const auto& [key, v] : rows[k]) columns.insert(key);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "warning: %s (see %s.log)\n", e.what(), dirs[k].string().c_str());
+    }
+  }
+  std::ostringstream tsv, md;
+  tsv << "variant";
+  for (const auto& [key, values] : axes) tsv << "\t" << key;
+  for (const auto& c : columns) tsv << "\t" << c;
+  tsv << "\n";
+  const std::vector<std::string> headline = {"temperature.mean",
+                                             "temperature.stderr",
+                                             "a2.mean",
+                                             "a2.stderr",
+                                             "mode.decay_rate",
+                                             "mode.decay_rate_stderr",
+                                             "profile.exponent",
+                                             "profile.exponent_stderr",
+                                             "pressure.Z",
+                                             "pressure.Z_stderr",
+                                             "theory.equilibrium.maxwellian.T",
+                                             "theory.equilibrium.grad.T",
+                                             "theory.equilibrium.sonine.T",
+                                             "theory.expansion.first_order.T",
+                                             "theory.hydro.decay_rate",
+                                             "theory.hydro.decay_rate_kinetic",
+                                             "theory.hydro.thermal_diffusion_exponent_kinetic"};
+  std::vector<std::string> shown;
+  for (const auto& h : headline)
+    if (columns.count(h)) shown.push_back(h);
+  md << "| variant |";
+  for (const auto& [key, values] : axes) md << " " << key << " |";
+  for (const auto& h : shown) md << " " << h << " |";
+  md << "\n|---|";
+  for (std::size_t i = 0; i < axes.size() + shown.size(); ++i) md << "---|";
+  md << "\n";
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    tsv << dirs[k].filename().string();
+    md << "| " << k << " |";
+    for (const auto& kv : variants[k]) {
+      tsv << "\t" << kv.substr(kv.find('=') + 1);
+      md << " " << kv.substr(kv.find('=') + 1) << " |";
+    }
+    for (const auto& c : columns) {
+      auto it = rows[k].find(c);
+      char b[40] = "";
+      if (it != rows[k].end()) std::snprintf(b, sizeof b, "%.17g", it->second);
+      tsv << "\t" << b;
+    }
+    for (const auto& h : shown) {
+      auto it = rows[k].find(h);
+      char b[40] = "";
+      if (it != rows[k].end()) std::snprintf(b, sizeof b, "%.6g", it->second);
+      md << " " << b << " |";
+    }
+    tsv << "\n";
+    md << "\n";
+  }
+  write_file_atomic(out / "sweep.tsv", tsv.str());
+  write_file_atomic(out / "sweep.md", md.str());
+  std::fputs(md.str().c_str(), stdout);
+  // one plot, if Python with matplotlib is available (the C++ side never needs it)
+  const fs::path exe_dir = fs::path(self).parent_path();
+  for (const fs::path cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
+    if (fs::exists(cand)) {
+      const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+      const std::string cmd = python + " '" + cand.string() + "' '" + out.string() + "' >/dev/null 2>&1";
+      if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out.string().c_str());
+      break;
+    }
+  std::printf("table: %s/sweep.tsv, %s/sweep.md\n", out.string().c_str(), out.string().c_str());
+  return failed ? 1 : 0;
+}
+
+}  // namespace grainbath::cli
