@@ -335,7 +335,52 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
                         (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
-  if (interior) {  // fast path: no wrap, no image shift
+  if (interior && !accelerated_) {
+    // fast path: no wrap, no image shift. Gather the candidates first and prefetch their
+    // kinematic records, so the cache misses overlap instead of queueing one by one.
+    constexpr int kMax = 192;
+    std::uint32_t buf[kMax];
+    int nb = 0;
+    bool overflow = false;
+    for (int dz = lo[2]; dz <= hi[2]; ++dz)
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) {
+          const int cell = row + dx;
+          const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
+          const int cnt = count_[cell];
+          if (nb + cnt > kMax) overflow = true;
+          for (int q = 0; q < cnt && !overflow; ++q) {
+            const std::uint32_t j = m[q];
+            __builtin_prefetch(&k_[j]);
+            buf[nb] = j;
+            nb += (j != i);
+          }
+        }
+      }
+    if (!overflow) {
+      const double t = ki.t;
+      for (int q = 0; q < nb; ++q) {
+        const std::uint32_t j = buf[q];
+        const Kin& kj = k_[j];
+        const Vec3 dr = kj.r + (t - kj.t) * kj.v - ki.r;
+        const Vec3 dv = kj.v - ki.v;
+        const double b = dot(dr, dv);
+        if (b >= 0.0) continue;
+        const double q2 = dot(dr, dr) - 1.0;
+        if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;
+        const double disc = b * b - dot(dv, dv) * q2;
+        if (disc <= 0.0) continue;
+        const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
+        if (tc < best) best = tc, partner = j;
+      }
+      coll_time_[i] = best;
+      coll_partner_[i] = partner;
+      if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+      return;
+    }
+  }
+  if (interior) {  // no wrap, no image shift
     const Vec3 zero{};
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
@@ -598,24 +643,37 @@ void Engine::rebuild() {
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
 }
 
-// Counting sort of the storage by cell index (ties by id): neighbours in space become
+namespace {
+// Interleaves the bits of (x, y, z) (Morton / Z order): cells close in space get close keys
+// in all three directions, not only along x as with the row-major cell index.
+std::uint64_t morton3(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
+  auto spread = [](std::uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  return spread(x) | spread(y) << 1 | spread(z) << 2;
+}
+}  // namespace
+
+// Sorts the storage by the Morton key of the cell (ties by id): neighbours in space become
 // neighbours in memory, which is what makes the neighbour scans cache-friendly.
+// Deterministic: depends on cells and ids only.
 void Engine::sort_by_cell() {
-  const std::size_t ncell = static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2];
-  std::vector<std::uint32_t> start(ncell + 1, 0);
-  std::vector<std::uint32_t> key(n_);
-  // visit slots in id order so ties are ordered by id, independent of the current layout
-  for (std::uint32_t id = 0; id < n_; ++id) {
-    const std::uint32_t s = slot_of_[id];
-    key[s] = static_cast<std::uint32_t>(cell_index(cellc_[s][0], cellc_[s][1], cellc_[s][2]));
-    ++start[key[s] + 1];
-  }
-  for (std::size_t c = 0; c < ncell; ++c) start[c + 1] += start[c];
+  struct Key {
+    std::uint64_t morton;
+    std::uint32_t id, slot;
+  };
+  std::vector<Key> key(n_);
+  for (std::uint32_t s = 0; s < n_; ++s) key[s] = {morton3(cellc_[s][0], cellc_[s][1], cellc_[s][2]), id_[s], s};
+  std::sort(key.begin(), key.end(),
+            [](const Key& a, const Key& b) { return a.morton < b.morton || (a.morton == b.morton && a.id < b.id); });
   std::vector<std::uint32_t> order(n_);  // new slot -> old slot
-  for (std::uint32_t id = 0; id < n_; ++id) {
-    const std::uint32_t s = slot_of_[id];
-    order[start[key[s]]++] = s;
-  }
+  for (std::uint32_t k = 0; k < n_; ++k) order[k] = key[k].slot;
   auto permute = [&](auto& vec) {
     auto copy = vec;
     for (std::size_t k = 0; k < n_; ++k) vec[k] = copy[order[k]];
