@@ -1,0 +1,83 @@
+#pragma once
+// grainbath::closures::rough -- mean-field theories (models A-E of thesis seed 000, chapter
+// 10; Herbst et al. 2005) for the translational and rotational temperatures Ttr(t), Trot(t)
+// of a homogeneously driven 2D gas of rough particles colliding by Walton's rule
+// (operators/walton.hpp). docs/rough.md derives every formula; labels (R1-R14) are cited here.
+//
+// Setting (docs/rough.md sec. 1): translation in the plane (2 degrees of freedom), spin along
+// z only (1 degree of freedom), moment of inertia I = q m a^2 (q = 1/2 disks, 2/5 a monolayer
+// of spheres). Ttr = m <v^2>/2, Trot = I <w^2>. Gaussian velocities, molecular chaos, spatial
+// homogeneity. White-noise driving of the translational velocities feeds dTtr/dt = H.
+// Per particle collision frequency nu(Ttr) = G sqrt(Ttr), G = 2 n sigma chi sqrt(pi/m) (R1).
+//
+// All models have the form (R2)
+//   dTtr/dt  = H + nu [ -(1-e^2)/2 Ttr - E1 Ttr + E2 (Ttr + Trot/q) ]     (E)
+//   dTrot/dt = 2 nu / q [ -E1 Trot + E2 (Ttr + Trot/q) ]
+// or, for A-D, the linear form (10.4) of the thesis (R3)
+//   dTtr/dt  = H + nu [ -A Ttr + B Trot ],   dTrot/dt = 2 nu [ B' Ttr - C Trot ].
+#include <string>
+#include <vector>
+
+namespace grainbath::closures::rough {
+
+enum class Model { A, B, C, D, E };
+const char* to_string(Model);
+Model model_from_string(const std::string&);  // "A".."E"; throws ClosureError otherwise
+
+struct Parameters {
+  double e = 1.0;       // normal restitution
+  double beta0 = 1.0;   // maximal tangential restitution
+  double mu = 1e300;    // Coulomb friction (+inf allowed: no sliding)
+  double q = 0.5;       // I / (m a^2)
+  double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d
+  double H = 0.0;       // driving: dTtr/dt from the noise
+};
+
+// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0.
+void validate(const Parameters&);
+
+// G of eq. R1 for disks of diameter sigma, mass m, area fraction phi (n = 4 phi/(pi sigma^2),
+// Henderson chi = (1 - 7 phi/16)/(1 - phi)^2).
+double collision_prefactor_2d(double phi, double sigma = 1.0, double mass = 1.0);
+
+// Impact-angle averages over Gaussian contact velocities (R5-R9). k^2 = 1 + Trot/(q Ttr)
+// is the ratio of the tangential to the normal contact-velocity variance; u0 = tan(gamma0)/k.
+struct ImpactAverages {
+  double u0;    // sticking/sliding boundary in scaled impact angle tan(gamma)/k (R5)
+  double E1;    // <eta g_t^2> / <g_t^2>, collision weighted (R6)
+  double E2;    // <eta^2 g_t^2> / <g_t^2> (R7)
+  double P1;    // <eta>, collision weighted impact-angle distribution (R8)
+  double P2;    // <eta^2> (R9)
+  double sliding_fraction;  // fraction of collisions that slide (R10)
+};
+ImpactAverages impact_averages(const Parameters&, double k);
+
+// Coefficients of the linear form R3 (models A, B, D; C at a given Trot/Ttr).
+struct LinearCoefficients {
+  double A, B, Bp, C;
+};
+LinearCoefficients linear_coefficients(Model, const Parameters&, double R = 0.0);
+
+struct Rates {
+  double dTtr, dTrot;
+};
+// Right-hand side of the model's ODE (R2/R3, driving H included).
+Rates rhs(Model, const Parameters&, double Ttr, double Trot);
+
+// Steady R = Trot/Ttr: root of the rotational equation (independent of G and H) (R11).
+double steady_ratio(Model, const Parameters&);
+struct SteadyState {
+  double Ttr, Trot, R;
+};
+// Steady temperatures for H > 0 (R12).
+SteadyState steady_state(Model, const Parameters&);
+
+struct Sample {
+  double t, Ttr, Trot;
+};
+// Integrates the model from (Ttr0, Trot0) with GSL odeiv2 (rk8pd, rel. tol 1e-10) and
+// returns the state at the requested (increasing) times.
+std::vector<Sample> integrate(Model, const Parameters&, double Ttr0, double Trot0,
+                              const std::vector<double>& times);
+
+}  // namespace grainbath::closures::rough
