@@ -50,6 +50,8 @@ GLANCE = [
      [("drift-diffusion (paper)", "theory.hydro.thermal_diffusion_exponent"),
       ("drift-diffusion (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic")]),
     ("compressibility factor Z", "pressure.Z", "pressure.Z_stderr", [("reference EOS (elastic)", "theory.Z")]),
+    ("temperature in the medium", "temperature.mean", "temperature.stderr",
+     [("medium steady state (EDMD theory)", "theory.medium_steady_temperature")]),
     ("g(σ⁺) from g(r)", "g_r.contact_fit", None, [("reference EOS", "theory.g_contact")]),
     ("Haff time t₀", "haff.t0_measured", None, [("with a₂ correction", "haff.t0_theory")]),
 ]
@@ -63,9 +65,7 @@ def glance_rows(run):
             continue
         if key == "temperature.final" and run.num("theory.haff.temperature_at_t_end") is None:
             continue
-        if key == "temperature.mean" and run.num("theory.equilibrium.sonine.T") is None:
-            continue
-        if key in ("temperature.mean", "a2.mean") and not homogeneous_background(run):
+        if key in ("temperature.mean", "a2.mean") and run.solver == "dsmc" and not homogeneous_background(run):
             continue  # imposed profile: the homogeneous T#, a2 are no prediction for the whole domain
         e = run.num(err_key) if err_key else None
         for label, tkey in theories:

@@ -174,6 +174,9 @@ def temperature(run, ctx):
         Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
         if Tm is not None:
             ax.axhline(Tm, color="black", ls="--", lw=1, label=f"mean {fmt_pm(Tm, Te, 4)}")
+        Tth = run.num("theory.medium_steady_temperature")
+        if Tth is not None:
+            ax.axhline(Tth, **theory_style("sonine", label=f"steady T in the medium (theory) = {Tth:.4g}"))
     if not haff_t0:
         ax.set_xlabel(TIME_LABEL)
     ax.set_ylabel("temperature T  [E]" + ("  (log scale)" if haff_t0 else ""))
@@ -237,6 +240,7 @@ def pair_correlation(run, ctx):
     ax.axhline(1, color="0.5", lw=0.8, label="ideal gas, g = 1")
     marks = [("theory.g_contact", "o", "#0072B2", "g(σ⁺) from the EOS"),
              ("pressure.g_contact", "s", "#E69F00", "g(σ⁺) from the measured Z"),
+             ("pressure.g_contact_weighted_e", "^", "#009E73", "g(σ⁺) from Z, collision-weighted (1+e)"),
              ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a linear fit of g(r) near contact")]
     for key, mk, col, lab in marks:
         v = run.num(key)

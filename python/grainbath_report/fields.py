@@ -56,7 +56,7 @@ def density_mode(run, ctx):
     pos = A > 0
     ax.semilogy(t[pos], A[pos], **dict(SIM, label="DSMC amplitude"))
     if isinstance(N, (int, float)) and N > 0:
-        ax.axhline(2 / math.sqrt(N), color="0.55", lw=1, ls=":", label="noise level 2/√N")
+        ax.axhline(math.sqrt(2 / N), color="0.55", lw=1, ls=":", label="noise of one sample √(2/N)")
     if rate is not None and icpt is not None:
         ax.semilogy(t, np.exp(icpt - rate * t), **theory_style("fit", label=f"fit: Γ = {fmt_pm(rate, rate_e, 4)}"))
     base = icpt if icpt is not None else math.log(A[0])
@@ -64,9 +64,9 @@ def density_mode(run, ctx):
         ax.semilogy(t, np.exp(base - g * t), **dict(style, label=f"{label}: Γ = {g:.4g}"))
     lo = float(np.min(A[pos])) * 0.5
     if isinstance(N, (int, float)) and N > 0:
-        lo = min(lo, 0.5 / math.sqrt(N))
+        lo = min(lo, 0.5 * math.sqrt(2 / N))
     ax.set_ylim(max(lo * 0.04, 1e-9), float(np.max(A)) * 2)  # room for the legend below the data
-    ax.set_ylabel("amplitude |n̂_k| / n̄  (log scale)")
+    ax.set_ylabel("mode amplitude A(t) = δn_k / n̄  (log scale)")
     ax.set_title(f"Density mode k = {k:.4g} λ⁻¹" if k else "Density mode")
     ax.legend(loc="lower left", fontsize=7)
     # compensated: divide by the fit, so that each theory is a straight line of slope Γ_fit − Γ
@@ -76,8 +76,9 @@ def density_mode(run, ctx):
             axc.axvspan(max(win[0], t[0]), min(win[1], t[-1]), color="0.88", lw=0)
         axc.plot(t[pos], A[pos] / fitc[pos], **dict(SIM, label="DSMC / fit"))
         if isinstance(N, (int, float)) and N > 0:
-            axc.fill_between(t, 1 - 2 / math.sqrt(N) / fitc, 1 + 2 / math.sqrt(N) / fitc, color="0.85", lw=0,
-                             alpha=0.6, label="± noise level")
+            noise = math.sqrt(2 / N)
+            axc.fill_between(t, 1 - noise / fitc, 1 + noise / fitc, color="0.85", lw=0, alpha=0.6,
+                             label="± noise of one sample")
         for key, label, style, g in theories:
             axc.plot(t, np.exp(-(g - rate) * t), **dict(style, label=label))
         axc.axhline(1, **theory_style("fit", label="fit"))
