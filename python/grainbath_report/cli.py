@@ -89,6 +89,13 @@ def main(argv):
     intro = (f"Output directory `{out_dir}`; report made {now} from `results.h5` and `summary.json`. "
              f"In every plot the simulation is black (line or points) and each theory has its own colour and "
              f"line style. The data layout is documented in docs/OUTPUT.md.")
+    base = os.path.abspath(args.dir)
+    sweep_dir = os.path.join(base, "sweep")
+    if os.path.isdir(sweep_dir):
+        n_sweep = len(discover(sweep_dir))
+        if n_sweep:
+            intro += (f" This case also has a sweep of {n_sweep} runs: `grainbath report {sweep_dir}` "
+                      f"compares them.")
     md = os.path.join(report_dir, "report.md")
     htm = os.path.join(report_dir, "report.html")
     try:
