@@ -132,7 +132,7 @@ TEST_P(RoughRhs, ModelsBAndCMatchMonteCarloOfTheirAveragedRule) {
     const double eta_bar = m == Model::B ? mc.eta_v.mean() : mc.eta_g.mean();
     const double beta_bar = 2.0 * (1.0 + c.p.q) / c.p.q * eta_bar - 1.0;
     const auto mc2 = monte_carlo(WaltonRestitution{c.p.e, beta_bar, kInf}, c.p.q, c.p.G, c.Ttr,
-                                 c.Trot, Rule::walton, n, 99);
+                                 c.Trot, Rule::walton, 2'000'000, 99);
     const Rates r = rhs(m, c.p, c.Ttr, c.Trot);
     // MC error of eta_bar propagated through d(rhs)/d(eta) ~ nu (T + Trot/q) (R4) is added
     const double se_eta = (m == Model::B ? mc.eta_v.se() : mc.eta_g.se());
