@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Runs this case over a range of packing fractions and tabulates Z against the references.
 
-    GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick]
+    GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick] [--reuse]
 
 Writes output-sweep/<packing>/summary.json, eos.csv and eos.png beside this script.
 The same script serves cases/hard-sphere-eos (it reads the dimension from case.toml)."""
@@ -15,6 +15,7 @@ import sys
 here = os.path.dirname(os.path.abspath(__file__))
 exe = os.environ.get("GRAINBATH", "build/grainbath")
 quick = "--quick" in sys.argv
+reuse = "--reuse" in sys.argv  # only tabulate / plot existing outputs
 dims = 2 if "dimensions = 2" in open(os.path.join(here, "case.toml")).read() else 3
 points = [0.1, 0.2, 0.3, 0.4, 0.5, 0.55, 0.6, 0.65] if dims == 2 else [0.1, 0.2, 0.3, 0.35, 0.4, 0.45]
 
@@ -27,6 +28,10 @@ def z_kr(nu):
     return (1 + nu ** 2 / 8 + nu ** 3 / 18 - 4 * nu ** 4 / 21) / (1 - nu) ** 2
 
 
+def z_klm(phi):
+    return (1 + phi + phi ** 2 - 2 / 3 * (phi ** 3 + phi ** 4)) / (1 - phi) ** 3
+
+
 def z_cs(phi):
     return (1 + phi + phi ** 2 - phi ** 3) / (1 - phi) ** 3
 
@@ -37,7 +42,8 @@ for p in points:
     cmd = [exe, "run", here, "--set", f"edmd.packing_fraction={p}", "--out", out, "-q"]
     if quick:
         cmd += ["--set", "edmd.collisions=200", "--set", "edmd.equilibrate=50"]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    if not (reuse and os.path.exists(os.path.join(out, "summary.json"))):
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     s = json.load(open(os.path.join(out, "summary.json")))
     z, ze = s["pressure"]["Z"], s["pressure"]["Z_stderr"]
     ref = z_kr(p) if dims == 2 else z_cs(p)
@@ -46,6 +52,9 @@ for p in points:
            "collisions_per_second": s["performance"]["collisions_per_second"]}
     if dims == 2:
         row["Z_henderson"] = z_henderson(p)
+    else:
+        row["Z_klm"] = z_klm(p)
+        row["dev_klm_sigma"] = (z - z_klm(p)) / ze
     rows.append(row)
     print(" ".join(f"{k}={v:.5g}" for k, v in row.items()), flush=True)
 
@@ -66,13 +75,16 @@ if dims == 2:
     a.plot(x, z_henderson(x), "k--", label="Henderson")
 else:
     a.plot(x, z_cs(x), "k-", label="Carnahan-Starling")
+    a.plot(x, z_klm(x), "k:", label="Kolafa-Labik-Malijevsky")
 a.errorbar([r["packing"] for r in rows], [r["Z"] for r in rows], [r["Z_stderr"] for r in rows], fmt="o", label="EDMD")
 a.set_xlabel("packing fraction"), a.set_ylabel("Z = P/(nT)"), a.legend()
 b.errorbar([r["packing"] for r in rows], [r["dev_percent"] for r in rows],
            [100 * r["Z_stderr"] / r["Z_ref"] for r in rows], fmt="o")
 if dims == 2:
     b.plot(x, 100 * (z_henderson(x) / z_kr(x) - 1), "k--", label="Henderson vs KR fit")
-    b.legend()
+else:
+    b.plot(x, 100 * (z_klm(x) / z_cs(x) - 1), "k:", label="KLM vs CS")
+b.legend()
 b.axhline(0, color="k", lw=0.5), b.axhspan(-0.5, 0.5, color="0.9")
 b.set_xlabel("packing fraction"), b.set_ylabel("Z / Z_ref - 1  [%]")
 fig.tight_layout()

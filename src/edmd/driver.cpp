@@ -187,6 +187,7 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     out.emplace_back("edmd.g_contact_cs_bizon_eq5", theory::g_contact_disk_cs(nu));
   } else {
     out.emplace_back("edmd.Z_carnahan_starling", theory::z_carnahan_starling(nu));
+    out.emplace_back("edmd.Z_kolafa_labik_malijevsky", theory::z_sphere_klm(nu));
     out.emplace_back("edmd.g_contact_cs", theory::g_contact_sphere_cs(nu));
   }
   const double g = theory::g_contact_reference(D, nu);
@@ -371,6 +372,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   if (D == 2) {
     summary.set("theory.Z_henderson", theory::z_henderson(c.packing_fraction));
     summary.set("theory.G_cs", c.packing_fraction * theory::g_contact_disk_cs(c.packing_fraction));
+  } else {
+    summary.set("theory.Z_klm", theory::z_sphere_klm(c.packing_fraction));
   }
   // collision frequency per particle vs Enskog
   const double omega = t_run > 0 ? 2.0 * f.collisions / (N * t_run) : 0.0;

@@ -45,6 +45,14 @@ inline double g_contact_disk_cs(double nu) { return (1.0 - 7.0 * nu / 16.0) / ((
 // 3D Carnahan-Starling contact value g = (1 - phi/2)/(1 - phi)^3.
 inline double g_contact_sphere_cs(double phi) { return (1.0 - 0.5 * phi) / std::pow(1.0 - phi, 3); }
 
+// Kolafa-Labik-Malijevsky (2004) hard-sphere EOS (fitted to MD; ~0.01 % accurate in the
+// stable fluid): Z = (1 + phi + phi^2 - (2/3)(phi^3 + phi^4)) / (1 - phi)^3. CS is 0.15-0.3 %
+// below it at phi = 0.2-0.45.
+inline double z_sphere_klm(double phi) {
+  const double d = 1.0 - phi;
+  return (1.0 + phi + phi * phi - 2.0 / 3.0 * (phi * phi * phi + phi * phi * phi * phi)) / (d * d * d);
+}
+
 // Best available reference Z(packing) for elastic grains: KR fit (2D), CS (3D).
 inline double z_reference(int dims, double packing) {
   return dims == 2 ? z_disk_kr(packing) : z_carnahan_starling(packing);
