@@ -26,6 +26,24 @@ struct Stat {  // running mean and standard error
   }
 };
 
+// Self-normalised weighted mean sum(w y)/sum(w) with its delta-method standard error (for
+// averages over the collision-weighted distribution, where the weight's own noise cancels).
+struct RatioStat {
+  double sy = 0.0, sw = 0.0, syy = 0.0, sww = 0.0, syw = 0.0;
+  long n = 0;
+  void add(double w, double y) {  // y: the quantity, w: its weight
+    const double wy = w * y;
+    sy += wy, sw += w, syy += wy * wy, sww += w * w, syw += wy * w;
+    ++n;
+  }
+  double mean() const { return sy / sw; }
+  double se() const {
+    const double r = mean(), mw = sw / n;
+    const double var = (syy - 2.0 * r * syw + r * r * sww) / n;  // E[(wy - r w)^2]
+    return std::sqrt(std::max(0.0, var) / (n - 1)) / mw;
+  }
+};
+
 // How the tangential restitution of a sampled collision is chosen.
 enum class Rule {
   walton,       // Walton's rule, impact angle of the contact velocity g (model E)
@@ -34,9 +52,9 @@ enum class Rule {
 
 struct McResult {
   Stat dTtr, dTrot;      // collision parts of dTtr/dt and dTrot/dt
-  Stat eta_g, eta2_g;    // collision-weighted <eta>, <eta^2> with the angle of g
-  Stat eta_v, eta2_v;    // ... with the angle of v12 (rotation neglected)
-  Stat sliding;          // collision-weighted fraction of sliding contacts
+  RatioStat eta_g, eta2_g;  // collision-weighted <eta>, <eta^2> with the angle of g
+  RatioStat eta_v, eta2_v;  // ... with the angle of v12 (rotation neglected)
+  RatioStat sliding;        // collision-weighted fraction of sliding contacts
 };
 
 // Pairs with v ~ N(0, Ttr/m) per planar component and w_z ~ N(0, Trot/I), I = q m a^2, a fixed
@@ -61,11 +79,11 @@ inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, do
     if (gn <= 0.0) {
       r.dTtr.add(0.0);
       r.dTrot.add(0.0);
-      r.eta_g.add(0.0);
-      r.eta2_g.add(0.0);
-      r.eta_v.add(0.0);
-      r.eta2_v.add(0.0);
-      r.sliding.add(0.0);
+      r.eta_g.add(0.0, 0.0);
+      r.eta2_g.add(0.0, 0.0);
+      r.eta_v.add(0.0, 0.0);
+      r.eta2_v.add(0.0, 0.0);
+      r.sliding.add(0.0, 0.0);
       continue;
     }
     const double wgt = gn / norm_rate;
@@ -87,11 +105,11 @@ inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, do
     const double dErot = 0.5 * I * (norm2(w1) + norm2(w2)) - Erot0;
     r.dTtr.add(0.5 * nu * wgt * dEtr);
     r.dTrot.add(2.0 * 0.5 * nu * wgt * dErot);
-    r.eta_g.add(wgt * eta_g);
-    r.eta2_g.add(wgt * eta_g * eta_g);
-    r.eta_v.add(wgt * eta_v);
-    r.eta2_v.add(wgt * eta_v * eta_v);
-    r.sliding.add(slide_g ? wgt : 0.0);
+    r.eta_g.add(wgt, eta_g);
+    r.eta2_g.add(wgt, eta_g * eta_g);
+    r.eta_v.add(wgt, eta_v);
+    r.eta2_v.add(wgt, eta_v * eta_v);
+    r.sliding.add(wgt, slide_g ? 1.0 : 0.0);
   }
   return r;
 }

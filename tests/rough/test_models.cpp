@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 
@@ -104,6 +105,11 @@ TEST_P(RoughRhs, ModelsEAndDMatchMonteCarloOfTheirRules) {
     const Model m = rule == Rule::walton ? Model::E : Model::D;
     const auto mc = monte_carlo(law_of(c.p), c.p.q, c.p.G, c.Ttr, c.Trot, rule, n, 2024);
     const Rates r = rhs(m, c.p, c.Ttr, c.Trot);
+    std::printf("[measure] model %s e=%g beta0=%g mu=%g q=%g Ttr=%g Trot=%g: dTtr %.5f vs MC %.5f "
+                "+- %.5f (z=%.2f), dTrot %.5f vs MC %.5f +- %.5f (z=%.2f)\n",
+                to_string(m), c.p.e, c.p.beta0, c.p.mu, c.p.q, c.Ttr, c.Trot, r.dTtr,
+                mc.dTtr.mean(), mc.dTtr.se(), (r.dTtr - mc.dTtr.mean()) / mc.dTtr.se(), r.dTrot,
+                mc.dTrot.mean(), mc.dTrot.se(), (r.dTrot - mc.dTrot.mean()) / mc.dTrot.se());
     EXPECT_NEAR(r.dTtr, mc.dTtr.mean(), 4.0 * mc.dTtr.se() + 1e-12)
         << to_string(m) << ": rhs " << r.dTtr << " MC " << mc.dTtr.mean() << " +- " << mc.dTtr.se();
     EXPECT_NEAR(r.dTrot, mc.dTrot.mean(), 4.0 * mc.dTrot.se() + 1e-12)
@@ -134,6 +140,11 @@ TEST_P(RoughRhs, ModelsBAndCMatchMonteCarloOfTheirAveragedRule) {
     const auto mc2 = monte_carlo(WaltonRestitution{c.p.e, beta_bar, kInf}, c.p.q, c.p.G, c.Ttr,
                                  c.Trot, Rule::walton, 2'000'000, 99);
     const Rates r = rhs(m, c.p, c.Ttr, c.Trot);
+    std::printf("[measure] model %s mu=%g: eta_bar %.5f (MC %.5f +- %.5f); dTtr %.5f vs MC %.5f "
+                "+- %.5f, dTrot %.5f vs MC %.5f +- %.5f\n",
+                to_string(m), c.p.mu, m == Model::B ? a1.P1 : ak.P1, eta_bar,
+                m == Model::B ? mc.eta_v.se() : mc.eta_g.se(), r.dTtr, mc2.dTtr.mean(),
+                mc2.dTtr.se(), r.dTrot, mc2.dTrot.mean(), mc2.dTrot.se());
     // MC error of eta_bar propagated through d(rhs)/d(eta) ~ nu (T + Trot/q) (R4) is added
     const double se_eta = (m == Model::B ? mc.eta_v.se() : mc.eta_g.se());
     const double slack = 4.0 * se_eta * 4.0 * c.p.G * std::sqrt(c.Ttr) * (c.Ttr + c.Trot / c.p.q);
