@@ -3,7 +3,9 @@
 // the Coulomb bound, and the smooth / no-sliding limits.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 
@@ -61,6 +63,7 @@ TEST_P(WaltonRule, ConservesMomentaRestoresContactVelocityAndLosesW5) {
   const WaltonRestitution law{c.e, c.beta0, c.mu};
   std::mt19937_64 rng(12345);
   int n_slide = 0, n_stick = 0;
+  double max_p = 0.0, max_L = 0.0, max_E = 0.0;  // largest relative errors, for the record
   for (int it = 0; it < 20000; ++it) {
     Pair p = random_pair(rng, c.dim2, 1.0 + (it % 3));
     const Pair before = p;
@@ -72,12 +75,15 @@ TEST_P(WaltonRule, ConservesMomentaRestoresContactVelocityAndLosesW5) {
     // linear momentum (exact to round-off)
     const Vec3 dP = (p.v1 + p.v2) - (before.v1 + before.v2);
     EXPECT_LT(norm(dP), 1e-13 * (1.0 + norm(before.v1) + norm(before.v2)));
+    max_p = std::max(max_p, norm(dP) / (1.0 + norm(before.v1) + norm(before.v2)));
     // angular momentum of each particle about the contact point c = r1 + a n = r2 - a n:
     // L1 = I w1 + m (r1 - c) x v1 = I w1 - m a n x v1,  L2 = I w2 + m a n x v2
     auto L1 = [&](const Pair& s) { return I * s.w1 - (m * a) * cross(s.n, s.v1); };
     auto L2 = [&](const Pair& s) { return I * s.w2 + (m * a) * cross(s.n, s.v2); };
     EXPECT_LT(norm(L1(p) - L1(before)), 1e-13 * (1.0 + norm(L1(before))));
     EXPECT_LT(norm(L2(p) - L2(before)), 1e-13 * (1.0 + norm(L2(before))));
+    max_L = std::max({max_L, norm(L1(p) - L1(before)) / (1.0 + norm(L1(before))),
+                      norm(L2(p) - L2(before)) / (1.0 + norm(L2(before)))});
     // contact velocity after: g_n' = -e g_n, g_t' = -beta g_t (eq. W2)
     const Vec3 g2 = contact_velocity(p, a);
     EXPECT_NEAR(dot(g2, p.n), -c.e * gn, 1e-12 * (1.0 + gn));
@@ -90,6 +96,8 @@ TEST_P(WaltonRule, ConservesMomentaRestoresContactVelocityAndLosesW5) {
                       ((1.0 - c.e * c.e) * gn * gn +
                        c.q / (1.0 + c.q) * (1.0 - out.beta * out.beta) * norm2(gt));
     EXPECT_NEAR(out.energy_lost, w5, 1e-12 * (1.0 + w5));
+    max_E = std::max({max_E, std::abs(out.energy_lost - lost) / (1.0 + kinetic(before, m, I)),
+                      std::abs(out.energy_lost - w5) / (1.0 + w5)});
     EXPECT_GE(out.energy_lost, -1e-14);
     // Coulomb bound on the impulse (eq. W4): |dp_t| <= mu |dp_n|, with equality when sliding
     const Vec3 dp = m * (p.v1 - before.v1);
@@ -111,6 +119,9 @@ TEST_P(WaltonRule, ConservesMomentaRestoresContactVelocityAndLosesW5) {
       }
     }
   }
+  std::printf("[measure] e=%g beta0=%g mu=%g q=%g %dD: sliding %d / 20000; max rel. error "
+              "momentum %.1e, contact angular momentum %.1e, energy (vs kinetic diff. and W5) %.1e\n",
+              c.e, c.beta0, c.mu, c.q, c.dim2 ? 2 : 3, n_slide, max_p, max_L, max_E);
   if (std::isfinite(c.mu) && c.mu > 0.0 && c.mu < 1.0 && c.beta0 > -1.0) {
     EXPECT_GT(n_slide, 1000) << "the case should exercise sliding";
     EXPECT_GT(n_stick, 1000) << "the case should exercise sticking";
