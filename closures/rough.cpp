@@ -43,6 +43,7 @@ void validate(const Parameters& p) {
   if (!(p.q > 0.0)) throw ClosureError("rough: moment of inertia factor q must be > 0");
   if (!(p.G > 0.0)) throw ClosureError("rough: collision prefactor G must be > 0");
   if (!(p.H >= 0.0)) throw ClosureError("rough: driving power H must be >= 0");
+  if (p.dim != 2 && p.dim != 3) throw ClosureError("rough: dimension must be 2 or 3");
 }
 
 double collision_prefactor_2d(double phi, double sigma, double mass) {
@@ -51,7 +52,27 @@ double collision_prefactor_2d(double phi, double sigma, double mass) {
   return 2.0 * n * sigma * chi * std::sqrt(std::numbers::pi / mass);  // eq. R1
 }
 
+double collision_prefactor_3d(double phi, double sigma, double mass) {
+  const double n = 6.0 * phi / (std::numbers::pi * sigma * sigma * sigma);
+  const double chi = (1.0 - 0.5 * phi) / std::pow(1.0 - phi, 3);
+  return 4.0 * n * sigma * sigma * chi * std::sqrt(std::numbers::pi / mass);  // eq. R1 (3D)
+}
+
 namespace {
+// Prefactors of eq. R15: dTtr = H + c_tr nu [...], dTrot = c_rot nu [...], normal loss n0.
+struct DimensionFactors {
+  double c_tr, c_rot, n0;
+};
+DimensionFactors factors(const Parameters& p) {
+  if (p.dim == 3) return {4.0 / 3.0, 4.0 / 3.0, 0.25 * (1.0 - p.e * p.e)};
+  return {1.0, 2.0, 0.5 * (1.0 - p.e * p.e)};
+}
+Parameters unit_rates(const Parameters& p) {  // G = 1, H = 0: the collision part per nu
+  Parameters u = p;
+  u.G = 1.0;
+  u.H = 0.0;
+  return u;
+}
 double eta0_of(const Parameters& p) { return p.q * (1.0 + p.beta0) / (2.0 * (1.0 + p.q)); }
 double eta_n_of(const Parameters& p) { return 0.5 * (1.0 + p.e); }
 double k_of(const Parameters& p, double R) { return std::sqrt(1.0 + std::max(0.0, R) / p.q); }
@@ -66,9 +87,20 @@ ImpactAverages impact_averages(const Parameters& p, double k) {
   // u0 > 1e8: the corrections to the no-sliding limit are O(1/u0^2), below round-off
   if (!(u0 <= 1e8)) return {u0, eta0, eta0 * eta0, eta0, eta0 * eta0, 0.0};
   if (u0 == 0.0) return {0.0, 0.0, 0.0, 0.0, 0.0, 1.0};  // mu = 0: always sliding, no impulse
-  const double r = std::sqrt(1.0 + u0 * u0);
   ImpactAverages a;
   a.u0 = u0;
+  if (p.dim == 3) {  // eq. R16: angle densities 2u(1+u^2)^-2 and 4u^3(1+u^2)^-3 on u > 0
+    const double w = 1.0 + u0 * u0;
+    const double acot = std::atan2(1.0, u0);  // pi/2 - atan(u0)
+    a.E1 = eta0 * u0 * u0 * u0 * u0 / (w * w) +
+           0.5 * eta0 * u0 * (acot - u0 * (u0 * u0 - 1.0) / (w * w));
+    a.E2 = eta0 * eta0 * u0 * u0 / w;
+    a.P1 = eta0 * u0 * acot;
+    a.P2 = eta0 * eta0 * u0 * u0 * std::log1p(1.0 / (u0 * u0));
+    a.sliding_fraction = 1.0 / w;
+    return a;
+  }
+  const double r = std::sqrt(1.0 + u0 * u0);
   a.E1 = eta0 * u0 / r;                                   // eq. R6
   a.E2 = 2.0 * eta0 * eta0 * u0 * u0 / (r * (r + u0));   // eq. R7: 2 eta0^2 u0^2 (1 - u0/r)
   // eq. R8: eta0 u0 artanh(s0), s0 = 1/r; artanh(s) = ln((1+s)/(1-s))/2 with 1 - s0 written
@@ -83,7 +115,7 @@ ImpactAverages impact_averages(const Parameters& p, double k) {
 
 LinearCoefficients linear_coefficients(Model m, const Parameters& p, double R) {
   const double q = p.q;
-  const double normal = 0.5 * (1.0 - p.e * p.e);
+  const double normal = factors(p).n0;
   auto from_eta = [&](double eta) {  // eq. R4 (model A with a constant eta)
     return LinearCoefficients{normal + eta * (1.0 - eta), eta * eta / q, eta * eta / q,
                               eta / q * (1.0 - eta / q)};
@@ -103,23 +135,24 @@ LinearCoefficients linear_coefficients(Model m, const Parameters& p, double R) {
 
 Rates rhs(Model m, const Parameters& p, double Ttr, double Trot) {
   const double nu = p.G * std::sqrt(std::max(0.0, Ttr));  // eq. R1
+  const DimensionFactors f = factors(p);                  // eq. R15
   if (m == Model::E) {                                    // eq. R2
     const double R = Ttr > 0.0 ? Trot / Ttr : 0.0;
     const ImpactAverages a = impact_averages(p, k_of(p, R));
-    const double tang = Ttr + Trot / p.q;  // (m/2) <g_t^2>, eq. R6
-    return {p.H + nu * (-0.5 * (1.0 - p.e * p.e) * Ttr - a.E1 * Ttr + a.E2 * tang),
-            2.0 * nu / p.q * (-a.E1 * Trot + a.E2 * tang)};
+    const double tang = Ttr + Trot / p.q;  // proportional to <g_t^2>, eq. R6
+    return {p.H + f.c_tr * nu * (-f.n0 * Ttr - a.E1 * Ttr + a.E2 * tang),
+            f.c_rot * nu / p.q * (-a.E1 * Trot + a.E2 * tang)};
   }
   const LinearCoefficients c =
       linear_coefficients(m, p, Ttr > 0.0 ? Trot / Ttr : 0.0);  // eq. R3
-  return {p.H + nu * (-c.A * Ttr + c.B * Trot), 2.0 * nu * (c.Bp * Ttr - c.C * Trot)};
+  return {p.H + f.c_tr * nu * (-c.A * Ttr + c.B * Trot),
+          f.c_rot * nu * (c.Bp * Ttr - c.C * Trot)};
 }
 
 namespace {
-// Rotational right-hand side divided by 2 nu Ttr, as a function of R (eq. R11).
+// Rotational right-hand side per nu Ttr, as a function of R (eq. R11).
 double rot_residual(Model m, const Parameters& p, double R) {
-  const Rates r = rhs(m, Parameters{p.e, p.beta0, p.mu, p.q, 1.0, 0.0}, 1.0, R);
-  return 0.5 * r.dTrot;
+  return rhs(m, unit_rates(p), 1.0, R).dTrot;
 }
 }  // namespace
 
@@ -146,7 +179,7 @@ SteadyState steady_state(Model m, const Parameters& p) {
   if (!(p.H > 0.0)) throw ClosureError("rough: steady state needs driving H > 0");
   const double R = steady_ratio(m, p);
   // dTtr/dt = H - G Ttr^{3/2} F(R) = 0 (eq. R12); F from the rhs at Ttr = 1, H = 0, G = 1.
-  const double F = -rhs(m, Parameters{p.e, p.beta0, p.mu, p.q, 1.0, 0.0}, 1.0, R).dTtr;
+  const double F = -rhs(m, unit_rates(p), 1.0, R).dTtr;
   if (!(F > 0.0)) throw ClosureError("rough: no dissipation, no steady state");
   const double Ttr = std::pow(p.H / (p.G * F), 2.0 / 3.0);
   return {Ttr, R * Ttr, R};

@@ -1,20 +1,22 @@
 #pragma once
 // grainbath::closures::rough -- mean-field theories (models A-E of thesis seed 000, chapter
 // 10; Herbst et al. 2005) for the translational and rotational temperatures Ttr(t), Trot(t)
-// of a homogeneously driven 2D gas of rough particles colliding by Walton's rule
-// (operators/walton.hpp). docs/rough.md derives every formula; labels (R1-R14) are cited here.
+// of a homogeneously driven gas of rough particles colliding by Walton's rule
+// (operators/walton.hpp). docs/rough.md derives every formula; labels (R1-R14, and R15-R16
+// for 3D) are cited here.
 //
-// Setting (docs/rough.md sec. 1): translation in the plane (2 degrees of freedom), spin along
-// z only (1 degree of freedom), moment of inertia I = q m a^2 (q = 1/2 disks, 2/5 a monolayer
-// of spheres). Ttr = m <v^2>/2, Trot = I <w^2>. Gaussian velocities, molecular chaos, spatial
-// homogeneity. White-noise driving of the translational velocities feeds dTtr/dt = H.
-// Per particle collision frequency nu(Ttr) = G sqrt(Ttr), G = 2 n sigma chi sqrt(pi/m) (R1).
+// Setting (docs/rough.md sec. 1): in 2D translation in the plane (2 degrees of freedom) and
+// spin along z only (1 degree of freedom); in 3D three of each. Moment of inertia I = q m a^2
+// (q = 1/2 disks, 2/5 spheres). Ttr = m <v^2>/d, Trot = I <w^2>/d_rot. Gaussian velocities,
+// molecular chaos, spatial homogeneity. White-noise driving of the translational velocities
+// feeds dTtr/dt = H. Collision frequency per particle nu(Ttr) = G sqrt(Ttr) (R1).
 //
-// All models have the form (R2)
-//   dTtr/dt  = H + nu [ -(1-e^2)/2 Ttr - E1 Ttr + E2 (Ttr + Trot/q) ]     (E)
-//   dTrot/dt = 2 nu / q [ -E1 Trot + E2 (Ttr + Trot/q) ]
+// All models have the form (R2; c_tr = 1, c_rot = 2, n0 = (1-e^2)/2 in 2D and
+// c_tr = c_rot = 4/3, n0 = (1-e^2)/4 in 3D, eq. R15)
+//   dTtr/dt  = H + c_tr nu [ -n0 Ttr - E1 Ttr + E2 (Ttr + Trot/q) ]     (E)
+//   dTrot/dt = c_rot nu / q [ -E1 Trot + E2 (Ttr + Trot/q) ]
 // or, for A-D, the linear form (10.4) of the thesis (R3)
-//   dTtr/dt  = H + nu [ -A Ttr + B Trot ],   dTrot/dt = 2 nu [ B' Ttr - C Trot ].
+//   dTtr/dt  = H + c_tr nu [ -A Ttr + B Trot ],   dTrot/dt = c_rot nu [ B' Ttr - C Trot ].
 #include <string>
 #include <vector>
 
@@ -29,18 +31,24 @@ struct Parameters {
   double beta0 = 1.0;   // maximal tangential restitution
   double mu = 1e300;    // Coulomb friction (+inf allowed: no sliding)
   double q = 0.5;       // I / (m a^2)
-  double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d
+  double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d/3d
   double H = 0.0;       // driving: dTtr/dt from the noise
+  int dim = 2;          // 2: planar translation + spin along z; 3: three of each
 };
 
-// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0.
+// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0,
+// dim not 2 or 3.
 void validate(const Parameters&);
 
 // G of eq. R1 for disks of diameter sigma, mass m, area fraction phi (n = 4 phi/(pi sigma^2),
 // Henderson chi = (1 - 7 phi/16)/(1 - phi)^2).
 double collision_prefactor_2d(double phi, double sigma = 1.0, double mass = 1.0);
+// G for spheres (nu = 4 n sigma^2 chi sqrt(pi T/m), n = 6 phi/(pi sigma^3), Carnahan-Starling
+// chi = (1 - phi/2)/(1 - phi)^3).
+double collision_prefactor_3d(double phi, double sigma = 1.0, double mass = 1.0);
 
-// Impact-angle averages over Gaussian contact velocities (R5-R9). k^2 = 1 + Trot/(q Ttr)
+// Impact-angle averages over Gaussian contact velocities (R5-R10 in 2D, R16 in 3D).
+// k^2 = 1 + Trot/(q Ttr)
 // is the ratio of the tangential to the normal contact-velocity variance; u0 = tan(gamma0)/k.
 struct ImpactAverages {
   double u0;    // sticking/sliding boundary in scaled impact angle tan(gamma)/k (R5)

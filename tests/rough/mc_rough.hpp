@@ -57,13 +57,15 @@ struct McResult {
   RatioStat sliding;        // collision-weighted fraction of sliding contacts
 };
 
-// Pairs with v ~ N(0, Ttr/m) per planar component and w_z ~ N(0, Trot/I), I = q m a^2, a fixed
-// normal n = x (the gas is isotropic). A pair meets at rate proportional to (g.n)_+, so with
-// nu = G sqrt(Ttr) collisions per particle per unit time and E[(v12.n)_+] = sqrt(Ttr/(pi m)),
-//   dE_tr/dt per particle = (nu/2) E[(g.n)_+ dE_tr] / E[(g.n)_+]  (two particles per collision)
-// and Ttr = E_tr, Trot = 2 E_rot per particle in 2D.
+// dim = 2: pairs with v ~ N(0, Ttr/m) per planar component and w_z ~ N(0, Trot/I),
+// I = q m a^2; dim = 3: three components of each. Fixed normal n = x (the gas is isotropic).
+// A pair meets at rate proportional to (g.n)_+, so with nu = G sqrt(Ttr) collisions per
+// particle per unit time and E[(v12.n)_+] = sqrt(Ttr/(pi m)),
+//   dE/dt per particle = (nu/2) E[(g.n)_+ dE] / E[(g.n)_+]   (two particles per collision)
+// and Ttr = (2/d) E_tr, Trot = (2/d_rot) E_rot per particle (d_rot = 1 in 2D, 3 in 3D).
 inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, double Ttr,
-                            double Trot, Rule rule, long samples, unsigned long seed) {
+                            double Trot, Rule rule, long samples, unsigned long seed,
+                            int dim = 2) {
   const double m = 1.0, a = 0.5, I = q * m * a * a;
   const double nu = G * std::sqrt(Ttr);
   const double norm_rate = std::sqrt(Ttr / (std::numbers::pi * m));
@@ -72,9 +74,18 @@ inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, do
   const double sv = std::sqrt(Ttr / m), sw = std::sqrt(Trot / I);
   const Vec3 n{1.0, 0.0, 0.0};
   McResult r;
+  const double d_tr = dim, d_rot = dim == 3 ? 3.0 : 1.0;
   for (long i = 0; i < samples; ++i) {
     Vec3 v1{sv * N(rng), sv * N(rng), 0.0}, v2{sv * N(rng), sv * N(rng), 0.0};
     Vec3 w1{0.0, 0.0, sw * N(rng)}, w2{0.0, 0.0, sw * N(rng)};
+    if (dim == 3) {
+      v1.z = sv * N(rng);
+      v2.z = sv * N(rng);
+      w1.x = sw * N(rng);
+      w1.y = sw * N(rng);
+      w2.x = sw * N(rng);
+      w2.y = sw * N(rng);
+    }
     const double gn = dot(v1 - v2, n);
     if (gn <= 0.0) {
       r.dTtr.add(0.0);
@@ -88,7 +99,7 @@ inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, do
     }
     const double wgt = gn / norm_rate;
     const Vec3 g = v1 - v2 + a * cross(w1 + w2, n);
-    const double gt_g = std::abs(g.y), gt_v = std::abs(v1.y - v2.y);
+    const double gt_g = std::hypot(g.y, g.z), gt_v = std::hypot(v1.y - v2.y, v1.z - v2.z);
     bool slide_g = false, slide_v = false;
     const double beta_g = walton_beta(law, q, gn, gt_g, &slide_g);
     const double beta_v = walton_beta(law, q, gn, gt_v, &slide_v);
@@ -103,8 +114,8 @@ inline McResult monte_carlo(const WaltonRestitution& law, double q, double G, do
     }
     const double dEtr = 0.5 * m * (norm2(v1) + norm2(v2)) - Etr0;
     const double dErot = 0.5 * I * (norm2(w1) + norm2(w2)) - Erot0;
-    r.dTtr.add(0.5 * nu * wgt * dEtr);
-    r.dTrot.add(2.0 * 0.5 * nu * wgt * dErot);
+    r.dTtr.add(2.0 / d_tr * 0.5 * nu * wgt * dEtr);
+    r.dTrot.add(2.0 / d_rot * 0.5 * nu * wgt * dErot);
     r.eta_g.add(wgt, eta_g);
     r.eta2_g.add(wgt, eta_g * eta_g);
     r.eta_v.add(wgt, eta_v);

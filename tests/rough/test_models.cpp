@@ -63,8 +63,14 @@ Quadrature quadrature(const Parameters& p, double k) {
   auto both = [&](const std::function<double(double)>& f) {
     return integrate(f, 0.0, th0) + integrate(f, th0, M_PI / 2);
   };
-  auto w_tang = [](double th) { const double c = std::cos(th); return 3.0 * std::pow(std::sin(th), 2) * c; };
-  auto w_angle = [](double th) { return std::cos(th); };  // (1+u^2)^{-3/2} du = cos(th) d th
+  // 2D: (1+u^2)^{-3/2} du = cos d th, 3 u^2 (1+u^2)^{-5/2} du = 3 sin^2 cos d th;
+  // 3D: 2u (1+u^2)^{-2} du = 2 sin cos d th, 4 u^3 (1+u^2)^{-3} du = 4 sin^3 cos d th
+  const bool d3 = p.dim == 3;
+  auto w_tang = [d3](double th) {
+    const double s = std::sin(th), c = std::cos(th);
+    return d3 ? 4.0 * s * s * s * c : 3.0 * s * s * c;
+  };
+  auto w_angle = [d3](double th) { return d3 ? 2.0 * std::sin(th) * std::cos(th) : std::cos(th); };
   Quadrature q;
   q.E1 = both([&](double th) { return w_tang(th) * eta(std::tan(th)); });
   q.E2 = both([&](double th) { return w_tang(th) * std::pow(eta(std::tan(th)), 2); });
@@ -75,12 +81,15 @@ Quadrature quadrature(const Parameters& p, double k) {
 }
 
 TEST(RoughModels, ImpactAveragesMatchQuadrature) {
-  for (const Parameters p : {Parameters{0.9, 0.6, 0.3, 0.5}, Parameters{0.95, 1.0, 0.5, 0.4},
-                             Parameters{0.7, -0.2, 0.05, 0.4}, Parameters{0.8, 1.0, 2.0, 0.5}}) {
+  for (const Parameters p :
+       {Parameters{0.9, 0.6, 0.3, 0.5}, Parameters{0.95, 1.0, 0.5, 0.4},
+        Parameters{0.7, -0.2, 0.05, 0.4}, Parameters{0.8, 1.0, 2.0, 0.5},
+        Parameters{0.9, 0.6, 0.3, 0.4, 1.0, 0.0, 3}, Parameters{0.7, 1.0, 0.05, 0.4, 1.0, 0.0, 3},
+        Parameters{0.8, 0.2, 2.0, 0.4, 1.0, 0.0, 3}}) {
     for (double k : {1.0, 1.3, 2.5}) {
       const ImpactAverages a = impact_averages(p, k);
       const Quadrature q = quadrature(p, k);
-      EXPECT_NEAR(a.E1, q.E1, 1e-10) << "k=" << k << " mu=" << p.mu;
+      EXPECT_NEAR(a.E1, q.E1, 1e-10) << "k=" << k << " mu=" << p.mu << " dim=" << p.dim;
       EXPECT_NEAR(a.E2, q.E2, 1e-10) << "k=" << k << " mu=" << p.mu;
       EXPECT_NEAR(a.P1, q.P1, 1e-10) << "k=" << k << " mu=" << p.mu;
       EXPECT_NEAR(a.P2, q.P2, 1e-10) << "k=" << k << " mu=" << p.mu;
@@ -100,14 +109,14 @@ class RoughRhs : public ::testing::TestWithParam<McCase> {};
 // translational impact angle; model A that of constant beta0 (checked at mu = inf).
 TEST_P(RoughRhs, ModelsEAndDMatchMonteCarloOfTheirRules) {
   const McCase c = GetParam();
-  const long n = 3'000'000;
+  const long n = 2'000'000;
   for (Rule rule : {Rule::walton, Rule::translation}) {
     const Model m = rule == Rule::walton ? Model::E : Model::D;
-    const auto mc = monte_carlo(law_of(c.p), c.p.q, c.p.G, c.Ttr, c.Trot, rule, n, 2024);
+    const auto mc = monte_carlo(law_of(c.p), c.p.q, c.p.G, c.Ttr, c.Trot, rule, n, 2024, c.p.dim);
     const Rates r = rhs(m, c.p, c.Ttr, c.Trot);
-    std::printf("[measure] model %s e=%g beta0=%g mu=%g q=%g Ttr=%g Trot=%g: dTtr %.5f vs MC %.5f "
+    std::printf("[measure] %dD model %s e=%g beta0=%g mu=%g q=%g Ttr=%g Trot=%g: dTtr %.5f vs MC %.5f "
                 "+- %.5f (z=%.2f), dTrot %.5f vs MC %.5f +- %.5f (z=%.2f)\n",
-                to_string(m), c.p.e, c.p.beta0, c.p.mu, c.p.q, c.Ttr, c.Trot, r.dTtr,
+                c.p.dim, to_string(m), c.p.e, c.p.beta0, c.p.mu, c.p.q, c.Ttr, c.Trot, r.dTtr,
                 mc.dTtr.mean(), mc.dTtr.se(), (r.dTtr - mc.dTtr.mean()) / mc.dTtr.se(), r.dTrot,
                 mc.dTrot.mean(), mc.dTrot.se(), (r.dTrot - mc.dTrot.mean()) / mc.dTrot.se());
     EXPECT_NEAR(r.dTtr, mc.dTtr.mean(), 4.0 * mc.dTtr.se() + 1e-12)
@@ -125,8 +134,9 @@ TEST_P(RoughRhs, ModelsEAndDMatchMonteCarloOfTheirRules) {
 // and the resulting right-hand sides against a MC of the rule with that constant beta.
 TEST_P(RoughRhs, ModelsBAndCMatchMonteCarloOfTheirAveragedRule) {
   const McCase c = GetParam();
-  const long n = 3'000'000;
-  const auto mc = monte_carlo(law_of(c.p), c.p.q, c.p.G, c.Ttr, c.Trot, Rule::walton, n, 77);
+  const long n = 2'000'000;
+  const auto mc =
+      monte_carlo(law_of(c.p), c.p.q, c.p.G, c.Ttr, c.Trot, Rule::walton, n, 77, c.p.dim);
   const double k = std::sqrt(1.0 + c.Trot / (c.p.q * c.Ttr));
   const ImpactAverages a1 = impact_averages(c.p, 1.0), ak = impact_averages(c.p, k);
   EXPECT_NEAR(a1.P1, mc.eta_v.mean(), 4.0 * mc.eta_v.se());
@@ -138,11 +148,11 @@ TEST_P(RoughRhs, ModelsBAndCMatchMonteCarloOfTheirAveragedRule) {
     const double eta_bar = m == Model::B ? mc.eta_v.mean() : mc.eta_g.mean();
     const double beta_bar = 2.0 * (1.0 + c.p.q) / c.p.q * eta_bar - 1.0;
     const auto mc2 = monte_carlo(WaltonRestitution{c.p.e, beta_bar, kInf}, c.p.q, c.p.G, c.Ttr,
-                                 c.Trot, Rule::walton, 2'000'000, 99);
+                                 c.Trot, Rule::walton, 2'000'000, 99, c.p.dim);
     const Rates r = rhs(m, c.p, c.Ttr, c.Trot);
-    std::printf("[measure] model %s mu=%g: eta_bar %.5f (MC %.5f +- %.5f); dTtr %.5f vs MC %.5f "
+    std::printf("[measure] %dD model %s mu=%g: eta_bar %.5f (MC %.5f +- %.5f); dTtr %.5f vs MC %.5f "
                 "+- %.5f, dTrot %.5f vs MC %.5f +- %.5f\n",
-                to_string(m), c.p.mu, m == Model::B ? a1.P1 : ak.P1, eta_bar,
+                c.p.dim, to_string(m), c.p.mu, m == Model::B ? a1.P1 : ak.P1, eta_bar,
                 m == Model::B ? mc.eta_v.se() : mc.eta_g.se(), r.dTtr, mc2.dTtr.mean(),
                 mc2.dTtr.se(), r.dTrot, mc2.dTrot.mean(), mc2.dTrot.se());
     // MC error of eta_bar propagated through d(rhs)/d(eta) ~ nu (T + Trot/q) (R4) is added
@@ -158,13 +168,16 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(McCase{Parameters{0.9, 0.6, 0.3, 0.5, 1.3, 0.0}, 1.0, 0.7},
                       McCase{Parameters{0.95, 1.0, 0.5, 0.4, 1.0, 0.0}, 2.0, 0.4},
                       McCase{Parameters{0.8, 0.4, 0.1, 0.4, 1.0, 0.0}, 1.0, 0.05},
-                      McCase{Parameters{0.95, 1.0, 0.2, 0.5, 1.0, 0.0}, 1.0, 3.0}));
+                      McCase{Parameters{0.95, 1.0, 0.2, 0.5, 1.0, 0.0}, 1.0, 3.0},
+                      McCase{Parameters{0.9, 0.6, 0.3, 0.4, 1.0, 0.0, 3}, 1.0, 0.7},
+                      McCase{Parameters{0.95, 1.0, 0.1, 0.4, 1.0, 0.0, 3}, 1.5, 0.6}));
 
 // Model A = constant tangential restitution: its rhs against the MC at mu = inf.
 TEST(RoughModels, ModelAMatchesMonteCarloOfConstantBeta) {
   for (const Parameters p : {Parameters{0.9, 0.6, kInf, 0.5, 1.0, 0.0},
-                             Parameters{0.7, -0.5, kInf, 0.4, 2.0, 0.0}}) {
-    const auto mc = monte_carlo(law_of(p), p.q, p.G, 1.5, 0.6, Rule::walton, 2'000'000, 5);
+                             Parameters{0.7, -0.5, kInf, 0.4, 2.0, 0.0},
+                             Parameters{0.8, 0.3, kInf, 0.4, 1.0, 0.0, 3}}) {
+    const auto mc = monte_carlo(law_of(p), p.q, p.G, 1.5, 0.6, Rule::walton, 2'000'000, 5, p.dim);
     const Rates r = rhs(Model::A, p, 1.5, 0.6);
     EXPECT_NEAR(r.dTtr, mc.dTtr.mean(), 4.0 * mc.dTtr.se());
     EXPECT_NEAR(r.dTrot, mc.dTrot.mean(), 4.0 * mc.dTrot.se());
@@ -200,6 +213,11 @@ TEST(RoughModels, ModelESteadyRatioIsLinearInSmallMu) {
       EXPECT_NEAR(rhs(Model::E, p1, 1.0, R1).dTrot, 0.0, 1e-14);
     }
   }
+  // 3D: R = 4 eta0 u0 / pi = 2 (1 + e) mu / pi + O(mu^2) (eq. R16 expansion)
+  for (double e : {0.95, 0.7}) {
+    const Parameters p3{e, 1.0, 1e-4, 0.4, 1.0, 0.0, 3};
+    EXPECT_NEAR(steady_ratio(Model::E, p3) / 1e-4, 2.0 * (1.0 + e) / M_PI, 2e-3);
+  }
   // monotone in mu between the limits
   double prev = 0.0;
   for (double mu : {0.01, 0.05, 0.1, 0.2, 0.5, 1.0, 5.0}) {
@@ -227,6 +245,7 @@ TEST(RoughModels, SteadyStateIsAFixedPointAndTheOdeReachesIt) {
 }
 
 TEST(RoughModels, RejectsBadParameters) {
+  EXPECT_THROW(validate(Parameters{0.9, 1.0, 0.5, 0.4, 1.0, 0.0, 4}), ClosureError);
   EXPECT_THROW(validate(Parameters{1.2, 1.0, 0.5, 0.4}), ClosureError);
   EXPECT_THROW(validate(Parameters{0.9, 1.5, 0.5, 0.4}), ClosureError);
   EXPECT_THROW(validate(Parameters{0.9, 1.0, -0.1, 0.4}), ClosureError);
