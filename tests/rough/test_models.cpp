@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <ostream>
 
 #include "closures/closures.hpp"
 #include "closures/rough.hpp"
@@ -102,6 +103,11 @@ struct McCase {
   Parameters p;
   double Ttr, Trot;
 };
+
+void PrintTo(const McCase& c, std::ostream* os) {
+  *os << c.p.dim << "D e=" << c.p.e << " beta0=" << c.p.beta0 << " mu=" << c.p.mu
+      << " q=" << c.p.q << " Ttr=" << c.Ttr << " Trot=" << c.Trot;
+}
 
 class RoughRhs : public ::testing::TestWithParam<McCase> {};
 
