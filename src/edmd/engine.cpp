@@ -430,6 +430,90 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
   if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
 }
 
+// After a collision both grains need a full scan; their neighbourhoods overlap (the cells
+// are adjacent), so one pass over the union of cells serves both, loading every neighbour's
+// record once. Falls back to two scans near boundaries or under acceleration.
+void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
+  const auto& ci = cellc_[i];
+  const auto& cj = cellc_[j];
+  auto interior = [&](const std::array<int, 3>& c) {
+    return c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
+           (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
+  };
+  if (accelerated_ || !interior(ci) || !interior(cj)) {
+    predict(i);
+    predict(j);
+    return;
+  }
+  const int d[3] = {cj[0] - ci[0], cj[1] - ci[1], cj[2] - ci[2]};
+  constexpr int kMax = 320;
+  std::uint32_t buf[kMax];
+  int nb = 0;
+  bool overflow = false;
+  const int zr = dims_ == 3 ? 1 : 0;
+  auto add_cell = [&](int cell) {
+    const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
+    const int cnt = count_[cell];
+    if (nb + cnt > kMax) {
+      overflow = true;
+      return;
+    }
+    for (int q = 0; q < cnt; ++q) {
+      __builtin_prefetch(&k_[m[q]]);
+      buf[nb++] = m[q];
+    }
+  };
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);
+      for (int dx = -1; dx <= 1; ++dx) add_cell(row + dx);
+    }
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        if (std::abs(d[0] + dx) <= 1 && std::abs(d[1] + dy) <= 1 && std::abs(d[2] + dz) <= 1) continue;
+        add_cell(cell_index(cj[0] + dx, cj[1] + dy, cj[2] + dz));
+      }
+  if (overflow) {
+    predict(i);
+    predict(j);
+    return;
+  }
+  const Kin& ki = k_[i];
+  const Kin& kj = k_[j];
+  const double t = ki.t;  // == kj.t == now
+  double best_i = kInf, best_j = kInf;
+  std::uint32_t pi = 0, pj = 0;
+  auto test = [&](const Kin& a, const Vec3& rk, const Vec3& vk, double& best, std::uint32_t& partner,
+                  std::uint32_t k) {
+    const Vec3 dr = rk - a.r;
+    const Vec3 dv = vk - a.v;
+    const double b = dot(dr, dv);
+    if (b >= 0.0) return;
+    const double q2 = dot(dr, dr) - 1.0;
+    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) return;
+    const double disc = b * b - dot(dv, dv) * q2;
+    if (disc <= 0.0) return;
+    const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
+    if (tc < best) best = tc, partner = k;
+  };
+  for (int q = 0; q < nb; ++q) {
+    const std::uint32_t k = buf[q];
+    const Kin& kk = k_[k];
+    const Vec3 rk = kk.r + (t - kk.t) * kk.v;
+    if (k != i) test(ki, rk, kk.v, best_i, pi, k);
+    if (k != j) test(kj, rk, kk.v, best_j, pj, k);
+  }
+  coll_time_[i] = best_i;
+  coll_partner_[i] = pi;
+  if (std::isfinite(best_i)) coll_partner_counter_[i] = counter_[pi];
+  coll_time_[j] = best_j;
+  coll_partner_[j] = pj;
+  if (std::isfinite(best_j)) coll_partner_counter_[j] = counter_[pj];
+  schedule(i);
+  schedule(j);
+}
+
 void Engine::predict(std::uint32_t i) {
   coll_time_[i] = kInf;
   scan_neighbours(i, -1, 0);

@@ -142,6 +142,7 @@ class Engine {
 
   void move_to(std::uint32_t i, double t);
   void predict(std::uint32_t i);   // full scan + schedule
+  void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
   void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, double& best,
@@ -248,8 +249,7 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
   ++total_collisions_;
   trajectory_changed(i);
   trajectory_changed(j);
-  predict(i);
-  predict(j);
+  predict_pair(i, j);
   if (heating_.kind != HeatingKind::none) apply_heating();
 }
 

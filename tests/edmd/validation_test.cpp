@@ -42,3 +42,49 @@ TEST(EdmdLong, InelasticDrivenNoOverlapsAfterAMillionCollisions) {
   eng.synchronize();
   EXPECT_GE(eng.min_distance(), 1.0 - 1e-9);
 }
+
+#include <filesystem>
+#include <unistd.h>
+
+#include "core/case_file.hpp"
+#include "core/summary.hpp"
+#include "edmd/theory.hpp"
+
+namespace {
+Summary run_long(const std::string& toml, std::uint64_t seed) {
+  CaseReader r(toml, "long.toml");
+  Config c = read_config(r);
+  r.finish();
+  RunContext ctx;
+  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_long_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(ctx.out_dir);
+  ctx.seed = seed;
+  ctx.quiet = true;
+  Summary s;
+  run(c, ctx, s);
+  std::filesystem::remove_all(ctx.out_dir);
+  return s;
+}
+}  // namespace
+
+// The EOS to 0.5 % and within 4 standard errors of the accurate references (KR fit for
+// disks, Kolafa-Labik-Malijevsky for spheres); CS itself within 0.5 %.
+TEST(EdmdLong, EquationOfStateWithinHalfAPercent) {
+  struct P {
+    int dims;
+    double packing;
+    int n;
+  };
+  for (const P p : {P{2, 0.3, 2500}, P{2, 0.6, 2500}, P{3, 0.3, 2197}, P{3, 0.45, 2197}}) {
+    const Summary s = run_long("[edmd]\ndimensions = " + std::to_string(p.dims) + "\nparticles = " +
+                                   std::to_string(p.n) + "\npacking_fraction = " + std::to_string(p.packing) +
+                                   "\nequilibrate = 100\ncollisions = 800\n[sampling]\ninterval = 2.0\n",
+                               3);
+    const double z = s.number("pressure.Z"), err = s.number("pressure.Z_stderr");
+    const double accurate = p.dims == 2 ? theory::z_disk_kr(p.packing) : theory::z_sphere_klm(p.packing);
+    const double classic = p.dims == 2 ? theory::z_disk_kr(p.packing) : theory::z_carnahan_starling(p.packing);
+    EXPECT_NEAR(z / classic, 1.0, 0.005) << p.dims << " " << p.packing;
+    EXPECT_NEAR(z, accurate, 4.0 * err + 0.001 * accurate) << p.dims << " " << p.packing << " err " << err;
+    EXPECT_LT(err / z, 0.002);
+  }
+}
