@@ -185,6 +185,24 @@ SteadyState steady_state(Model m, const Parameters& p) {
   return {Ttr, R * Ttr, R};
 }
 
+RelaxationRates relaxation_rates(Model m, const Parameters& p) {
+  const SteadyState s = steady_state(m, p);
+  // eq. R17: central differences of the rhs (smooth there: the closed forms are analytic in
+  // Ttr, Trot > 0), step 1e-5 of the steady temperatures
+  const double h1 = 1e-5 * s.Ttr, h2 = 1e-5 * std::max(s.Trot, 1e-3 * s.Ttr);
+  const Rates a = rhs(m, p, s.Ttr + h1, s.Trot), b = rhs(m, p, s.Ttr - h1, s.Trot);
+  const Rates c = rhs(m, p, s.Ttr, s.Trot + h2), d = rhs(m, p, s.Ttr, s.Trot - h2);
+  const double J11 = (a.dTtr - b.dTtr) / (2 * h1), J21 = (a.dTrot - b.dTrot) / (2 * h1);
+  const double J12 = (c.dTtr - d.dTtr) / (2 * h2), J22 = (c.dTrot - d.dTrot) / (2 * h2);
+  const double tr = J11 + J22, det = J11 * J22 - J12 * J21;
+  const double disc = 0.25 * tr * tr - det;
+  if (disc < 0.0) throw ClosureError("rough: complex relaxation rates (oscillatory approach)");
+  const double r = std::sqrt(disc);
+  const double l1 = 0.5 * tr - r, l2 = 0.5 * tr + r;  // l1 <= l2
+  if (!(l2 < 0.0)) throw ClosureError("rough: steady state is not linearly stable");
+  return {-l1, -l2};
+}
+
 namespace {
 struct OdeContext {
   Model m;

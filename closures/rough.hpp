@@ -80,6 +80,15 @@ struct SteadyState {
 // Steady temperatures for H > 0 (R12).
 SteadyState steady_state(Model, const Parameters&);
 
+// Linearisation about the steady state (thesis sec. 10.5: "an eigenvalue problem with two
+// relaxation rates"; docs/rough.md eq. R17): the eigenvalues of the 2x2 Jacobian of rhs at
+// steady_state(), both negative, as decay rates (> 0), fast >= slow. The fast one is mostly the
+// Ttr-Trot equilibration, the slow one the common approach to the steady state.
+struct RelaxationRates {
+  double fast, slow;
+};
+RelaxationRates relaxation_rates(Model, const Parameters&);
+
 struct Sample {
   double t, Ttr, Trot;
 };

@@ -250,6 +250,27 @@ TEST(RoughModels, SteadyStateIsAFixedPointAndTheOdeReachesIt) {
   }
 }
 
+// Eq. R17: a small perturbation of the steady state decays, at late times, at the slow rate;
+// the Ttr-Trot combination along the fast eigenvector disappears first.
+TEST(RoughModels, RelaxationRatesGovernTheApproachToTheSteadyState) {
+  for (Model m : {Model::A, Model::C, Model::E}) {
+    for (int dim : {2, 3}) {
+      Parameters p{0.95, 1.0, 0.5, 0.4, 1.0, 0.05};
+      p.dim = dim;
+      const SteadyState s = steady_state(m, p);
+      const RelaxationRates r = relaxation_rates(m, p);
+      EXPECT_GT(r.slow, 0.0);
+      EXPECT_GE(r.fast, r.slow);
+      const double t1 = 8.0 / r.slow, t2 = 12.0 / r.slow;
+      const auto path = integrate(m, p, 1.001 * s.Ttr, 0.997 * s.Trot, {0.0, t1, t2});
+      const double d1 = path[1].Ttr - s.Ttr, d2 = path[2].Ttr - s.Ttr;
+      ASSERT_GT(std::abs(d1), 1e-12 * s.Ttr) << "perturbation gone before t1";
+      EXPECT_NEAR(std::log(d2 / d1) / (t2 - t1), -r.slow, 1e-3 * r.slow)
+          << to_string(m) << " dim " << dim;
+    }
+  }
+}
+
 TEST(RoughModels, RejectsBadParameters) {
   EXPECT_THROW(validate(Parameters{0.9, 1.0, 0.5, 0.4, 1.0, 0.0, 4}), ClosureError);
   EXPECT_THROW(validate(Parameters{1.2, 1.0, 0.5, 0.4}), ClosureError);
