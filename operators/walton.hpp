@@ -3,7 +3,7 @@
 // 2.5 and chapter 10; Herbst et al. 2005): normal restitution e, tangential restitution
 // beta0 for sticking contacts, Coulomb friction mu for sliding ones. Equal masses m, equal
 // radii a, moment of inertia I = q m a^2 (q = 1/2 disks, q = 2/5 spheres). Header-only,
-// shared by EDMD and homogeneous DSMC; docs/rough.md derives every formula (labels W1-W6).
+// shared by EDMD and homogeneous DSMC; docs/rough.md derives every formula (labels W1-W5).
 //
 // Conventions (docs/rough.md eq. W1): n is the unit normal from particle 1 to particle 2,
 // the particles touch at r1 + a n = r2 - a n, and the relative velocity of the contact
