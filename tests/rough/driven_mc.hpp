@@ -58,6 +58,8 @@ class DrivenMc {
     return I_ * s / c_.N;
   }
   double time() const { return t_; }
+  const std::vector<Vec3>& velocities() const { return v_; }
+  const std::vector<Vec3>& spins() const { return w_; }
   long collisions() const { return collisions_; }
   long sliding() const { return sliding_; }
 

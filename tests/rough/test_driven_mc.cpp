@@ -24,6 +24,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 struct SteadyMeasurement {
   double R, R_se, Ttr, Ttr_se, sliding_fraction;
+  double a2_tr, a2_rot, corr;  // non-Gaussianity: <v^4>/(2<v^2>^2) - 1, <w^4>/(3<w^2>^2) - 1,
+                               // <v^2 w^2>/(<v^2><w^2>) - 1 (all 0 for the models' Gaussian)
 };
 
 // Runs from the model-E steady state for `burn` time units, then samples Ttr, Trot every
@@ -34,6 +36,7 @@ SteadyMeasurement measure_steady(const DrivenMcConfig& cfg, double Ttr0, double 
   while (mc.time() < burn) mc.step(dt);
   const long c0 = mc.collisions(), s0 = mc.sliding();
   std::vector<double> tr, rot;
+  double v2 = 0.0, v4 = 0.0, w2 = 0.0, w4 = 0.0, vw = 0.0;
   double next = burn;
   while (mc.time() < burn + span) {
     mc.step(dt);
@@ -41,6 +44,10 @@ SteadyMeasurement measure_steady(const DrivenMcConfig& cfg, double Ttr0, double 
       tr.push_back(mc.Ttr());
       rot.push_back(mc.Trot());
       next += every;
+      for (size_t i = 0; i < mc.velocities().size(); ++i) {
+        const double a = norm2(mc.velocities()[i]), b = mc.spins()[i].z * mc.spins()[i].z;
+        v2 += a, v4 += a * a, w2 += b, w4 += b * b, vw += a * b;
+      }
     }
   }
   const int blocks = 20;
@@ -66,8 +73,11 @@ SteadyMeasurement measure_steady(const DrivenMcConfig& cfg, double Ttr0, double 
     return std::sqrt(s2 / (x.size() - 1) / x.size());
   };
   const double n_coll = static_cast<double>(mc.collisions() - c0);
+  const double ns = static_cast<double>(tr.size()) * cfg.N;
+  v2 /= ns, v4 /= ns, w2 /= ns, w4 /= ns, vw /= ns;
   return {srot / str, se(bR), str / (per * blocks), se(bT),
-          n_coll > 0 ? (mc.sliding() - s0) / n_coll : 0.0};
+          n_coll > 0 ? (mc.sliding() - s0) / n_coll : 0.0,
+          v4 / (2.0 * v2 * v2) - 1.0, w4 / (3.0 * w2 * w2) - 1.0, vw / (v2 * w2) - 1.0};
 }
 
 // Driving power that puts model E's steady Ttr at 1 (eq. R12), corrected for the removal of
@@ -103,6 +113,8 @@ TEST_P(SteadyRatio, MonteCarloMatchesModelE) {
               steady_ratio(Model::C, p), steady_ratio(Model::D, p), m.Ttr, m.Ttr_se, th.Ttr,
               m.sliding_fraction,
               impact_averages(p, std::sqrt(1.0 + R_E / p.q)).sliding_fraction);
+  std::printf("[measure] mu=%g non-Gaussianity: a2_tr = %.4f, a2_rot = %.4f, "
+              "<v^2 w^2>/(<v^2><w^2>) - 1 = %.4f\n", mu, m.a2_tr, m.a2_rot, m.corr);
   EXPECT_LT(m.R_se, 0.01 * R_E) << "MC too short to test anything";
   EXPECT_NEAR(m.R, R_E, 3.0 * m.R_se + kClosureAllowance * R_E);
   EXPECT_NEAR(m.Ttr, th.Ttr, 3.0 * m.Ttr_se + kClosureAllowance * th.Ttr);
@@ -164,7 +176,7 @@ TEST(RoughDrivenCase, EvolutionApproachesModelEAndWritesCurves) {
   // R vs mu: models A-E and the steady MC (N = 2000), and the case summary from the MC
   std::FILE* rf = std::fopen((std::string(dir) + "/r_vs_mu.csv").c_str(), "w");
   ASSERT_TRUE(rf);
-  std::fprintf(rf, "mu,R_A,R_B,R_C,R_D,R_E,R_MC,R_MC_stderr\n");
+  std::fprintf(rf, "mu,R_A,R_B,R_C,R_D,R_E,R_MC,R_MC_stderr,a2_tr,a2_rot,v2w2_corr\n");
   double R05 = 0.0, R05_se = 0.0, RE05 = 0.0;
   for (double mu : {0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.5, 1.0, 2.0}) {
     Parameters p{e, beta0, mu, q, G, 0.0};
@@ -173,9 +185,9 @@ TEST(RoughDrivenCase, EvolutionApproachesModelEAndWritesCurves) {
     const SteadyState s = steady_state(Model::E, Parameters{e, beta0, mu, q, G, p.H * (1.0 - 1.0 / N)});
     DrivenMcConfig cfg{WaltonRestitution{e, beta0, mu}, q, G, p.H, N, 77};
     const SteadyMeasurement m = measure_steady(cfg, s.Ttr, s.Trot, 0.1, 40.0, 800.0);
-    std::fprintf(rf, "%g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.3g\n", mu, steady_ratio(Model::A, p),
-                 steady_ratio(Model::B, p), steady_ratio(Model::C, p), steady_ratio(Model::D, p),
-                 s.R, m.R, m.R_se);
+    std::fprintf(rf, "%g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.3g,%.4f,%.4f,%.4f\n", mu,
+                 steady_ratio(Model::A, p), steady_ratio(Model::B, p), steady_ratio(Model::C, p),
+                 steady_ratio(Model::D, p), s.R, m.R, m.R_se, m.a2_tr, m.a2_rot, m.corr);
     if (mu == 0.5) {
       R05 = m.R;
       R05_se = m.R_se;
