@@ -1,0 +1,44 @@
+#!/usr/bin/python3
+"""Table and plot of the diffusion-limit scan (run.sh): DSMC decay rate of the density mode
+against the paper's D k^2 (Bisi-Spiga eq. 36), the kinetic (Sonine-Galerkin) value and the
+closures' finite-eps linear rates. Writes sweep/table.md and sweep/diffusion_limit.png."""
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+here = Path(__file__).resolve().parent
+rows = []
+for d in sorted((here / "sweep").glob("eps-*")):
+    s = json.load(open(d / "summary.json"))
+    h = s["theory"]["hydro"]
+    eps = float(d.name.split("-", 1)[1])
+    rows.append((eps, s["mode"]["decay_rate"], s["mode"]["decay_rate_stderr"], h["decay_rate"],
+                 h["decay_rate_kinetic"], h.get("decay_rate_maxwellian_closure"), h.get("decay_rate_grad_closure")))
+rows.sort()
+lines = ["| eps | DSMC rate | paper D k^2 | kinetic | Maxwellian closure | Grad closure | DSMC/paper - 1 | kinetic/paper - 1 |",
+         "|---|---|---|---|---|---|---|---|"]
+for eps, r, e, p, k, m, g in rows:
+    lines.append(f"| {eps:g} | {r:.5f} ± {e:.5f} | {p:.5f} | {k:.5f} | {m:.5f} | {g:.5f} | "
+                 f"{r / p - 1:+.3f} ± {e / p:.3f} | {k / p - 1:+.3f} |")
+(here / "sweep" / "table.md").write_text("\n".join(lines) + "\n")
+print("\n".join(lines))
+fig, ax = plt.subplots(figsize=(6.4, 4.2))
+eps = [r[0] for r in rows]
+ax.errorbar(eps, [r[1] / r[3] - 1 for r in rows], yerr=[r[2] / r[3] for r in rows], fmt="o", color="k",
+            capsize=3, label="DSMC")
+ax.plot(eps, [r[4] / r[3] - 1 for r in rows], "-", label="kinetic (Sonine-Galerkin) D")
+ax.plot(eps, [r[5] / r[3] - 1 for r in rows], "--", label="local-Maxwellian closure, finite eps")
+ax.plot(eps, [r[6] / r[3] - 1 for r in rows], ":", label="Grad closure, finite eps")
+ax.axhline(0, color="grey", lw=0.8)
+ax.set_xscale("log")
+ax.set_xlabel("Knudsen parameter eps")
+ax.set_ylabel("decay rate / (paper D k^2) - 1")
+ax.set_title("density mode, k = pi: approach to the drift-diffusion limit")
+ax.legend(fontsize=8)
+ax.grid(alpha=0.3)
+fig.tight_layout()
+fig.savefig(here / "sweep" / "diffusion_limit.png", dpi=110)
