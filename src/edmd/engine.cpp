@@ -723,8 +723,23 @@ void Engine::rebuild() {
   now_ = 0.0;
   ++rebuilds_;
   for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
+#ifdef GRAINBATH_EDMD_HEAP
   heap_.reset(n_);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
+#else
+  // predict everyone into a provisional calendar, then size the buckets from the mean delay
+  // to the next event (about two events per bucket) and re-insert
+  heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
+  for (std::uint32_t i = 0; i < n_; ++i) predict(i);
+  double sum = 0.0;
+  std::size_t finite = 0;
+  for (std::uint32_t i = 0; i < n_; ++i)
+    if (std::isfinite(ev_time_[i])) sum += ev_time_[i], ++finite;
+  calendar_width_ = finite ? 2.0 * (sum / finite) / static_cast<double>(n_) : 1.0;
+  if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
+  heap_.reset(n_, 0.0, calendar_width_);
+  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time_[i]);
+#endif
 }
 
 namespace {
