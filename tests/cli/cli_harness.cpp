@@ -6,7 +6,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <optional>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -71,14 +73,25 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
   std::string* sinks[2] = {&r.out, &r.err};
   int open_fds = 2;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(opt.timeout_s);
+  bool sent = false;
+  std::optional<std::chrono::steady_clock::time_point> send_at;
   while (open_fds > 0) {
+    if (opt.send_signal && !sent) {
+      if (!send_at && r.err.find(opt.send_when) != std::string::npos)
+        send_at = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
+      if (send_at && std::chrono::steady_clock::now() >= *send_at) {
+        ::kill(pid, opt.send_signal);
+        sent = true;
+      }
+    }
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
       ::kill(pid, SIGKILL);
       r.timed_out = true;
       break;
     }
-    if (::poll(fds, 2, static_cast<int>(left.count())) < 0) break;
+    const int wait_ms = opt.send_signal && !sent ? 50 : static_cast<int>(left.count());
+    if (::poll(fds, 2, std::min(wait_ms, static_cast<int>(left.count()))) < 0) break;
     for (int k = 0; k < 2; ++k) {
       if (fds[k].fd < 0 || !(fds[k].revents & (POLLIN | POLLHUP | POLLERR))) continue;
       char buf[4096];

@@ -41,6 +41,8 @@ struct RunOptions {
   std::optional<rlim_t> file_size_limit;  // RLIMIT_FSIZE in bytes, with SIGXFSZ ignored
   bool ignore_sigxfsz = true;             // as a full disk does not signal: writes fail with EFBIG
   double timeout_s = 60;
+  int send_signal = 0;                    // if set: sent once stderr contains send_when (then 0.3 s later)
+  std::string send_when;
 };
 
 RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt);
