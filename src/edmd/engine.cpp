@@ -75,7 +75,7 @@ struct Roots {
   double t[8];
   int n = 0;
 };
-void roots_in(const Poly& p, double a, double b, Roots& out) {
+void roots_in(const Poly& p, double a, double b, Roots& out, bool entering_only = false) {
   double cuts[10];
   int nc = 0;
   cuts[nc++] = a;
@@ -87,7 +87,8 @@ void roots_in(const Poly& p, double a, double b, Roots& out) {
   cuts[nc++] = b;
   for (int k = 0; k + 1 < nc; ++k) {
     const double fa = p(cuts[k]), fb = p(cuts[k + 1]);
-    if (((fa > 0.0 && fb <= 0.0) || (fa < 0.0 && fb >= 0.0)) && out.n < 8)
+    const bool down = fa > 0.0 && fb <= 0.0, up = fa < 0.0 && fb >= 0.0;
+    if ((down || (up && !entering_only)) && out.n < 8)
       out.t[out.n++] = bisect(p, cuts[k], cuts[k + 1]);
   }
 }
@@ -277,12 +278,13 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
   if (!std::isfinite(tmax)) tmax = 1e6;
   // f non-decreasing for t >= 0 and positive now: never a contact
   if (p.c[0] > 0.0 && p.c[1] >= 0.0 && p.c[2] >= 0.0 && p.c[3] >= 0.0) return kInf;
+  // The contact is the first *entering* root (f falls through 0). Apart now: that is the
+  // first root. Touching and separating (just collided; f(0) may be +0, 0 or -0 by
+  // round-off): the parting root is skipped whatever its sign bookkeeping, and the
+  // re-collision the relative acceleration may bring is found.
   Roots roots;
-  roots_in(p, 0.0, tmax, roots);
-  // Apart now (f(0) > 0): the first root is the contact. Touching and separating: the first
-  // root is where they part, the second where they meet again.
-  const int k = p.c[0] > 0.0 ? 0 : 1;
-  return roots.n > k ? roots.t[k] : kInf;
+  roots_in(p, 0.0, tmax, roots, /*entering_only=*/true);
+  return roots.n > 0 ? roots.t[0] : kInf;
 }
 
 // Earliest collision of i with the grains of one cell (image shifted by `shift`); updates
@@ -313,6 +315,22 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
       const Vec3 vj = kj.v + dtj * a_[j];
       const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
       tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
+#ifdef EDMD_DEBUG_QUARTIC
+      {
+        const Vec3 dr = rj - ki.r, dv = vj - ki.v, da = a_[j] - ai;
+        const double hi = std::min({best - t, tcol, 2.0});
+        if (dot(dr, dr) > 1.0 + 1e-9)
+          for (int k = 1; k <= 4000; ++k) {
+            const double tt = hi * k / 4000.0;
+            const Vec3 x = dr + tt * dv + (0.5 * tt * tt) * da;
+            if (dot(x, x) < 1.0 - 1e-9) {
+              std::fprintf(stderr, "MISSED: tcol %.17g found overlap at %.17g; dr %.17g %.17g dv %.17g %.17g da %.17g %.17g tmax %.17g\n",
+                           tcol, tt, dr.x, dr.y, dv.x, dv.y, da.x, da.y, best - t);
+              break;
+            }
+          }
+      }
+#endif
       if (!std::isfinite(tcol)) continue;
     }
     if (t + tcol < best) {
@@ -702,6 +720,14 @@ void Engine::synchronize() {
 
 void Engine::rebuild() {
   synchronize();
+#ifndef NDEBUG
+  // debug builds: full overlap check at every rebuild (every 10 collisions per particle)
+  if (rebuilds_ > 0) {
+    const double dmin = min_distance();
+    if (dmin < 1.0 - 1e-9)
+      throw std::logic_error("edmd: overlap detected at rebuild: closest pair " + std::to_string(dmin) + " apart");
+  }
+#endif
   // wrap into the box and reassign cells from positions alone, so that a run restarted
   // from (positions, velocities, counters) takes exactly the same decisions
   for (std::uint32_t i = 0; i < n_; ++i) {

@@ -235,7 +235,18 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
     if (*x > 0.5 * l) *x -= l;
     else if (*x < -0.5 * l) *x += l;
   }
-  const Vec3 n = (1.0 / norm(dr)) * dr;  // unit vector from i to j (Bizon's k)
+  const double dist = norm(dr);
+#ifndef NDEBUG
+  // debug builds: the colliding pair must be in contact, never overlapping
+  if (!(dist > 1.0 - 1e-9 && dist < 1.0 + 1e-6))
+    throw std::logic_error("edmd: colliding pair at distance " + std::to_string(dist) + " (expected sigma = 1); cells (" +
+                           std::to_string(cellc_[i][0]) + "," + std::to_string(cellc_[i][1]) + ") (" +
+                           std::to_string(cellc_[j][0]) + "," + std::to_string(cellc_[j][1]) + "), collisions " +
+                           std::to_string(c_.collisions) + ", rebuilds " + std::to_string(rebuilds_) + ", t " +
+                           std::to_string(now_) + ", last collisions " + std::to_string(last_collision_[i]) + " " +
+                           std::to_string(last_collision_[j]));
+#endif
+  const Vec3 n = (1.0 / dist) * dr;  // unit vector from i to j (Bizon's k)
   const double gn = dot(a.v - b.v, n);    // approach speed > 0
   double e = 1.0;
   if (tc_ > 0.0 && (now_ - last_collision_[i] < tc_ || now_ - last_collision_[j] < tc_)) {

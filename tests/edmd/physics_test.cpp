@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/case_file.hpp"
+#include "core/h5.hpp"
 #include "core/summary.hpp"
 #include "edmd/edmd.hpp"
 #include "edmd/theory.hpp"
@@ -132,4 +133,32 @@ TEST(EdmdPhysics, HeatBathsReproduceBizonTrends) {
   EXPECT_NEAR(b.number("loss.gamma_over_gamma_e"), 1.0, 0.05);
   EXPECT_NEAR(w.number("temperature.mean"), 1.0, 0.15);
   EXPECT_NEAR(w.number("conservation.momentum_change"), 0.0, 1e-9);
+}
+
+TEST(EdmdPhysics, TrajectoriesInH5mdLayout) {
+  CaseReader r(
+      "[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.3\nequilibrate = 5\ncollisions = 20\n"
+      "[sampling]\ntrajectory_interval = 5\n",
+      "t.toml");
+  Config c = read_config(r);
+  r.finish();
+  RunContext ctx;
+  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_traj_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(ctx.out_dir);
+  ctx.quiet = true;
+  Summary s;
+  run(c, ctx, s);
+  {
+    H5File h((ctx.out_dir / "results.h5").string(), H5File::Mode::read);
+    std::vector<hsize_t> dims;
+    const auto pos = h.read_doubles("/particles/all/position/value", &dims);
+    ASSERT_EQ(dims.size(), 3u);
+    EXPECT_GE(dims[0], 4u);
+    EXPECT_EQ(dims[1], 100u);
+    EXPECT_EQ(dims[2], 2u);
+    EXPECT_EQ(h.read_doubles("/particles/all/position/time").size(), dims[0]);
+    EXPECT_EQ(h.read_doubles("/particles/all/box/edges").size(), 2u);
+    EXPECT_TRUE(h.exists("/observables/gr/g"));
+  }
+  std::filesystem::remove_all(ctx.out_dir);
 }
