@@ -284,3 +284,61 @@ TEST(DsmcPhysics, SteadyTemperatureNearMaxwellianClosureRoot) {
   // the closures library's root agrees with this independent one
   EXPECT_NEAR(run.summary.number("theory.equilibrium.maxwellian.T"), T_root, 1e-9);
 }
+
+// Issue #3 validation 3: the closures' relaxation ODEs against the DSMC transient from a
+// drifting hot start (u - uB = 1, T = 2; alpha = 0.5, eps = 0.1, beta = 0.2, delta = 0.2).
+// Deviations are measured relative to the size of the transient: |u0 - uB| for u and
+// (T0 - T#) for T. The DSMC noise (3e-3 in T per sample at 1e5 grains) is part of the
+// tolerance.
+TEST(DsmcPhysics, RelaxationFollowsTheClosures) {
+  const auto run = run_dsmc(R"(
+[grains]
+temperature = 2.0
+drift = [1.0, 0.0, 0.0]
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.1
+[restitution]
+law = "power"
+beta = 0.2
+delta = 0.2
+[dsmc]
+particles = 100000
+dt = 0.002
+t_end = 1.0
+[sampling]
+every = 0.01
+steady_from = 0.5
+)",
+                            17, 0, "relax");
+  const auto T = run.series("/timeseries/temperature");
+  const auto u = run.series("/timeseries/velocity");
+  const double T_eq = run.summary.number("theory.equilibrium.sonine.T");
+  const double scale_T = 2.0 - T_eq;
+  for (const char* closure : {"maxwellian", "grad", "sonine"}) {
+    const auto Tc = run.series(std::string("/theory/") + closure + "/temperature");
+    const auto uc = run.series(std::string("/theory/") + closure + "/velocity");
+    double worst_T = 0, worst_u = 0;
+    for (std::size_t k = 0; k < T.size(); ++k) {
+      worst_T = std::max(worst_T, std::abs(T[k] - Tc[k]) / scale_T);
+      worst_u = std::max(worst_u, std::abs(u[3 * k] - uc[3 * k]));
+    }
+    std::printf("relaxation, %s closure: worst |dT|/(T0 - T#) = %.4f, worst |du|/|u0 - uB| = %.4f\n", closure, worst_T,
+                worst_u);
+    RecordProperty(std::string(closure) + "_worst_T", std::to_string(worst_T));
+    // single-sample noise: u: sqrt(T/(m N)) <= 0.0045; T/(T0 - T#): T sqrt(2/(3N)) / 1.04 <= 0.005.
+    // Maxwellian and Sonine closures carry the exact Gaussian friction (docs/closures.md C5):
+    // within 5 sigma of one sample everywhere. The Grad closure (linear in the drift about
+    // the background Maxwellian) is measured ~7% off in u and T here: bounded, not matched.
+    const std::string name = closure;
+    if (name == "grad") {
+      EXPECT_LT(worst_u, 0.10) << closure;
+      EXPECT_LT(worst_T, 0.10) << closure;
+    } else {
+      EXPECT_LT(worst_u, 0.0225) << closure;
+      EXPECT_LT(worst_T, 0.025) << closure;
+    }
+  }
+}
