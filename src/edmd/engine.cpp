@@ -240,8 +240,10 @@ void Engine::move_to(std::uint32_t i, double t) {
   const double dt = t - k.t;
   if (dt == 0.0) return;
   if (accelerated_) {
+    const double e0 = norm2(k.v);
     k.r += dt * k.v + (0.5 * dt * dt) * a_[i];
     k.v += dt * a_[i];
+    c_.heating_energy += 0.5 * (norm2(k.v) - e0);  // work of the air-table force
   } else {
     k.r += dt * k.v;
   }

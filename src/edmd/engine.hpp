@@ -82,7 +82,7 @@ struct Counters {
   std::uint64_t clamped = 0;          // restitution law clamped to [0, 1]
   double virial = 0.0;                // Sum sigma k.dv_i = Sum (1+e)/2 g_n  (Bizon eq. 24)
   double energy_lost = 0.0;           // Sum (m/4)(1-e^2) g_n^2
-  double heating_energy = 0.0;        // energy injected by the heat bath
+  double heating_energy = 0.0;        // energy injected by the heat bath (air table: work of the forces)
   double background_energy = 0.0;     // energy given by the background medium
   double wall_virial = 0.0;           // Sum m |dv_n| at walls (momentum transferred)
   double sum_vn = 0.0, sum_vn2 = 0.0, sum_e = 0.0;

@@ -209,3 +209,20 @@ TEST(EdmdCalendar, CalendarQueueAndHeapGiveTheSameOrder) {
   EXPECT_TRUE(heap.valid());
   EXPECT_TRUE(cal.valid());
 }
+
+TEST(EdmdEngine, AirTableEnergyBudgetCloses) {
+  // kinetic-energy change = work of the accelerations - inelastic loss
+  Config c = config_from(
+      "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.4\n"
+      "[restitution]\nlaw = \"bizon\"\ne = 0.7\ncrossover = 1.0\n"
+      "[heating]\nmodel = \"air_table\"\nacceleration = 4.0\n");
+  const auto init = make_initial_state(c, 2);
+  Engine eng(make_setup(c, 2), init.positions, init.velocities);
+  eng.synchronize();
+  const double e0 = eng.kinetic_energy();
+  eng.advance(BizonRestitution{0.7, 1.0}, kInf, 20000);
+  eng.synchronize();
+  const auto& k = eng.counters();
+  EXPECT_GT(k.heating_energy, 0.0);
+  EXPECT_NEAR(eng.kinetic_energy() - e0, k.heating_energy - k.energy_lost, 1e-8 * (k.heating_energy + e0));
+}
