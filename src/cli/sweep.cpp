@@ -18,6 +18,7 @@
 #include "cli/commands.hpp"
 #include "core/case_file.hpp"
 #include "core/run_support.hpp"
+#include "core/summary.hpp"
 
 namespace grainbath::cli {
 
@@ -290,6 +291,55 @@ int command_sweep(const SweepArgs& a) {
     }
     tsv << "\n";
     md << "\n";
+  }
+  // Ensemble mode: a sweep over run.seed alone is a set of independent replicas; merge them
+  // (mean over replicas, standard error = sample standard deviation / sqrt(R), which is an
+  // honest error whatever the correlations inside each run).
+  if (axes.size() == 1 && axes[0].first == "run.seed" && variants.size() >= 2) {
+    std::ostringstream em;
+    em << "| quantity | mean over " << variants.size() << " replicas | standard error | per-run stderr (mean) |\n|---|---|---|---|\n";
+    Summary merged;
+    for (const auto& c : columns) {
+      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || c.size() > 7 && c.compare(c.size() - 7, 7, ".stderr") == 0)
+        continue;
+      std::vector<double> v;
+      for (const auto& r : rows)
+        if (auto it = r.find(c); it != r.end() && std::isfinite(it->second)) v.push_back(it->second);
+      if (v.size() < 2) continue;
+      double m = 0;
+      for (double x : v) m += x;
+      m /= v.size();
+      double var = 0;
+      for (double x : v) var += (x - m) * (x - m);
+      const double se = std::sqrt(var / (v.size() - 1) / v.size());
+      merged.set(c + ".ensemble_mean", m);
+      merged.set(c + ".ensemble_stderr", se);
+      merged.set(c + ".replicas", static_cast<std::int64_t>(v.size()));
+      // the runs' own (blocked) standard errors, averaged and divided by sqrt(R), for comparison
+      std::string own;
+      const std::string base = c.size() > 5 && c.compare(c.size() - 5, 5, ".mean") == 0 ? c.substr(0, c.size() - 5) : c;
+      if (columns.count(base + ".stderr")) {
+        double s2 = 0;
+        int cnt = 0;
+        for (const auto& r : rows)
+          if (auto it = r.find(base + ".stderr"); it != r.end() && std::isfinite(it->second)) {
+            s2 += it->second;
+            ++cnt;
+          }
+        if (cnt) {
+          char b[40];
+          std::snprintf(b, sizeof b, "%.4g", s2 / cnt / std::sqrt(static_cast<double>(cnt)));
+          own = b;
+        }
+      }
+      char line[256];
+      std::snprintf(line, sizeof line, "| %s | %.10g | %.4g | %s |\n", c.c_str(), m, se, own.c_str());
+      em << line;
+    }
+    write_file_atomic(out / "ensemble.md", em.str());
+    write_file_atomic(out / "ensemble.json", merged.to_json());
+    std::printf("ensemble of %zu replicas: %s/ensemble.md, %s/ensemble.json\n", variants.size(), out.string().c_str(),
+                out.string().c_str());
   }
   write_file_atomic(out / "sweep.tsv", tsv.str());
   write_file_atomic(out / "sweep.md", md.str());
