@@ -162,3 +162,13 @@ TEST(EdmdPhysics, TrajectoriesInH5mdLayout) {
   }
   std::filesystem::remove_all(ctx.out_dir);
 }
+
+TEST(EdmdPhysics, FreeCoolingFollowsHaffsLaw) {
+  // cases/free-cooling-disks at 2500 disks: measured t0 / (Enskog + a2) = 1.02-1.03
+  // (velocity correlations slow the cooling slightly); the shape must be Haff's.
+  const Summary s = run_case(
+      "[edmd]\ndimensions = 2\nparticles = 2500\npacking_fraction = 0.1\nequilibrate = 2\ncollisions = 8\n"
+      "[restitution]\nlaw = \"constant\"\ne = 0.9\n[sampling]\ninterval = 0.5\nfree_cooling = true\n");
+  EXPECT_NEAR(s.number("haff.ratio"), 1.02, 0.03);
+  EXPECT_LT(s.number("haff.final_temperature"), 0.5 * s.number("temperature.initial"));
+}
