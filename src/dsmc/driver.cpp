@@ -207,6 +207,8 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   const BackgroundState uniform_bath =
       BackgroundState::make(bg.density, bg.knudsen, bg.velocity, bg.temperature, bg.mass_ratio, c.grains.mass);
 
+  // a medium is present if [background] density > 0, or if a file supplies the fields
+  const bool bath_on = bg.present() || c.field.profile == BackgroundProfile::file;
   State s;
   bool resumed = false;
   if (ctx.resume) {
@@ -248,13 +250,13 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   const std::int64_t checkpoint_steps =
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
   for (; s.step < c.steps;) {
-    if (bg.present()) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half);
+    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half);
     if (c.spatial()) {
       stream(s, c, ctx.seed, removed);
       sort_by_cell(s, c, removed);
     }
     grain_step(s, c, ctx.seed, per_cell);
-    if (bg.present()) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
+    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
     ++s.step;
     if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
       sample(s, c, static_cast<double>(s.step) * c.dt);

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <numbers>
 
 #include "hydro/hydro.hpp"
@@ -146,4 +147,83 @@ fields = false
   EXPECT_GT(err, 0.0);
   EXPECT_LT(err, 0.04 * mean);
   EXPECT_NEAR(mean, D * k * k, 4 * err);
+}
+
+// Background fields from an HDF5 grid: a grid holding the uniform values reproduces the
+// uniform run bitwise; a grid of the wrong shape or without a dataset is a case error
+// naming [background] file.
+TEST(DsmcSpatial, BackgroundFromFile) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("grainbath-bgfile-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto write_grid = [&](const std::string& name, std::size_t cells, bool with_velocity) {
+    grainbath::H5File f((dir / name).string(), grainbath::H5File::Mode::create);
+    f.write("density", std::vector<double>(cells, 1.5));
+    f.write("temperature", std::vector<double>(cells, 0.8));
+    if (with_velocity) {
+      std::vector<double> v(3 * cells, 0.0);
+      for (std::size_t k = 0; k < cells; ++k) v[3 * k] = 0.25;
+      f.write("velocity", v);
+    }
+  };
+  write_grid("good.h5", 8, true);
+  write_grid("short.h5", 5, true);
+  write_grid("novelocity.h5", 8, false);
+  auto toml = [&](const std::string& background) {
+    return R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [8]
+[grains]
+temperature = 1.0
+[background]
+mass_ratio = 0.4
+knudsen = 0.2
+)" + background + R"(
+[restitution]
+law = "constant"
+e = 0.9
+[dsmc]
+particles = 4000
+dt = 0.01
+t_end = 0.5
+[sampling]
+every = 0.1
+steady_from = 0.2
+)";
+  };
+  // the case file lives in `dir`, so a relative file name resolves there
+  auto run_in_dir = [&](const std::string& text, const std::string& tag) {
+    std::ofstream(dir / "case.toml") << text;
+    grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
+    auto cfg = grainbath::dsmc::read_config(reader);
+    reader.finish();
+    grainbath::testing::CaseRun out;
+    out.dir = dir / tag;
+    fs::create_directories(out.dir);
+    grainbath::RunContext ctx;
+    ctx.out_dir = out.dir;
+    ctx.seed = 3;
+    ctx.quiet = true;
+    grainbath::dsmc::run(cfg, ctx, out.summary);
+    return out;
+  };
+  const auto uniform =
+      run_in_dir(toml("density = 1.5\ntemperature = 0.8\nvelocity = [0.25, 0.0, 0.0]"), "uniform");
+  const auto from_file = run_in_dir(toml("profile = \"file\"\nfile = \"good.h5\""), "file");
+  EXPECT_EQ(uniform.series("/timeseries/temperature"), from_file.series("/timeseries/temperature"));
+  EXPECT_EQ(uniform.series("/timeseries/velocity"), from_file.series("/timeseries/velocity"));
+  for (const char* bad : {"short.h5", "novelocity.h5", "missing.h5"}) {
+    std::ofstream(dir / "case.toml") << toml(std::string("profile = \"file\"\nfile = \"") + bad + "\"");
+    grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
+    try {
+      grainbath::dsmc::read_config(reader);
+      reader.finish();
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const grainbath::CaseError& e) {
+      EXPECT_NE(std::string(e.what()).find("background.file"), std::string::npos) << e.what();
+    }
+  }
+  fs::remove_all(dir);
 }
