@@ -4,7 +4,8 @@
     GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick] [--reuse]
 
 Writes output-sweep/<packing>/summary.json, eos.csv and eos.png beside this script.
-The same script serves cases/hard-sphere-eos (it reads the dimension from case.toml)."""
+cases/hard-sphere-eos/sweep.py is a link to this file: it reads the dimension from the
+case.toml beside the path it was called by."""
 import csv
 import json
 import math
