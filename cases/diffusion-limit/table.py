@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 here = Path(__file__).resolve().parent
 rows = []
-for d in sorted((here / "sweep").glob("eps-*")):
+for d in sorted(p for p in (here / "sweep").glob("eps-*") if (p / "summary.json").exists()):
     s = json.load(open(d / "summary.json"))
     h = s["theory"]["hydro"]
     eps = float(d.name.split("-", 1)[1])
