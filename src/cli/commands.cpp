@@ -172,7 +172,12 @@ int command_run(const RunArgs& a) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
                  e.what(), out.string().c_str());
-    return g_stop.load() ? 130 : 1;
+    // Remove the temporary directory, then leave without running HDF5's exit-time cleanup:
+    // after a failed close (disk full) the library's atexit handler can crash.
+    const int code = g_stop.load() ? 130 : 1;
+    dir.reset();
+    std::fflush(nullptr);
+    std::_Exit(code);
   }
   print_table(summary);
   std::printf("results: %s/results.h5, %s/summary.json\n", out.string().c_str(), out.string().c_str());

@@ -21,6 +21,9 @@ See docs/CASE_FILE.md for every key, its default and its unit.)";
 }
 
 int main(int argc, char** argv) {
+  // A file-size limit (ulimit -f) must surface as a failed write with a clear message,
+  // not kill the run and leave its temporary output behind.
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"grainbath: kinetic theory and simulation of granular gases in a background medium"};
   app.footer(kUnits);
   app.require_subcommand(1);

@@ -50,6 +50,14 @@ H5File::~H5File() {
 
 void H5File::fail(const std::string& what) const { throw std::runtime_error(path_ + ": " + what); }
 
+void H5File::close() {
+  if (file_ < 0) return;
+  const herr_t f = H5Fflush(file_, H5F_SCOPE_GLOBAL);
+  const herr_t c = H5Fclose(file_);
+  file_ = -1;
+  if (f < 0 || c < 0) fail("write failed (disk full?)");
+}
+
 void H5File::flush() {
   if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush failed (disk full?)");
 }
@@ -100,6 +108,9 @@ static void write_array(H5File& f, hid_t file, const std::string& name, const st
   if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create dataset " + name);
   if (!data.empty() && H5Dwrite(ds.id, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0)
     throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+  const hid_t id = ds.id;
+  ds.id = -1;
+  if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
 }
 
 void H5File::write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims) {

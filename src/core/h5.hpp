@@ -41,6 +41,9 @@ class H5File {
   std::string read_attribute(const std::string& object, const std::string& name) const;
 
   void flush();
+  // Flushes and closes the file, throwing if any write failed (disk full, quota, file-size
+  // limit): HDF5 reports such failures only when data are flushed or objects closed.
+  void close();
   const std::string& path() const { return path_; }
 
  private:

@@ -155,7 +155,7 @@ void write_checkpoint(const fs::path& dir, const State& state, const RunContext&
     h.attribute("/", "checksum", hex(checksum(f)));
     h.attribute("/", "seed", std::to_string(ctx.seed));
     h.attribute("/", "grainbath_version", std::string(GRAINBATH_VERSION));
-    h.flush();
+    h.close();
   }
   fs::rename(tmp, final_path, ec);
   if (ec) throw std::runtime_error(final_path.string() + ": cannot move the checkpoint into place: " + ec.message());

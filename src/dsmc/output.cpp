@@ -341,6 +341,8 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   summary.set("performance.collisions_per_second", collisions / wall);
   summary.set("performance.threads", static_cast<std::int64_t>(omp_get_max_threads()));
 
+  f.close();  // a failed write (disk full) surfaces here, before the output is committed
+
   if (rc.grain.collisions > 0 && rc.grain.clamped > 1e-4 * rc.grain.collisions)
     std::fprintf(stderr, "warning: the power law gave e < 0 (clamped to 0) in %.3g%% of grain collisions\n",
                  100.0 * rc.grain.clamped / rc.grain.collisions);

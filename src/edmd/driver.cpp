@@ -499,6 +499,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   for (const auto& [k, val] : summary.entries()) {
     if (const double* d = std::get_if<double>(&val)) h5.attribute("/summary", k, *d);
   }
+  h5.close();  // a failed write (disk full) surfaces here, before the output is committed
 }
 
 }  // namespace
