@@ -6,3 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
 ctest --test-dir build --output-on-failure -LE long --timeout 900 -j "$(nproc)"
+# The fast subset again under AddressSanitizer + UndefinedBehaviorSanitizer (operators,
+# cli, closures; docs/RELIABILITY.md). The whole default tier under the sanitizers:
+#   cmake --preset asan-ubsan && cmake --build --preset asan-ubsan && ctest --preset asan-ubsan
+cmake --preset asan-ubsan > /dev/null
+cmake --build --preset asan-ubsan-fast --parallel "$(nproc)"
+ctest --preset asan-ubsan-fast -j "$(nproc)"
