@@ -259,9 +259,23 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
     ++s.step;
     if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
-      sample(s, c, static_cast<double>(s.step) * c.dt);
-      char extra[96];
-      std::snprintf(extra, sizeof extra, "t=%.4g T=%.5g", s.series.t.back(), s.series.T.back());
+      try {
+        sample(s, c, static_cast<double>(s.step) * c.dt);
+      } catch (const std::runtime_error& e) {
+        // NaN/Inf in the sampled moments: keep the state for a post-mortem, then stop
+        if (!ctx.checkpoint_dir.empty()) write_checkpoint(ctx.checkpoint_dir, s, ctx);
+        throw std::runtime_error(std::string(e.what()) + "; the state was checkpointed to " +
+                                 ctx.checkpoint_dir.string());
+      }
+      // conservation monitors: particle count, momentum per grain, kinetic energy per grain,
+      // and the cumulative bath input and inelastic loss per grain
+      const TimeSeries& ts = s.series;
+      const std::size_t k = ts.t.size() - 1;
+      char extra[160];
+      std::snprintf(extra, sizeof extra, "t=%.4g N=%.0f T=%.5g |u|=%.3g E=%.5g in=%.4g loss=%.4g", ts.t[k], ts.count[k],
+                    ts.T[k], std::sqrt(ts.velocity[3 * k] * ts.velocity[3 * k] + ts.velocity[3 * k + 1] * ts.velocity[3 * k + 1] +
+                                       ts.velocity[3 * k + 2] * ts.velocity[3 * k + 2]),
+                    ts.ke[k], ts.bath_in[k], ts.loss[k]);
       progress.update(static_cast<double>(s.step), extra);
     }
     const bool stop = ctx.stop_requested && ctx.stop_requested->load();
