@@ -1,6 +1,10 @@
 #include "dsmc/spatial.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
+#include <bit>
+#include <stdexcept>
 #include <cmath>
 #include <numbers>
 
@@ -8,15 +12,7 @@
 
 namespace grainbath::dsmc {
 
-std::uint32_t cell_index(const Domain& d, double x, double y, double z) {
-  const double pos[3] = {x, y, z};
-  std::uint32_t idx[3] = {0, 0, 0};
-  for (int a = 0; a < d.dimensions; ++a) {
-    const double f = pos[a] / d.length[a] * d.cells[a];
-    idx[a] = static_cast<std::uint32_t>(std::clamp(static_cast<long>(f), 0L, static_cast<long>(d.cells[a] - 1)));
-  }
-  return idx[0] + static_cast<std::uint32_t>(d.cells[0]) * (idx[1] + static_cast<std::uint32_t>(d.cells[1]) * idx[2]);
-}
+std::uint32_t cell_index(const Domain& d, double x, double y, double z) { return CellGrid(d)(x, y, z); }
 
 namespace {
 
@@ -26,10 +22,62 @@ double diffuse_normal_speed(CounterRng& rng, double sigma) { return sigma * std:
 
 }  // namespace
 
+namespace {
+
+// Fully periodic box: no wall can be hit, so streaming is x += v dt with a wrap, and the
+// new cell index is computed in the same pass while the position is in a register (the
+// sort then needs no second pass over the positions).
+template <int Dim>
+void stream_periodic(State& s, const Config& c) {
+  Particles& p = s.particles;
+  const std::size_t n = p.size();
+  const CellGrid grid(c.domain);
+  const double dt = c.dt;
+  const double Lx = c.domain.length[0], Ly = c.domain.length[1], Lz = c.domain.length[2];
+  std::vector<std::uint32_t>& cell = s.sort.cell;
+  cell.resize(n);
+  double* __restrict x = p.x.data();
+  double* __restrict y = Dim > 1 ? p.y.data() : nullptr;
+  double* __restrict z = Dim > 2 ? p.z.data() : nullptr;
+  const double* __restrict vx = p.vx.data();
+  const double* __restrict vy = p.vy.data();
+  const double* __restrict vz = p.vz.data();
+  std::uint32_t* __restrict out = cell.data();
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double xi = wrap_periodic(x[i] + vx[i] * dt, Lx);
+    x[i] = xi;
+    double yi = 0.0, zi = 0.0;
+    if constexpr (Dim > 1) {
+      yi = wrap_periodic(y[i] + vy[i] * dt, Ly);
+      y[i] = yi;
+    }
+    if constexpr (Dim > 2) {
+      zi = wrap_periodic(z[i] + vz[i] * dt, Lz);
+      z[i] = zi;
+    }
+    out[i] = grid(xi, yi, zi);
+  }
+  s.sort.cell_fresh = true;
+}
+
+}  // namespace
+
 void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint8_t>& removed) {
   Particles& p = s.particles;
   const Domain& d = c.domain;
   const std::size_t n = p.size();
+  bool all_periodic = true;
+  for (int f = 0; f < 2 * d.dimensions; ++f) all_periodic = all_periodic && d.faces[f] == Boundary::periodic;
+  if (all_periodic) {
+    removed.clear();
+    switch (d.dimensions) {
+      case 1: stream_periodic<1>(s, c); return;
+      case 2: stream_periodic<2>(s, c); return;
+      default: stream_periodic<3>(s, c); return;
+    }
+  }
+  s.sort.cell_fresh = false;
   removed.assign(n, 0);
   const double dt = c.dt;
   const double sigma_wall = std::sqrt(d.wall_temperature / c.grains.mass);
@@ -90,14 +138,7 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
         }
       }
       // periodic wrap
-      for (int a = 0; a < d.dimensions; ++a) {
-        const double L = d.length[a];
-        double& x = *pos[a];
-        if (x < 0.0 || x >= L) {
-          x -= L * std::floor(x / L);
-          if (x >= L) x = 0.0;  // -tiny wraps to L in floating point
-        }
-      }
+      for (int a = 0; a < d.dimensions; ++a) *pos[a] = wrap_periodic(*pos[a], d.length[a]);
     }
   }
   for (std::size_t b = 0; b < blocks; ++b) {
@@ -107,45 +148,93 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
   }
 }
 
+// Counting sort into cell order, then by id inside each cell.
+//
+// Thread-count independence: the final order is (cell, global id), a function of the state
+// alone; how the counting sort splits the work cannot show in it. The counting sort is
+// stable (per-thread counts over static chunks, offsets in (cell, thread) order), so each
+// cell receives runs that are already in id order and the insertion sort that finishes it
+// does little work. Then every array is gathered through one scratch buffer. Nothing is
+// allocated once the scratch has reached its size.
 void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed) {
   Particles& p = s.particles;
   const Domain& d = c.domain;
   const std::size_t n = p.size();
   const std::size_t cells = d.cell_count();
-  std::vector<std::uint32_t> cell(n);
+  if (n >= kRemoved) throw std::runtime_error("sort_by_cell: more than 2^32 - 1 particles in one process");
+  SortScratch& w = s.sort;
+  if (!w.cell_fresh) {
+    w.cell.resize(n);
+    const CellGrid grid(d);
+    const bool any_removed = removed.size() == n;
 #pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < n; ++i)
-    cell[i] = (removed.size() == n && removed[i])
-                  ? kRemoved
-                  : cell_index(d, p.x[i], d.dimensions > 1 ? p.y[i] : 0.0, d.dimensions > 2 ? p.z[i] : 0.0);
-  std::vector<std::size_t> start(cells + 1, 0);
-  for (std::size_t i = 0; i < n; ++i)
-    if (cell[i] != kRemoved) ++start[cell[i] + 1];
-  for (std::size_t k = 0; k < cells; ++k) start[k + 1] += start[k];
-  const std::size_t kept = start[cells];
-  std::vector<std::size_t> perm(kept), fill(start.begin(), start.end() - 1);
-  for (std::size_t i = 0; i < n; ++i)
-    if (cell[i] != kRemoved) perm[fill[cell[i]]++] = i;
-  // within a cell, order by global id (reproducibility at any thread or rank count);
-  // segments are nearly sorted already, so insertion sort is linear in practice
-#pragma omp parallel for schedule(dynamic, 256)
-  for (std::size_t k = 0; k < cells; ++k) {
-    for (std::size_t a = start[k] + 1; a < start[k + 1]; ++a) {
-      const std::size_t v = perm[a];
-      std::size_t b = a;
-      while (b > start[k] && p.id[perm[b - 1]] > p.id[v]) {
-        perm[b] = perm[b - 1];
-        --b;
+    for (std::size_t i = 0; i < n; ++i)
+      w.cell[i] = (any_removed && removed[i]) ? kRemoved
+                                              : grid(p.x[i], d.dimensions > 1 ? p.y[i] : 0.0, d.dimensions > 2 ? p.z[i] : 0.0);
+  }
+  w.cell_fresh = false;
+  const int max_threads = omp_get_max_threads();
+  if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
+  w.perm.resize(n);
+  s.cell_start.resize(cells + 1);
+  std::size_t* start = s.cell_start.data();
+  const std::uint32_t* __restrict cell = w.cell.data();
+  std::uint32_t* __restrict perm = w.perm.data();
+  const std::uint64_t* __restrict id = p.id.data();
+#pragma omp parallel
+  {
+    const int threads = omp_get_num_threads(), t = omp_get_thread_num();
+    const std::size_t lo = n * t / threads, hi = n * (t + 1) / threads;
+    std::uint32_t* __restrict cnt = w.counts.data() + static_cast<std::size_t>(t) * cells;
+    std::fill(cnt, cnt + cells, 0u);
+    for (std::size_t i = lo; i < hi; ++i)
+      if (cell[i] != kRemoved) ++cnt[cell[i]];
+#pragma omp barrier
+#pragma omp single
+    {
+      std::uint32_t offset = 0;
+      for (std::size_t k = 0; k < cells; ++k) {
+        start[k] = offset;
+        for (int u = 0; u < threads; ++u) {
+          std::uint32_t& row = w.counts[static_cast<std::size_t>(u) * cells + k];
+          const std::uint32_t here = row;
+          row = offset;
+          offset += here;
+        }
       }
-      perm[b] = v;
+      start[cells] = offset;
+    }
+    for (std::size_t i = lo; i < hi; ++i)
+      if (cell[i] != kRemoved) perm[cnt[cell[i]]++] = static_cast<std::uint32_t>(i);
+#pragma omp barrier
+    // within a cell, order by global id (reproducibility at any thread or rank count)
+#pragma omp for schedule(static)
+    for (std::size_t k = 0; k < cells; ++k) {
+      const std::size_t b0 = start[k], b1 = start[k + 1];
+      for (std::size_t a = b0 + 1; a < b1; ++a) {
+        const std::uint32_t v = perm[a];
+        const std::uint64_t key = id[v];
+        std::size_t b = a;
+        while (b > b0 && id[perm[b - 1]] > key) {
+          perm[b] = perm[b - 1];
+          --b;
+        }
+        perm[b] = v;
+      }
     }
   }
-  auto apply = [&](auto& arr) {
-    using T = typename std::decay_t<decltype(arr)>::value_type;
+  const std::size_t kept = start[cells];
+  w.gather.resize(n);
+  double* __restrict buf = w.gather.data();
+  auto apply = [&](std::vector<double>& arr) {
     if (arr.empty()) return;
-    std::vector<T> out(kept);
-    for (std::size_t j = 0; j < kept; ++j) out[j] = arr[perm[j]];
-    arr.swap(out);
+    const double* __restrict src = arr.data();
+#pragma omp parallel for schedule(static)
+    for (std::size_t j = 0; j < kept; ++j) buf[j] = src[perm[j]];
+    arr.swap(w.gather);
+    arr.resize(kept);
+    w.gather.resize(n);
+    buf = w.gather.data();
   };
   apply(p.vx);
   apply(p.vy);
@@ -153,8 +242,12 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   apply(p.x);
   apply(p.y);
   apply(p.z);
-  apply(p.id);
-  s.cell_start = std::move(start);
+  // ids travel through the same double buffer as bit patterns
+#pragma omp parallel for schedule(static)
+  for (std::size_t j = 0; j < kept; ++j) buf[j] = std::bit_cast<double>(id[perm[j]]);
+#pragma omp parallel for schedule(static)
+  for (std::size_t j = 0; j < kept; ++j) p.id[j] = std::bit_cast<std::uint64_t>(buf[j]);
+  p.id.resize(kept);
 }
 
 BackgroundState local_background(const Config& c, double x, double y, double z, std::uint32_t cell) {

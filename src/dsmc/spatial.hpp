@@ -1,6 +1,7 @@
 #pragma once
 // Spatial parts of the DSMC step: free streaming with boundaries, sorting into cells,
 // background fields at a grain's position.
+#include <cmath>
 #include <cstdint>
 
 #include "dsmc/dsmc.hpp"
@@ -11,8 +12,38 @@ namespace grainbath::dsmc {
 
 inline constexpr std::uint32_t kRemoved = 0xffffffffu;
 
-// Cell of a position (x-fastest linear index). Positions are inside the box.
+// Cell of a position (x-fastest linear index). Positions are inside the box; round-off at
+// the upper face is clamped into the last cell.
+struct CellGrid {
+  double inv_size[3];
+  std::uint32_t cells[3];
+  explicit CellGrid(const Domain& d) {
+    for (int a = 0; a < 3; ++a) {
+      cells[a] = static_cast<std::uint32_t>(d.cells[a]);
+      inv_size[a] = a < d.dimensions ? d.cells[a] / d.length[a] : 0.0;
+    }
+  }
+  std::uint32_t axis(int a, double x) const {
+    const double f = x * inv_size[a];
+    if (!(f > 0.0)) return 0;
+    const auto k = static_cast<std::uint32_t>(f);
+    return k < cells[a] ? k : cells[a] - 1;
+  }
+  std::uint32_t operator()(double x, double y, double z) const {
+    return axis(0, x) + cells[0] * (axis(1, y) + cells[1] * axis(2, z));
+  }
+};
 std::uint32_t cell_index(const Domain& d, double x, double y, double z);
+
+// Periodic image of x in [0, L). Positions move less than a box length per step, so the
+// floor is taken only for particles that crossed a face.
+inline double wrap_periodic(double x, double L) {
+  if (x < 0.0 || x >= L) {
+    x -= L * std::floor(x / L);
+    if (x >= L) x = 0.0;  // -tiny wraps to L in floating point
+  }
+  return x;
+}
 
 // Streams every particle over dt and applies the face boundaries. Particles leaving through
 // open faces are marked (id kept, velocity zeroed) in `removed` and dropped by sort_by_cell.

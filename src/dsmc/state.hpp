@@ -39,6 +39,17 @@ struct FieldAccumulator {
   std::vector<std::int64_t> batch_samples;
 };
 
+// Work arrays of the cell sort (src/dsmc/spatial.cpp), kept between steps so the hot loop
+// allocates nothing: 16 bytes per particle while sorting (cell index, permutation, one
+// gather buffer), plus per-thread cell counts.
+struct SortScratch {
+  std::vector<std::uint32_t> cell;        // cell of each particle (kRemoved: left the box)
+  bool cell_fresh = false;                // `cell` was filled by the streaming pass
+  std::vector<std::uint32_t> perm;        // new slot -> old index
+  std::vector<double> gather;             // one array at a time is gathered through this
+  std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
+};
+
 struct State {
   Particles particles;
   std::int64_t step = 0;
@@ -49,6 +60,7 @@ struct State {
   double initial_kinetic_energy = 0.0;
   // scratch (rebuilt every step, not checkpointed)
   std::vector<std::size_t> cell_start;    // cell c holds [cell_start[c], cell_start[c+1])
+  SortScratch sort;                        // buffers of sort_by_cell, kept to avoid allocation
 };
 
 }  // namespace grainbath::dsmc
