@@ -89,6 +89,35 @@ class CounterRng {
 
   double exponential() { return -std::log(uniform()); }
 
+  // 32 random bits: each 64-bit Philox word is split into two halves, both used.
+  std::uint32_t bits32() {
+    if (have_half_) {
+      have_half_ = false;
+      return half_;
+    }
+    if (used_ == 4) refill();
+    const std::uint64_t w = block_.v[used_++];
+    half_ = static_cast<std::uint32_t>(w >> 32);
+    have_half_ = true;
+    return static_cast<std::uint32_t>(w);
+  }
+
+  // Integer uniform on [0, range), range >= 1, exactly (Lemire 2019, "Fast random integer
+  // generation in an interval": multiply-shift with a rejection that removes the bias of
+  // 2^32 mod range; a redraw happens with probability < range / 2^32).
+  std::uint32_t below(std::uint32_t range) {
+    std::uint64_t m = static_cast<std::uint64_t>(bits32()) * range;
+    auto low = static_cast<std::uint32_t>(m);
+    if (low < range) {
+      const std::uint32_t threshold = (0u - range) % range;
+      while (low < threshold) {
+        m = static_cast<std::uint64_t>(bits32()) * range;
+        low = static_cast<std::uint32_t>(m);
+      }
+    }
+    return static_cast<std::uint32_t>(m >> 32);
+  }
+
   // How many 4-word blocks this generator has consumed (for diagnostics/tests).
   std::uint64_t blocks_used() const { return ctr_.v[2]; }
 
@@ -104,6 +133,8 @@ class CounterRng {
   Philox::ctr_type block_{};
   int used_ = 4;
   bool have_spare_ = false;
+  bool have_half_ = false;
+  std::uint32_t half_ = 0;
   double spare_ = 0.0;
 };
 

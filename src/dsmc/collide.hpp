@@ -4,6 +4,7 @@
 // no std:: distribution object in the hot loops.
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
 
 #include "dsmc/particles.hpp"
 #include "operators/background.hpp"
@@ -62,21 +63,23 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
                          GrainCounters& counters) {
   const std::size_t count = end - begin;
   if (count < 2 || density <= 0.0) return;
+  if (count > 0xffffffffu) throw std::length_error("collide_cell: more than 2^32 - 1 grains in one cell");
   double g_max = relative_speed_bound(p, begin, end);
   if (g_max <= 0.0) return;
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
   const auto candidates = static_cast<std::uint64_t>(expected);
   remainder = expected - static_cast<double>(candidates);
-  const double n_real = static_cast<double>(count);
+  // an ordered pair of distinct grains, uniformly: i from [0, N), j from the other N - 1
+  // (exact integer draws from 32-bit halves of the Philox words, CounterRng::below)
+  const auto n32 = static_cast<std::uint32_t>(count);
+  double* __restrict vx = p.vx.data() + begin;
+  double* __restrict vy = p.vy.data() + begin;
+  double* __restrict vz = p.vz.data() + begin;
   for (std::uint64_t k = 0; k < candidates; ++k) {
-    std::size_t i = static_cast<std::size_t>(rng.uniform() * n_real);
-    std::size_t j = static_cast<std::size_t>(rng.uniform() * (n_real - 1.0));
-    if (i >= count) i = count - 1;
-    if (j >= count - 1) j = count - 2;
+    const std::uint32_t i = rng.below(n32);
+    std::uint32_t j = rng.below(n32 - 1);
     if (j >= i) ++j;
-    i += begin;
-    j += begin;
-    Vec3 v = p.velocity(i), w = p.velocity(j);
+    Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
     const Vec3 g = v - w;
     const double gmod = norm(g);
     ++counters.candidates;
@@ -90,8 +93,12 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
     const RestitutionOutcome r = restitution(law, dot(g, n));
     counters.clamped += r.clamped;
     counters.energy_loss += inelastic_collision(v, w, n, r.e, mass);
-    p.set_velocity(i, v);
-    p.set_velocity(j, w);
+    vx[i] = v.x;
+    vy[i] = v.y;
+    vz[i] = v.z;
+    vx[j] = w.x;
+    vy[j] = w.y;
+    vz[j] = w.z;
     ++counters.collisions;
   }
 }

@@ -3,9 +3,9 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <bit>
 #include <stdexcept>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "operators/random.hpp"
@@ -23,6 +23,10 @@ double diffuse_normal_speed(CounterRng& rng, double sigma) { return sigma * std:
 }  // namespace
 
 namespace {
+
+// two-lane vectors (GCC/Clang vector extensions; SSE2 on x86-64) for the in-cell ranking
+using Double2 = double __attribute__((vector_size(16)));
+using Long2 = long long __attribute__((vector_size(16)));
 
 // Fully periodic box: no wall can be hit, so streaming is x += v dt with a wrap, and the
 // new cell index is computed in the same pass while the position is in a register (the
@@ -181,6 +185,8 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   const std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict perm = w.perm.data();
   const std::uint64_t* __restrict id = p.id.data();
+  w.id.resize(n);
+  std::uint64_t* __restrict id_out = w.id.data();
 #pragma omp parallel
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -204,13 +210,42 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
       }
       start[cells] = offset;
     }
+    // the id travels with the index, so the in-cell sort reads contiguous keys
     for (std::size_t i = lo; i < hi; ++i)
-      if (cell[i] != kRemoved) perm[cnt[cell[i]]++] = static_cast<std::uint32_t>(i);
+      if (cell[i] != kRemoved) {
+        const std::uint32_t slot = cnt[cell[i]]++;
+        perm[slot] = static_cast<std::uint32_t>(i);
+        id_out[slot] = id[i];
+      }
 #pragma omp barrier
     // within a cell, order by global id (reproducibility at any thread or rank count)
+    // Small cells (the usual 10-30 particles) are sorted by ranking: the rank of each id is
+    // the count of smaller ids, a branch-free O(m^2) loop in two-lane vectors (ids, < 2^32 here, are
+    // compared as doubles, exact below 2^53). Larger cells use an insertion sort.
+    constexpr std::size_t kLocal = 64;
+    alignas(64) double keys[kLocal + 2];
+    std::uint32_t slots[kLocal];
 #pragma omp for schedule(static)
     for (std::size_t k = 0; k < cells; ++k) {
-      const std::size_t b0 = start[k], b1 = start[k + 1];
+      const std::size_t b0 = start[k], b1 = start[k + 1], m = b1 - b0;
+      if (m <= kLocal) {
+        for (std::size_t a = 0; a < m; ++a) {
+          slots[a] = perm[b0 + a];
+          keys[a] = static_cast<double>(id_out[b0 + a]);
+        }
+        const std::size_t pairs = (m + 1) / 2;
+        keys[m] = std::numeric_limits<double>::infinity();  // pad: never smaller than a key
+        const auto* kv = reinterpret_cast<const Double2*>(keys);
+        for (std::size_t a = 0; a < m; ++a) {
+          const Double2 key = {keys[a], keys[a]};
+          Long2 below = {0, 0};
+          for (std::size_t b = 0; b < pairs; ++b) below -= (kv[b] < key);  // true is -1
+          const auto rank = static_cast<std::size_t>(below[0] + below[1]);
+          perm[b0 + rank] = slots[a];
+          id_out[b0 + rank] = static_cast<std::uint64_t>(keys[a]);
+        }
+        continue;
+      }
       for (std::size_t a = b0 + 1; a < b1; ++a) {
         const std::uint32_t v = perm[a];
         const std::uint64_t key = id[v];
@@ -221,6 +256,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
         }
         perm[b] = v;
       }
+      for (std::size_t a = b0; a < b1; ++a) id_out[a] = id[perm[a]];
     }
   }
   const std::size_t kept = start[cells];
@@ -242,11 +278,8 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   apply(p.x);
   apply(p.y);
   apply(p.z);
-  // ids travel through the same double buffer as bit patterns
-#pragma omp parallel for schedule(static)
-  for (std::size_t j = 0; j < kept; ++j) buf[j] = std::bit_cast<double>(id[perm[j]]);
-#pragma omp parallel for schedule(static)
-  for (std::size_t j = 0; j < kept; ++j) p.id[j] = std::bit_cast<std::uint64_t>(buf[j]);
+  // the ids were written in order by the in-cell sort
+  p.id.swap(w.id);
   p.id.resize(kept);
 }
 

@@ -40,13 +40,14 @@ struct FieldAccumulator {
 };
 
 // Work arrays of the cell sort (src/dsmc/spatial.cpp), kept between steps so the hot loop
-// allocates nothing: 16 bytes per particle while sorting (cell index, permutation, one
-// gather buffer), plus per-thread cell counts.
+// allocates nothing: 24 bytes per particle (cell index, permutation, one gather buffer,
+// the ids in the new order), plus per-thread cell counts.
 struct SortScratch {
   std::vector<std::uint32_t> cell;        // cell of each particle (kRemoved: left the box)
   bool cell_fresh = false;                // `cell` was filled by the streaming pass
   std::vector<std::uint32_t> perm;        // new slot -> old index
   std::vector<double> gather;             // one array at a time is gathered through this
+  std::vector<std::uint64_t> id;          // ids in the new order (swapped with Particles::id)
   std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
 };
 
