@@ -3,9 +3,13 @@
 //           (1,024,000), dt giving 0.1 collisions per particle per step, 200 steps
 //           -- the configuration of SPARTA's standard collision benchmark;
 //   DSMC-2  homogeneous bath, alpha = 0.5, eps = 0.01, delta = 0.2, 1e6 grains.
-// Counters: ns per particle-step, collisions per second, background-collision tests per
-// second and ns per test. Run: build/bench/bench_dsmc --benchmark_repetitions=3
+//   DSMC-1L the same box at 86^3 cells x 16 = 10,176,896 particles (the N = 1e7 figure), 50 steps.
+// Counters: ns per particle-step (wall and CPU), collisions per second, background-collision
+// tests per second and ns per test, bytes per particle of the storage layout, and the peak
+// RSS of the process (getrusage; run one benchmark per process for its own peak).
+// Run: build/bench/bench_dsmc --benchmark_filter=DSMC1_SpartaBox/1 (see docs/PERFORMANCE.md)
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -14,8 +18,23 @@
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
 #include "dsmc/dsmc.hpp"
+#include "dsmc/state.hpp"
 
 namespace {
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double peak_rss_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return 1024.0 * static_cast<double>(u.ru_maxrss);  // Linux: kilobytes
+}
+
+double g_cpu_seconds = 0.0;  // CPU time (all threads) of the last run_case
 
 grainbath::Summary run_case(const std::string& toml, int threads) {
   grainbath::CaseReader reader(toml, "bench.toml");
@@ -29,7 +48,9 @@ grainbath::Summary run_case(const std::string& toml, int threads) {
   ctx.quiet = true;
   ctx.case_text = toml;
   grainbath::Summary s;
+  const double cpu0 = cpu_seconds();
   grainbath::dsmc::run(cfg, ctx, s);
+  g_cpu_seconds = cpu_seconds() - cpu0;
   std::filesystem::remove_all(ctx.out_dir);
   return s;
 }
@@ -80,10 +101,16 @@ steady_from = 0.0
 relaxation_theory = false
 )";
 
-void report(benchmark::State& state, const grainbath::Summary& s, double particle_steps) {
+void report(benchmark::State& state, const grainbath::Summary& s, double particle_steps, double particles, int dims) {
   const double wall = s.number("performance.wall_seconds");
   state.SetIterationTime(wall);
   state.counters["ns_per_particle_step"] = 1e9 * wall / particle_steps;
+  state.counters["cpu_ns_per_particle_step"] = 1e9 * g_cpu_seconds / particle_steps;
+  state.counters["state_bytes_per_particle"] = static_cast<double>(grainbath::dsmc::Particles::bytes_per_particle(dims));
+  if (dims > 0)
+    state.counters["sort_scratch_bytes_per_particle"] = static_cast<double>(grainbath::dsmc::SortScratch::bytes_per_particle);
+  state.counters["peak_rss_MiB"] = peak_rss_bytes() / (1024.0 * 1024.0);
+  state.counters["peak_rss_bytes_per_particle"] = peak_rss_bytes() / particles;
   state.counters["collisions_per_s"] = s.number("counters.grain_collisions") / wall;
   state.counters["bath_tests_per_s"] = s.number("counters.bath_candidates") / wall;
   const double tests = s.number("counters.bath_candidates");
@@ -92,12 +119,41 @@ void report(benchmark::State& state, const grainbath::Summary& s, double particl
 }
 
 void BM_DSMC1_SpartaBox(benchmark::State& state) {
-  for (auto _ : state) report(state, run_case(kDsmc1, static_cast<int>(state.range(0))), 1024000.0 * 200);
+  for (auto _ : state) report(state, run_case(kDsmc1, static_cast<int>(state.range(0))), 1024000.0 * 200, 1024000.0, 3);
 }
 BENCHMARK(BM_DSMC1_SpartaBox)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
 
+// DSMC-1 at N = 1e7: 86^3 cells of 0.25 (the same cell size, density and dt), 50 steps.
+const char* kDsmc1Large = R"(
+[domain]
+dimensions = 3
+length = [21.5, 21.5, 21.5]
+cells = [86, 86, 86]
+[grains]
+temperature = 1.0
+[background]
+density = 0.0
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 10176896
+dt = 0.08862
+t_end = 4.431
+[sampling]
+every = 4.431
+steady_from = 0.0
+relaxation_theory = false
+fields = false
+)";
+
+void BM_DSMC1_SpartaBox_1e7(benchmark::State& state) {
+  for (auto _ : state)
+    report(state, run_case(kDsmc1Large, static_cast<int>(state.range(0))), 10176896.0 * 50, 10176896.0, 3);
+}
+BENCHMARK(BM_DSMC1_SpartaBox_1e7)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
+
 void BM_DSMC2_HomogeneousBath(benchmark::State& state) {
-  for (auto _ : state) report(state, run_case(kDsmc2, static_cast<int>(state.range(0))), 1e6 * 20);
+  for (auto _ : state) report(state, run_case(kDsmc2, static_cast<int>(state.range(0))), 1e6 * 20, 1e6, 0);
 }
 BENCHMARK(BM_DSMC2_HomogeneousBath)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
 

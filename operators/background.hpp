@@ -58,29 +58,43 @@ inline double elastic_background_collision(Vec3& v, const Vec3& w, const Vec3& n
   return 0.5 * grain_mass * (norm2(v) - e0);
 }
 
-// Draws a partner from the majorant mixture and accepts it with |g| / (|c| + |c_w|).
-// On acceptance applies the collision and returns true. `energy_gain` accumulates the
-// grain's kinetic-energy change (bath input for the energy budget).
+// Draws a partner from the majorant mixture and accepts it with |g| / (|c| + |c_w|), for a
+// grain with c = v - uB and cmod = |c| already known. On acceptance applies the collision
+// and returns true. `energy_gain` accumulates the grain's kinetic-energy change (bath input
+// for the energy budget). Normals come from the ziggurat (no logarithm on the fast path).
 template <class Rng>
-inline bool attempt_background_collision(Vec3& v, const BackgroundState& b, double grain_mass,
-                                         Rng& rng, double& energy_gain) {
-  const Vec3 c = v - b.velocity;
-  const double cmod = norm(c);
+inline bool attempt_background_collision(Vec3& v, const Vec3& c, double cmod, const BackgroundState& b,
+                                         double grain_mass, Rng& rng, double& energy_gain) {
   Vec3 cw;
+  double cw_mod;
   if (rng.uniform() * (cmod + b.mean_speed) < cmod) {
-    cw = b.sigma * rng.normal3();  // plain Maxwellian partner
+    cw = b.sigma * Vec3{rng.normal_ziggurat(), rng.normal_ziggurat(), rng.normal_ziggurat()};  // Maxwellian partner
+    cw_mod = norm(cw);
   } else {
-    // Speed-weighted Maxwellian |c_w| M_B: speed s with density ~ s^3 exp(-s^2 / 2 sigma^2),
-    // i.e. s^2 / (2 sigma^2) ~ Gamma(2, 1) = -log(U1 U2); isotropic direction.
-    const double x = -std::log(rng.uniform() * rng.uniform());
-    cw = (b.sigma * std::sqrt(2.0 * x)) * rng.unit_vector();
+    // Speed-weighted Maxwellian |c_w| M_B: the speed has density ~ s^3 exp(-s^2 / 2 sigma^2),
+    // a chi distribution with 4 degrees of freedom, so s = sigma |z| for z standard normal
+    // in 4D; the direction of the first three components of z is isotropic and independent
+    // of |z| (the 3D direction is independent of the 3D length and of z4), so
+    // c_w = sigma |z| z_(1..3) / |z_(1..3)|.
+    const double z1 = rng.normal_ziggurat(), z2 = rng.normal_ziggurat(), z3 = rng.normal_ziggurat();
+    const double z4 = rng.normal_ziggurat();
+    const double s3 = z1 * z1 + z2 * z2 + z3 * z3, s4 = s3 + z4 * z4;
+    cw = (b.sigma * std::sqrt(s4 / s3)) * Vec3{z1, z2, z3};
+    cw_mod = b.sigma * std::sqrt(s4);
   }
   const Vec3 g = c - cw;
   const double gmod = norm(g);
-  if (rng.uniform() * (cmod + norm(cw)) >= gmod) return false;  // null collision
+  if (rng.uniform() * (cmod + cw_mod) >= gmod) return false;  // null collision
   const Vec3 n = apse_direction((1.0 / gmod) * g, rng.unit_vector());
   energy_gain += elastic_background_collision(v, cw + b.velocity, n, b.mass_ratio, grain_mass);
   return true;
+}
+
+template <class Rng>
+inline bool attempt_background_collision(Vec3& v, const BackgroundState& b, double grain_mass, Rng& rng,
+                                         double& energy_gain) {
+  const Vec3 c = v - b.velocity;
+  return attempt_background_collision(v, c, norm(c), b, grain_mass, rng, energy_gain);
 }
 
 struct BackgroundCounters {
@@ -98,11 +112,12 @@ inline void evolve_in_background(Vec3& v, const BackgroundState& b, double grain
   if (b.rate_scale <= 0.0) return;
   double t = 0.0;
   for (;;) {
-    t += rng.exponential() / background_majorant_rate(v, b);
+    const Vec3 c = v - b.velocity;
+    const double cmod = norm(c);
+    t += rng.exponential_ziggurat() / (b.rate_scale * (cmod + b.mean_speed));  // background_majorant_rate
     if (t > duration) return;
     ++counters.candidates;
-    if (attempt_background_collision(v, b, grain_mass, rng, counters.energy_gain))
-      ++counters.collisions;
+    if (attempt_background_collision(v, c, cmod, b, grain_mass, rng, counters.energy_gain)) ++counters.collisions;
   }
 }
 

@@ -14,6 +14,7 @@
 // because std:: distributions differ between standard libraries.
 #include <Random123/philox.h>
 
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -38,6 +39,72 @@ enum class Stream : std::uint64_t {
   wall_collisions = 10,
 };
 
+// Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random
+// Variables", J. Stat. Softw. 5(8)) for the unnormalised densities f(x) = exp(-x^2/2)
+// (normal, x >= 0, random sign) and f(x) = exp(-x) (exponential), 256 layers of equal area
+// v. Layer 0 is the base: the rectangle [0, r] x [0, f(r)] plus the tail x > r, given the
+// virtual width x[0] = v / f(r); layer i >= 1 is [0, x[i]] x [f(x[i]), f(x[i+1])], with
+// x[1] = r and x[256] = 0. A draw takes the layer and a uniform point across it from one
+// 64-bit word (disjoint bits); below x[i+1] the point is under the curve for certain (the
+// fast path, ~99%); otherwise the wedge or the tail is sampled exactly by rejection. The
+// method is exact: every accepted point is uniform under the curve.
+// r is found here by bisection on the condition that the layers close at the mode
+// (x[256] = 0), not copied from a table: the tables are built at program start.
+struct ZigguratTable {
+  static constexpr int kLayers = 256;
+  double x[kLayers + 1];      // layer edges, x[0] virtual base width, x[kLayers] = 0
+  double ratio[kLayers];      // x[i+1] / x[i]: fast-path bound on the uniform
+  double f[kLayers + 1];      // f(x[i])
+  double r = 0.0;             // start of the tail
+
+  // Density, its inverse and the tail mass beyond r, for both shapes.
+  template <class F, class FInv, class Tail>
+  static ZigguratTable build(F f, FInv finv, Tail tail, double lo, double hi) {
+    ZigguratTable t{};
+    // closing defect: how far above the mode the layers end for a trial r (decreasing in r)
+    auto defect = [&](long double r, ZigguratTable* out) -> long double {
+      const long double v = r * f(r) + tail(r);
+      long double x = r;
+      if (out) {
+        out->x[0] = static_cast<double>(v / f(r));
+        out->x[1] = static_cast<double>(r);
+      }
+      for (int i = 1; i < kLayers - 1; ++i) {
+        const long double y = v / x + f(x);
+        if (y >= 1.0L) return 1.0L + (kLayers - i);  // closed too early: r too small
+        x = finv(y);
+        if (out) out->x[i + 1] = static_cast<double>(x);
+      }
+      return v / x + f(x) - 1.0L;
+    };
+    long double a = lo, b = hi;
+    for (int it = 0; it < 200; ++it) {
+      const long double m = 0.5L * (a + b);
+      (defect(m, nullptr) > 0 ? a : b) = m;
+    }
+    t.r = static_cast<double>(b);
+    defect(b, &t);
+    t.x[kLayers] = 0.0;
+    for (int i = 0; i <= kLayers; ++i) t.f[i] = static_cast<double>(f(static_cast<long double>(t.x[i])));
+    for (int i = 0; i < kLayers; ++i) t.ratio[i] = t.x[i + 1] / t.x[i];
+    return t;
+  }
+
+  static const ZigguratTable& normal();
+  static const ZigguratTable& exponential();
+};
+
+// Built once at program start (namespace-scope inline variables: no guard on every draw).
+inline const ZigguratTable kNormalZiggurat = ZigguratTable::build(
+    [](long double x) { return std::exp(-0.5L * x * x); }, [](long double y) { return std::sqrt(-2.0L * std::log(y)); },
+    [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0,
+    4.5);
+inline const ZigguratTable kExponentialZiggurat = ZigguratTable::build(
+    [](long double x) { return std::exp(-x); }, [](long double y) { return -std::log(y); },
+    [](long double r) { return std::exp(-r); }, 6.0, 9.0);
+inline const ZigguratTable& ZigguratTable::normal() { return kNormalZiggurat; }
+inline const ZigguratTable& ZigguratTable::exponential() { return kExponentialZiggurat; }
+
 class CounterRng {
  public:
   using Philox = r123::Philox4x64;
@@ -50,6 +117,18 @@ class CounterRng {
     if (used_ == 4) refill();
     const std::uint64_t w = block_.v[used_++];
     return (static_cast<double>(w >> 11) + 0.5) * 0x1.0p-53;
+  }
+
+  // Standard normal by the ziggurat (ZigguratTable): one Philox word per draw on the fast
+  // path (~99%), no logarithm or square root. Exact. Used by the DSMC kernels.
+  double normal_ziggurat() {
+    const std::uint64_t w = bits64();
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;  // [0, 1)
+    const double x = u * kNormalZiggurat.x[i];
+    if (u < kNormalZiggurat.ratio[i]) [[likely]]  // sign from bit 8, without a branch
+      return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) ^ ((w & 0x100u) << 55));
+    return normal_ziggurat_edge(i, x, (w & 0x100u) ? -1.0 : 1.0);
   }
 
   // Standard normal by Marsaglia's polar method (Box-Muller without sin/cos: a point
@@ -87,7 +166,26 @@ class CounterRng {
     return {u * r, v * r, 1.0 - 2.0 * s};
   }
 
+  // Unit exponential by the ziggurat; the tail beyond r is r + Exp(1) (memorylessness).
+  // Exact; no logarithm on the fast path.
+  double exponential_ziggurat() {
+    const std::uint64_t w = bits64();
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;
+    const double x = u * kExponentialZiggurat.x[i];
+    if (u < kExponentialZiggurat.ratio[i]) [[likely]]
+      return x;
+    return exponential_ziggurat_edge(i, x);
+  }
+
+  // Unit exponential by inversion, -log U.
   double exponential() { return -std::log(uniform()); }
+
+  // 64 random bits (one Philox word).
+  std::uint64_t bits64() {
+    if (used_ == 4) refill();
+    return block_.v[used_++];
+  }
 
   // 32 random bits: each 64-bit Philox word is split into two halves, both used.
   std::uint32_t bits32() {
@@ -95,8 +193,7 @@ class CounterRng {
       have_half_ = false;
       return half_;
     }
-    if (used_ == 4) refill();
-    const std::uint64_t w = block_.v[used_++];
+    const std::uint64_t w = bits64();
     half_ = static_cast<std::uint32_t>(w >> 32);
     have_half_ = true;
     return static_cast<std::uint32_t>(w);
@@ -122,6 +219,29 @@ class CounterRng {
   std::uint64_t blocks_used() const { return ctr_.v[2]; }
 
  private:
+  // Ziggurat slow paths (~1% of draws): the wedge of layer i at x, or the tail (i = 0).
+  [[gnu::noinline]] double normal_ziggurat_edge(unsigned i, double x, double sign) {
+    const ZigguratTable& z = kNormalZiggurat;
+    if (i == 0) {
+      // tail beyond r (Marsaglia 1964): x = r + a with a ~ Exp(r), accepted with
+      // exp(-a^2/2), i.e. 2 b > a^2 with b ~ Exp(1)
+      double a, b;
+      do {
+        a = -std::log(uniform()) / z.r;
+        b = -std::log(uniform());
+      } while (b + b < a * a);
+      return sign * (z.r + a);
+    }
+    if (z.f[i] + uniform() * (z.f[i + 1] - z.f[i]) < std::exp(-0.5 * x * x)) return sign * x;
+    return normal_ziggurat();  // rejected: a fresh draw
+  }
+  [[gnu::noinline]] double exponential_ziggurat_edge(unsigned i, double x) {
+    const ZigguratTable& z = kExponentialZiggurat;
+    if (i == 0) return z.r + exponential_ziggurat();  // memoryless tail
+    if (z.f[i] + uniform() * (z.f[i + 1] - z.f[i]) < std::exp(-x)) return x;
+    return exponential_ziggurat();
+  }
+
   void refill() {
     block_ = Philox{}(ctr_, key_);
     ++ctr_.v[2];

@@ -251,6 +251,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   };
   rebuild_cells();
   if (!resumed) sample(s, c, 0.0);
+  s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet);
@@ -266,6 +267,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     grain_step(s, c, ctx.seed, per_cell);
     if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
     ++s.step;
+    s.particle_steps_run += static_cast<double>(s.particles.size());
     if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
       try {
         sample(s, c, static_cast<double>(s.step) * c.dt);

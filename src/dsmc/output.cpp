@@ -337,8 +337,9 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   summary.set_all("theory", theory);
   const double collisions = static_cast<double>(rc.bath_collisions + rc.grain.collisions);
   summary.set("performance.wall_seconds", wall);
-  summary.set("performance.particle_steps_per_second", static_cast<double>(c.particles) * c.steps / wall);
-  summary.set("performance.collisions_per_second", collisions / wall);
+  // steps advanced by this process (a resumed run counts only its own part)
+  summary.set("performance.particle_steps_per_second", s.particle_steps_run / wall);
+  summary.set("performance.collisions_per_second", (collisions - static_cast<double>(s.collisions_before_run)) / wall);
   summary.set("performance.threads", static_cast<std::int64_t>(omp_get_max_threads()));
 
   f.close();  // a failed write (disk full) surfaces here, before the output is committed

@@ -15,6 +15,11 @@ struct Particles {
   std::vector<std::uint64_t> id;
 
   std::size_t size() const { return id.size(); }
+  // Stored state per particle: velocities (3 doubles), positions (one per dimension; none
+  // for homogeneous runs), the id. 56 bytes in 3D.
+  static constexpr std::size_t bytes_per_particle(int dimensions) {
+    return (3 + static_cast<std::size_t>(dimensions)) * sizeof(double) + sizeof(std::uint64_t);
+  }
   Vec3 velocity(std::size_t i) const { return {vx[i], vy[i], vz[i]}; }
   void set_velocity(std::size_t i, const Vec3& v) {
     vx[i] = v.x;

@@ -49,6 +49,7 @@ struct SortScratch {
   std::vector<double> gather;             // one array at a time is gathered through this
   std::vector<std::uint64_t> id;          // ids in the new order (swapped with Particles::id)
   std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
+  static constexpr std::size_t bytes_per_particle = 2 * sizeof(std::uint32_t) + sizeof(double) + sizeof(std::uint64_t);
 };
 
 struct State {
@@ -62,6 +63,8 @@ struct State {
   // scratch (rebuilt every step, not checkpointed)
   std::vector<std::size_t> cell_start;    // cell c holds [cell_start[c], cell_start[c+1])
   SortScratch sort;                        // buffers of sort_by_cell, kept to avoid allocation
+  double particle_steps_run = 0.0;         // particle-steps advanced by this process (performance.*)
+  std::uint64_t collisions_before_run = 0; // bath + grain collisions already counted when it started
 };
 
 }  // namespace grainbath::dsmc

@@ -57,3 +57,18 @@ TEST(DsmcReproducibility, DifferentSeedDifferentNumbers) {
   const auto b = run_dsmc(kCase, 10, 0, "seedB");
   EXPECT_NE(a.summary.number("temperature.final"), b.summary.number("temperature.final"));
 }
+
+// Every run is a benchmark: summary.json carries the wall time, particle-steps per second
+// and collisions per second of this process, consistent with the run's own counters.
+TEST(DsmcPerformance, SummaryReportsRates) {
+  const auto run = run_dsmc(kCase, 9, 1, "perf");
+  const auto& s = run.summary;
+  const double wall = s.number("performance.wall_seconds");
+  ASSERT_GT(wall, 0.0);
+  // 30000 particles, 100 steps
+  EXPECT_NEAR(s.number("performance.particle_steps_per_second") * wall, 30000.0 * 100, 1e-6 * 30000.0 * 100);
+  const double collisions = s.number("counters.bath_collisions") + s.number("counters.grain_collisions");
+  ASSERT_GT(collisions, 0.0);
+  EXPECT_NEAR(s.number("performance.collisions_per_second") * wall, collisions, 1e-9 * collisions);
+  EXPECT_EQ(s.number("performance.threads"), 1.0);
+}

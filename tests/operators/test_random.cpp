@@ -1,7 +1,10 @@
 // Counter-based RNG: reproducible, independent streams, correct first moments.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
+#include <vector>
 
 #include "operators/random.hpp"
 
@@ -70,4 +73,177 @@ TEST(CounterRng, UnitVectorIsIsotropic) {
   EXPECT_LT(len_err, 1e-14);
   EXPECT_NEAR(sx / n, 0.0, 5 * std::sqrt(1.0 / 3 / n));
   EXPECT_NEAR(sz2 / n, 1.0 / 3, 5 * std::sqrt(4.0 / 45 / n));
+}
+
+// ---------------------------------------------------------------------------------------
+// Ziggurat samplers (normal_ziggurat, exponential_ziggurat) against the exact distributions.
+// Each check uses quantities computed here from erf/exp, not from the sampler's tables,
+// except the layer edges, which are only used to place bins where a wrong layer area or a
+// wrong wedge test would show.
+
+namespace {
+
+double normal_cdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+
+// Wilson-Hilferty upper quantile of chi-square with k degrees of freedom at z sigma.
+double chi2_quantile(double k, double z) {
+  const double a = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - a + z * std::sqrt(a), 3.0);
+}
+
+// Kolmogorov-Smirnov distance of a sample from a CDF.
+template <class Cdf>
+double ks_distance(std::vector<double> x, Cdf cdf) {
+  std::sort(x.begin(), x.end());
+  const double n = static_cast<double>(x.size());
+  double d = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double F = cdf(x[i]);
+    d = std::max({d, F - i / n, (i + 1) / n - F});
+  }
+  return d;
+}
+
+}  // namespace
+
+// The bisection for r reproduces the published constants (Marsaglia & Tsang 2000: r =
+// 3.6541528853610088 for the normal, 7.69711747013104972 for the exponential, 256 layers),
+// and every layer has the base layer's area.
+TEST(Ziggurat, TablesCloseWithEqualLayerAreas) {
+  const auto& zn = ZigguratTable::normal();
+  const auto& ze = ZigguratTable::exponential();
+  EXPECT_NEAR(zn.r, 3.6541528853610088, 1e-12);
+  EXPECT_NEAR(ze.r, 7.69711747013104972, 1e-12);
+  const double vn = zn.r * std::exp(-0.5 * zn.r * zn.r) + std::sqrt(std::numbers::pi / 2) * std::erfc(zn.r / std::sqrt(2.0));
+  const double ve = (ze.r + 1.0) * std::exp(-ze.r);
+  for (int i = 1; i < ZigguratTable::kLayers; ++i) {
+    EXPECT_NEAR(zn.x[i] * (zn.f[i + 1] - zn.f[i]), vn, 1e-12 * vn) << i;
+    EXPECT_NEAR(ze.x[i] * (ze.f[i + 1] - ze.f[i]), ve, 1e-12 * ve) << i;
+  }
+  EXPECT_EQ(zn.x[ZigguratTable::kLayers], 0.0);
+  EXPECT_NEAR(zn.x[0] * std::exp(-0.5 * zn.r * zn.r), vn, 1e-14);
+}
+
+TEST(Ziggurat, NormalMatchesTheGaussian) {
+  CounterRng r(77, Stream::initial_velocities, 3, 0);
+  const int n = 4'000'000;
+  std::vector<double> ks;
+  ks.reserve(1'000'000);
+  const auto& z = ZigguratTable::normal();
+  // bins in |x| at the layer edges x[255] < ... < x[1] = r, plus [0, x[255]) and the tail
+  const int L = ZigguratTable::kLayers;
+  std::vector<double> edges;
+  for (int i = L - 1; i >= 1; --i) edges.push_back(z.x[i]);  // increasing
+  std::vector<double> hist(edges.size() + 1, 0.0);
+  double s1 = 0, s2 = 0, s4 = 0, s6 = 0, tail = 0, tail_excess = 0, positive = 0;
+  for (int k = 0; k < n; ++k) {
+    const double x = r.normal_ziggurat();
+    if (k < 1'000'000) ks.push_back(x);
+    const double a = std::abs(x), x2 = x * x;
+    s1 += x;
+    s2 += x2;
+    s4 += x2 * x2;
+    s6 += x2 * x2 * x2;
+    positive += x > 0;
+    hist[std::upper_bound(edges.begin(), edges.end(), a) - edges.begin()] += 1;
+    if (a > z.r) {
+      tail += 1;
+      tail_excess += a - z.r;
+    }
+  }
+  // moments, 5 standard errors: Var(x) = 1, Var(x^2) = 2, Var(x^4) = 96, Var(x^6) = 10170
+  EXPECT_NEAR(s1 / n, 0.0, 5 * std::sqrt(1.0 / n));
+  EXPECT_NEAR(s2 / n, 1.0, 5 * std::sqrt(2.0 / n));
+  EXPECT_NEAR(s4 / n, 3.0, 5 * std::sqrt(96.0 / n));
+  EXPECT_NEAR(s6 / n, 15.0, 5 * std::sqrt(10170.0 / n));
+  EXPECT_NEAR(positive / n, 0.5, 5 * std::sqrt(0.25 / n));
+  // chi-square over the layer bins and the tail (exact probabilities from erf)
+  double chi2 = 0, lo = 0;
+  for (std::size_t b = 0; b < hist.size(); ++b) {
+    const double hi = b < edges.size() ? edges[b] : INFINITY;
+    const double p = 2.0 * ((b < edges.size() ? normal_cdf(hi) : 1.0) - normal_cdf(lo));
+    chi2 += (hist[b] - n * p) * (hist[b] - n * p) / (n * p);
+    lo = hi;
+  }
+  EXPECT_LT(chi2, chi2_quantile(static_cast<double>(hist.size() - 1), 3.72)) << "chi2 = " << chi2;  // p ~ 1e-4
+  // the tail: its probability 2 Q(r) and the conditional mean excess phi(r)/Q(r) - r
+  const double q = 0.5 * std::erfc(z.r / std::sqrt(2.0));
+  const double expected_tail = 2 * q * n;
+  EXPECT_NEAR(tail, expected_tail, 5 * std::sqrt(expected_tail));
+  const double phi = std::exp(-0.5 * z.r * z.r) / std::sqrt(2 * std::numbers::pi);
+  const double mean_excess = phi / q - z.r;  // ~ 1/r
+  // excess variance below mean_excess^2 (the tail is lighter than exponential)
+  EXPECT_NEAR(tail_excess / tail, mean_excess, 5 * mean_excess / std::sqrt(tail));
+  // Kolmogorov-Smirnov on the first 10^6 draws: sqrt(n) D < 1.95 at p = 0.001
+  EXPECT_LT(std::sqrt(1e6) * ks_distance(ks, normal_cdf), 1.95);
+}
+
+TEST(Ziggurat, ExponentialMatchesTheExponential) {
+  CounterRng r(78, Stream::initial_velocities, 4, 0);
+  const int n = 4'000'000;
+  std::vector<double> ks;
+  ks.reserve(1'000'000);
+  const auto& z = ZigguratTable::exponential();
+  const int L = ZigguratTable::kLayers;
+  std::vector<double> edges;
+  for (int i = L - 1; i >= 1; --i) edges.push_back(z.x[i]);
+  std::vector<double> hist(edges.size() + 1, 0.0);
+  double s1 = 0, s2 = 0, s3 = 0, tail = 0, tail_excess = 0, far = 0;
+  for (int k = 0; k < n; ++k) {
+    const double x = r.exponential_ziggurat();
+    ASSERT_GE(x, 0.0);
+    if (k < 1'000'000) ks.push_back(x);
+    s1 += x;
+    s2 += x * x;
+    s3 += x * x * x;
+    hist[std::upper_bound(edges.begin(), edges.end(), x) - edges.begin()] += 1;
+    if (x > z.r) {
+      tail += 1;
+      tail_excess += x - z.r;
+    }
+    if (x > z.r + 2.0) far += 1;
+  }
+  // moments 1, 2, 6 with Var = 1, 20, 684
+  EXPECT_NEAR(s1 / n, 1.0, 5 * std::sqrt(1.0 / n));
+  EXPECT_NEAR(s2 / n, 2.0, 5 * std::sqrt(20.0 / n));
+  EXPECT_NEAR(s3 / n, 6.0, 5 * std::sqrt(684.0 / n));
+  double chi2 = 0, lo = 0;
+  for (std::size_t b = 0; b < hist.size(); ++b) {
+    const double hi = b < edges.size() ? edges[b] : INFINITY;
+    const double p = std::exp(-lo) - (b < edges.size() ? std::exp(-hi) : 0.0);
+    chi2 += (hist[b] - n * p) * (hist[b] - n * p) / (n * p);
+    lo = hi;
+  }
+  EXPECT_LT(chi2, chi2_quantile(static_cast<double>(hist.size() - 1), 3.72)) << "chi2 = " << chi2;
+  const double expected_tail = n * std::exp(-z.r);
+  EXPECT_NEAR(tail, expected_tail, 5 * std::sqrt(expected_tail));
+  EXPECT_NEAR(tail_excess / tail, 1.0, 5 / std::sqrt(tail));  // memoryless: excess ~ Exp(1)
+  const double expected_far = n * std::exp(-z.r - 2.0);
+  EXPECT_NEAR(far, expected_far, 5 * std::sqrt(expected_far));
+  EXPECT_LT(std::sqrt(1e6) * ks_distance(ks, [](double x) { return 1.0 - std::exp(-x); }), 1.95);
+}
+
+TEST(CounterRng, BelowIsUniformOnTheIntegers) {
+  CounterRng r(79, Stream::grain_collisions, 5, 0);
+  for (std::uint32_t range : {1u, 2u, 7u, 16u, 1000u}) {
+    std::vector<double> hist(range, 0.0);
+    const int n = 200'000;
+    for (int k = 0; k < n; ++k) {
+      const std::uint32_t v = r.below(range);
+      ASSERT_LT(v, range);
+      hist[v] += 1;
+    }
+    if (range == 1) continue;
+    double chi2 = 0;
+    for (double h : hist) chi2 += (h - double(n) / range) * (h - double(n) / range) / (double(n) / range);
+    EXPECT_LT(chi2, chi2_quantile(range - 1.0, 3.72)) << range;
+  }
+  // a range near 2^32 where the multiply-shift bias would be large without the rejection:
+  // range = 3 * 2^30; without the rejection values below 2^30 would come out with
+  // probability 2/2^32 each instead of 1/range (4/3 of the others... here: P(v < 2^30) = 1/3)
+  const std::uint32_t big = 3u << 30;
+  double low = 0;
+  const int n = 300'000;
+  for (int k = 0; k < n; ++k) low += r.below(big) < (1u << 30);
+  EXPECT_NEAR(low / n, 1.0 / 3.0, 5 * std::sqrt(2.0 / 9.0 / n));
 }
