@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
@@ -166,6 +167,8 @@ TEST(Ziggurat, NormalMatchesTheGaussian) {
     lo = hi;
   }
   EXPECT_LT(chi2, chi2_quantile(static_cast<double>(hist.size() - 1), 3.72)) << "chi2 = " << chi2;  // p ~ 1e-4
+  std::printf("normal: chi2 = %.1f (%zu dof, limit %.1f)\n", chi2, hist.size() - 1,
+              chi2_quantile(static_cast<double>(hist.size() - 1), 3.72));
   // the tail: its probability 2 Q(r) and the conditional mean excess phi(r)/Q(r) - r
   const double q = 0.5 * std::erfc(z.r / std::sqrt(2.0));
   const double expected_tail = 2 * q * n;
@@ -175,7 +178,10 @@ TEST(Ziggurat, NormalMatchesTheGaussian) {
   // excess variance below mean_excess^2 (the tail is lighter than exponential)
   EXPECT_NEAR(tail_excess / tail, mean_excess, 5 * mean_excess / std::sqrt(tail));
   // Kolmogorov-Smirnov on the first 10^6 draws: sqrt(n) D < 1.95 at p = 0.001
-  EXPECT_LT(std::sqrt(1e6) * ks_distance(ks, normal_cdf), 1.95);
+  const double ks_n = std::sqrt(1e6) * ks_distance(ks, normal_cdf);
+  std::printf("normal: tail %.0f (expected %.1f), mean excess %.5f (exact %.5f), sqrt(n) D = %.3f\n", tail,
+              expected_tail, tail_excess / tail, mean_excess, ks_n);
+  EXPECT_LT(ks_n, 1.95);
 }
 
 TEST(Ziggurat, ExponentialMatchesTheExponential) {
@@ -215,12 +221,17 @@ TEST(Ziggurat, ExponentialMatchesTheExponential) {
     lo = hi;
   }
   EXPECT_LT(chi2, chi2_quantile(static_cast<double>(hist.size() - 1), 3.72)) << "chi2 = " << chi2;
+  std::printf("exponential: chi2 = %.1f (%zu dof)\n", chi2, hist.size() - 1);
   const double expected_tail = n * std::exp(-z.r);
   EXPECT_NEAR(tail, expected_tail, 5 * std::sqrt(expected_tail));
   EXPECT_NEAR(tail_excess / tail, 1.0, 5 / std::sqrt(tail));  // memoryless: excess ~ Exp(1)
   const double expected_far = n * std::exp(-z.r - 2.0);
   EXPECT_NEAR(far, expected_far, 5 * std::sqrt(expected_far));
-  EXPECT_LT(std::sqrt(1e6) * ks_distance(ks, [](double x) { return 1.0 - std::exp(-x); }), 1.95);
+  const double ks_n = std::sqrt(1e6) * ks_distance(ks, [](double x) { return 1.0 - std::exp(-x); });
+  std::printf("exponential: tail %.0f (expected %.1f), mean excess %.4f (exact 1), beyond r + 2: %.0f (expected %.1f), "
+              "sqrt(n) D = %.3f\n",
+              tail, expected_tail, tail_excess / tail, far, expected_far, ks_n);
+  EXPECT_LT(ks_n, 1.95);
 }
 
 TEST(CounterRng, BelowIsUniformOnTheIntegers) {
