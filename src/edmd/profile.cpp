@@ -261,4 +261,36 @@ ProfileResult SlabProfiles::result(std::size_t batches) const {
   return r;
 }
 
+void SlabVelocityHistograms::init(int d, int nslabs, int nbins, double v_max) {
+  dims = d;
+  slabs = nslabs;
+  bins = nbins;
+  vmax = v_max;
+  counts.assign(static_cast<std::size_t>(slabs) * dims * bins, 0.0);
+  samples.assign(static_cast<std::size_t>(slabs), 0.0);
+  outside.assign(static_cast<std::size_t>(slabs) * dims, 0.0);
+}
+
+void SlabVelocityHistograms::add(const SlabProfiles& p, const std::vector<Vec3>& x, const std::vector<Vec3>& v) {
+  const int ax = p.setup().axis;
+  const double scale = bins / (2.0 * vmax);
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const int k = p.slab_of(comp(x[i], ax));
+    samples[static_cast<std::size_t>(k)] += 1.0;
+    for (int a = 0; a < dims; ++a) {
+      const double b = (comp(v[i], a) + vmax) * scale;
+      if (b >= 0.0 && b < bins)
+        counts[(static_cast<std::size_t>(k) * dims + a) * bins + static_cast<std::size_t>(b)] += 1.0;
+      else
+        outside[static_cast<std::size_t>(k) * dims + a] += 1.0;
+    }
+  }
+}
+
+std::vector<double> SlabVelocityHistograms::centres() const {
+  std::vector<double> c(static_cast<std::size_t>(bins));
+  for (int b = 0; b < bins; ++b) c[static_cast<std::size_t>(b)] = -vmax + (b + 0.5) * 2.0 * vmax / bins;
+  return c;
+}
+
 }  // namespace grainbath::edmd

@@ -104,4 +104,18 @@ class SlabProfiles {
   ProfileAccumulators acc_;
 };
 
+// Histograms of the lab-frame velocity components per slab (velocity-distribution tails,
+// thesis ch. 9): counts[(slab * dims + component) * bins + bin] over [-vmax, vmax]; values
+// outside land in the end bins' overflow counters (not in the histogram).
+struct SlabVelocityHistograms {
+  int dims = 2, slabs = 1, bins = 400;
+  double vmax = 1.0;
+  std::vector<double> counts;   // slabs * dims * bins
+  std::vector<double> samples;  // grain samples per slab (normalisation)
+  std::vector<double> outside;  // per slab and component: samples beyond +-vmax
+  void init(int d, int nslabs, int nbins, double v_max);
+  void add(const SlabProfiles& slabs_of, const std::vector<Vec3>& x, const std::vector<Vec3>& v);
+  std::vector<double> centres() const;
+};
+
 }  // namespace grainbath::edmd
