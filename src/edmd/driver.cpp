@@ -295,6 +295,18 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
     else out.emplace_back("edmd.dsmc_equivalent_grain_density", 2.0 * n * g);
   }
+  if (c.driving_walls()) {
+    const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
+    const Vec3 b = c.box();
+    const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
+                                    c.wall_restitution_side[1], wd == 0 ? b.x : wd == 1 ? b.y : b.z};
+    std::visit([&](const auto& law) {
+      out.emplace_back("edmd.wall_balance_temperature", theory::wall_balance_temperature(law, D, nu, drive, true));
+      out.emplace_back("edmd.wall_balance_temperature_dilute", theory::wall_balance_temperature(law, D, nu, drive, false));
+      out.emplace_back("edmd.wall_balance_temperature_thesis_reading",
+                       theory::wall_balance_temperature(law, D, nu, drive, false, true));
+    }, c.restitution);
+  }
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
     out.emplace_back("edmd.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, ec));
@@ -586,6 +598,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     const double T_bal_dilute = theory::wall_balance_temperature(law, D, c.packing_fraction, drive, false);
     summary.set("theory.wall_balance_temperature", T_bal);
     summary.set("theory.wall_balance_temperature_dilute", T_bal_dilute);
+    summary.set("theory.wall_balance_temperature_thesis_reading",
+                theory::wall_balance_temperature(law, D, c.packing_fraction, drive, false, true));
+    summary.set("walls.temperature_over_balance_dilute", T_mean / T_bal_dilute);
     summary.set("walls.temperature_over_balance", T_mean / T_bal);
   }
 
