@@ -81,8 +81,25 @@ def fourier_fit(run, skip=2):
     return out
 
 
+def slab_energy_balance(run):
+    """Steady slab energy balance with u = 0: q(x_k) - q(x_1) = -Int loss dx. Returns the rms
+    residual over the interior slabs / max|q|, for the total and for the kinetic flux alone."""
+    p = run["p"]
+    z, L = p["z"], p["loss_rate"]
+    w = z[1] - z[0]
+    cum = np.concatenate([[0.0], np.cumsum(w * (L[1:] + L[:-1]) / 2)])
+    sl = slice(1, len(z) - 1)
+    out = []
+    for key in ("q_x", "q_kin_x"):
+        q = p[key]
+        r = (q - (q[1] - (cum - cum[1])))[sl]
+        out.append(float(np.sqrt(np.mean(r * r)) / np.max(np.abs(p["q_x"]))))
+    return out
+
+
 def main():
-    names = sorted(d for d in os.listdir(outdir) if os.path.exists(os.path.join(outdir, d, "summary.json")))
+    names = sorted(d for d in os.listdir(outdir)
+                   if not d.endswith(".previous") and os.path.exists(os.path.join(outdir, d, "summary.json")))
     runs = {n: load(n) for n in names}
     # ---- energy balance -----------------------------------------------------------------
     rows = []
@@ -117,7 +134,9 @@ def main():
                      "kappa_one": f["one"]["coef"][0], "chi2_dof_one": f["one"]["chi2_dof"],
                      "q_col_over_q_max": float(np.nanmax(np.abs(p["q_col_x"][sl])) / np.nanmax(np.abs(p["q_x"][sl]))),
                      "Pxx_col_over_Pxx_centre": float(p["P_col_xx"][len(p["z"]) // 2] / p["P_xx"][len(p["z"]) // 2]),
-                     "Pxx_spread": float(np.std(p["P_xx"][interior(r, 1)]) / np.mean(p["P_xx"][interior(r, 1)]))})
+                     "Pxx_spread": float(np.std(p["P_xx"][interior(r, 1)]) / np.mean(p["P_xx"][interior(r, 1)])),
+                     "slab_balance_rms_q_total": slab_energy_balance(r)[0],
+                     "slab_balance_rms_q_kin_only": slab_energy_balance(r)[1]})
     write_csv("eos.csv", eos)
     write_csv("fourier.csv", four)
     # ---- tails (main run): weight beyond 3 and 4 thermal widths, wall slab vs centre ------------

@@ -34,6 +34,7 @@ def theory(sets):
 
 def scaled(sets, two_walls=None):
     """v_dr such that the Enskog-consistent balance gives T = 1 (T scales as v_dr^2)."""
+    sets = sets + ["edmd.temperature=1.0"]  # start at the balance temperature
     probe = sets + (two_walls or ["walls.driving_speed_low=1.0", "walls.driving_speed_high=1.0"])
     T1 = theory(probe)["wall_balance_temperature"]
     s = 1.0 / T1 ** 0.5
