@@ -11,6 +11,7 @@
 #include "core/run_support.hpp"
 #include "edmd/edmd.hpp"
 #include "edmd/measure.hpp"
+#include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
 
 namespace grainbath::edmd {
@@ -23,6 +24,42 @@ double Config::box_length() const {
   const double n = theory::number_density(dims, packing_fraction);
   return std::pow(static_cast<double>(particles) / n, 1.0 / dims);
 }
+
+Vec3 Config::box() const {
+  // edges proportional to `aspect`, volume N/n
+  const double a[3] = {aspect.x, aspect.y, dims == 3 ? aspect.z : 1.0};
+  double prod = 1.0;
+  for (int d = 0; d < dims; ++d) prod *= a[d];
+  const double s = box_length() / std::pow(prod, 1.0 / dims);
+  return {s * a[0], s * a[1], dims == 3 ? s * a[2] : 1.0};
+}
+
+namespace {
+// Lattice sites per direction for the start: about proportional to the edges, product >= N.
+std::array<int, 3> lattice_counts(const Config& c) {
+  const Vec3 L = c.box();
+  const double l[3] = {L.x, L.y, L.z};
+  const double a0 = c.box_length() / std::pow(static_cast<double>(c.particles), 1.0 / c.dims);
+  std::array<int, 3> n{1, 1, 1};
+  for (int d = 0; d < c.dims; ++d) n[d] = std::max(1, static_cast<int>(std::ceil(l[d] / a0 - 1e-9)));
+  auto product = [&]() { return static_cast<double>(n[0]) * n[1] * n[2]; };
+  while (product() < static_cast<double>(c.particles)) {
+    int best = 0;
+    for (int d = 1; d < c.dims; ++d)
+      if (l[d] / n[d] > l[best] / n[best]) best = d;
+    ++n[best];
+  }
+  return n;
+}
+double lattice_spacing(const Config& c) {
+  const auto n = lattice_counts(c);
+  const Vec3 L = c.box();
+  const double l[3] = {L.x, L.y, L.z};
+  double a = 1e300;
+  for (int d = 0; d < c.dims; ++d) a = std::min(a, l[d] / n[d]);
+  return a;
+}
+}  // namespace
 
 const std::vector<ModelDescription>& edmd_models() {
   static const std::vector<ModelDescription> models = {
@@ -45,7 +82,15 @@ const std::vector<ModelDescription>& edmd_models() {
         "mass_ratio (0.5, (0, 1)): alpha", "velocity ([0,0,0]): uB"}},
       {"boundary", "walls",
        "[walls] directions = [\"x\", ...]: flat hard walls at 0 and L (centres kept sigma/2 away); others periodic",
-       {"directions ([], subset of x, y, z)", "restitution (1, (0, 1]): wall restitution"}},
+       {"directions ([], subset of x, y, z)", "restitution (1, (0, 1]): wall restitution",
+        "driving_speed (0, >= 0, velocity): v_dr of both walls: a grain leaves with normal speed alpha_w |v_n| + v_dr",
+        "driving_speed_low / driving_speed_high (driving_speed): per wall (at 0 / at L)",
+        "restitution_low / restitution_high (restitution): per wall"}},
+      {"profiles", "slabs",
+       "[profiles] slabs = S: slab profiles of density, T components, full stress tensor and heat flux (kinetic + "
+       "collisional), loss rate, velocity histograms per slab",
+       {"slabs (20, integer >= 1)", "axis (the wall direction, else x)", "velocity_bins (400)",
+        "velocity_range (12, in sqrt(T) at the start of the measurement)"}},
   };
   return models;
 }
@@ -59,6 +104,10 @@ Config read_config(CaseReader& r) {
   c.equilibrate = r.real("edmd", "equilibrate", 50.0, Bounds::non_negative(), "collisions per particle");
   c.collisions = r.real("edmd", "collisions", 200.0, Bounds::positive(), "collisions per particle");
   c.initial = r.choice("edmd", "initial", "lattice", {"lattice"});
+  {
+    const auto asp = r.reals("edmd", "aspect", std::vector<double>(c.dims, 1.0), c.dims, c.dims, Bounds::positive());
+    if (asp.size() == static_cast<std::size_t>(c.dims)) c.aspect = {asp[0], asp[1], c.dims == 3 ? asp[2] : 1.0};
+  }
   c.restitution = read_restitution(r);
   const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
                                   std::holds_alternative<PowerLawRestitution>(c.restitution);
@@ -71,9 +120,8 @@ Config read_config(CaseReader& r) {
     r.problem("edmd", "packing_fraction", m.str());
   } else {
     const double lattice_max = c.dims == 2 ? std::numbers::pi / 4.0 : std::numbers::pi / 6.0;
-    // lattice start: n_side^D sites of spacing L / n_side must be >= sigma
-    const double side = std::ceil(std::pow(static_cast<double>(c.particles), 1.0 / c.dims) - 1e-9);
-    const double spacing = c.box_length() / side;
+    // lattice start: sites of spacing L_d / n_d (n_d sites along d, product >= N) must be >= sigma
+    const double spacing = lattice_spacing(c);
     if (spacing < 1.0) {
       std::ostringstream m;
       m << "the lattice start needs spacing >= sigma, got " << spacing << " (" << (c.dims == 2 ? "square" : "simple cubic")
@@ -92,8 +140,30 @@ Config read_config(CaseReader& r) {
     else c.walls[k] = true;
   }
   c.wall_restitution = r.real("walls", "restitution", 1.0, Bounds::half_open(0.0, 1.0));
-  if (c.box_length() < 3.0)
-    r.problem("edmd", "particles", "the box is shorter than 3 sigma; use more particles");
+  c.wall_restitution_side[0] = r.real("walls", "restitution_low", c.wall_restitution, Bounds::half_open(0.0, 1.0));
+  c.wall_restitution_side[1] = r.real("walls", "restitution_high", c.wall_restitution, Bounds::half_open(0.0, 1.0));
+  {
+    const double both = r.real("walls", "driving_speed", 0.0, Bounds::non_negative(), "velocity");
+    c.wall_driving[0] = r.real("walls", "driving_speed_low", both, Bounds::non_negative(), "velocity");
+    c.wall_driving[1] = r.real("walls", "driving_speed_high", both, Bounds::non_negative(), "velocity");
+    if (r.has("walls", "driving_speed") && (r.has("walls", "driving_speed_low") || r.has("walls", "driving_speed_high")))
+      r.problem("walls", "driving_speed", "give either driving_speed (both walls) or driving_speed_low/_high, not both");
+  }
+  const int n_wall_dirs = static_cast<int>(c.walls[0]) + c.walls[1] + c.walls[2];
+  if (c.driving_walls() && n_wall_dirs != 1)
+    r.problem("walls", "driving_speed",
+              "driving walls (or per-wall restitution) need exactly one wall direction in [walls] directions, found " +
+                  std::to_string(n_wall_dirs));
+  {
+    const Vec3 b = c.box();
+    const double e[3] = {b.x, b.y, b.z};
+    for (int d = 0; d < c.dims; ++d)
+      if (e[d] < 3.0) {
+        std::ostringstream m;
+        m << "the box edge in " << "xyz"[d] << " is " << e[d] << " < 3 sigma; use more particles or change [edmd] aspect";
+        r.problem("edmd", c.box_length() < 3.0 ? "particles" : "aspect", m.str());
+      }
+  }
   // heating
   const std::string model = r.choice("heating", "model", "none", {"none", "white_noise", "air_table", "boltzmann"});
   if (model == "white_noise") {
@@ -120,18 +190,33 @@ Config read_config(CaseReader& r) {
   c.corr_bin = r.real("sampling", "corr_bin", 0.1, Bounds::positive(), "sigma");
   c.trajectory_interval = r.real("sampling", "trajectory_interval", 0.0, Bounds::non_negative(), "collisions per particle");
   c.free_cooling = r.boolean("sampling", "free_cooling", false);
-  if (c.free_cooling && (c.heating.kind != HeatingKind::none || c.background.present()))
-    r.problem("sampling", "free_cooling", "free cooling needs [heating] model = \"none\" and no background medium");
+  if (c.free_cooling && (c.heating.kind != HeatingKind::none || c.background.present() || c.driving_walls()))
+    r.problem("sampling", "free_cooling", "free cooling needs [heating] model = \"none\", no background medium and no driving walls");
+  // slab profiles
+  c.profiles = r.has_section("profiles");
+  if (c.profiles) {
+    c.profile_slabs = static_cast<int>(r.integer("profiles", "slabs", 20, 1, 100000));
+    int def = 0;
+    for (int d = 0; d < c.dims; ++d)
+      if (c.walls[d]) def = d;
+    const std::string ax = r.choice("profiles", "axis", std::string(1, "xyz"[def]), {"x", "y", "z"});
+    c.profile_axis = ax == "x" ? 0 : ax == "y" ? 1 : 2;
+    if (c.profile_axis >= c.dims) r.problem("profiles", "axis", "axis " + ax + " is not a direction of a 2D box");
+    c.tail_bins = static_cast<int>(r.integer("profiles", "velocity_bins", 400, 2, 100000));
+    c.tail_range = r.real("profiles", "velocity_range", 12.0, Bounds::positive(), "sqrt(T)");
+    if (c.free_cooling) r.problem("profiles", "slabs", "profiles need a steady state (not free_cooling)");
+  }
   return c;
 }
 
 EngineSetup make_setup(const Config& c, std::uint64_t seed) {
   EngineSetup s;
   s.dims = c.dims;
-  const double L = c.box_length();
-  s.length = {L, L, c.dims == 3 ? L : 1.0};
+  s.length = c.box();
   s.walls = c.walls;
   s.wall_restitution = c.wall_restitution;
+  s.wall_driving = c.wall_driving;
+  s.wall_restitution_side = c.wall_restitution_side;
   s.contact_time = c.contact_time;
   s.heating = c.heating;
   s.seed = seed;
@@ -139,7 +224,8 @@ EngineSetup make_setup(const Config& c, std::uint64_t seed) {
     s.background = BackgroundState::make(c.background.density, c.background.knudsen, c.background.velocity,
                                          c.background.temperature, c.background.mass_ratio, 1.0);
   }
-  const double tscale = std::sqrt(std::max({c.temperature, c.heating.temperature, c.background.temperature}));
+  const double tscale = std::sqrt(std::max({c.temperature, c.heating.temperature, c.background.temperature,
+                                            c.wall_driving[0] * c.wall_driving[0], c.wall_driving[1] * c.wall_driving[1]}));
   s.vn_bin_width = 0.02 * tscale;
   s.vn_bins = 600;
   return s;
@@ -148,14 +234,15 @@ EngineSetup make_setup(const Config& c, std::uint64_t seed) {
 InitialState make_initial_state(const Config& c, std::uint64_t seed) {
   InitialState st;
   const std::size_t n = static_cast<std::size_t>(c.particles);
-  const double L = c.box_length();
-  const int side = static_cast<int>(std::ceil(std::pow(static_cast<double>(n), 1.0 / c.dims) - 1e-9));
-  const double a = L / side;
-  if (a < 1.0) throw std::invalid_argument("edmd: lattice spacing below sigma (packing fraction too high for a lattice start)");
+  const Vec3 L = c.box();
+  const auto nl = lattice_counts(c);
+  const double ax = L.x / nl[0], ay = L.y / nl[1], az = L.z / nl[2];
+  if (lattice_spacing(c) < 1.0)
+    throw std::invalid_argument("edmd: lattice spacing below sigma (packing fraction too high for a lattice start)");
   st.positions.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
-    const std::size_t ix = k % side, iy = (k / side) % side, iz = k / (static_cast<std::size_t>(side) * side);
-    st.positions.push_back({(ix + 0.5) * a, (iy + 0.5) * a, c.dims == 3 ? (iz + 0.5) * a : 0.5});
+    const std::size_t ix = k % nl[0], iy = (k / nl[0]) % nl[1], iz = k / (static_cast<std::size_t>(nl[0]) * nl[1]);
+    st.positions.push_back({(ix + 0.5) * ax, (iy + 0.5) * ay, c.dims == 3 ? (iz + 0.5) * az : 0.5});
   }
   Vec3 p;
   st.velocities.resize(n);
@@ -208,6 +295,18 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
     else out.emplace_back("edmd.dsmc_equivalent_grain_density", 2.0 * n * g);
   }
+  if (c.driving_walls()) {
+    const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
+    const Vec3 b = c.box();
+    const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
+                                    c.wall_restitution_side[1], wd == 0 ? b.x : wd == 1 ? b.y : b.z};
+    std::visit([&](const auto& law) {
+      out.emplace_back("edmd.wall_balance_temperature", theory::wall_balance_temperature(law, D, nu, drive, true));
+      out.emplace_back("edmd.wall_balance_temperature_dilute", theory::wall_balance_temperature(law, D, nu, drive, false));
+      out.emplace_back("edmd.wall_balance_temperature_thesis_reading",
+                       theory::wall_balance_temperature(law, D, nu, drive, false, true));
+    }, c.restitution);
+  }
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
     out.emplace_back("edmd.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, ec));
@@ -229,8 +328,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const std::size_t N = static_cast<std::size_t>(c.particles);
   const InitialState init = make_initial_state(c, seed);
   Engine eng(make_setup(c, seed), init.positions, init.velocities);
-  const double volume = std::pow(c.box_length(), D);
+  const Vec3 box = c.box();
+  const double volume = D == 3 ? box.x * box.y * box.z : box.x * box.y;
   const double n = N / volume;
+  const bool driving = c.driving_walls();
   std::vector<Vec3> x(N), v(N);
   auto snapshot = [&]() {
     eng.synchronize();
@@ -239,7 +340,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     mean = (1.0 / N) * mean;
     double ke = 0.0;
     for (auto& u : v) {
-      if (c.heating.kind != HeatingKind::none || c.background.present()) u -= mean;  // fluctuations
+      if (c.heating.kind != HeatingKind::none || c.background.present() || driving) u -= mean;  // fluctuations
       ke += norm2(u);
     }
     return ke / (D * N);  // granular temperature (Bizon eq. 3)
@@ -276,11 +377,22 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const std::uint64_t n_prod = static_cast<std::uint64_t>(c.collisions * N);
 
   PairStatistics pairs;
-  const double L = c.box_length();
+  const double L = std::min({box.x, box.y, D == 3 ? box.z : box.y});  // shortest edge
   // range of the pair statistics: corr_max, or L/2 (Bizon Fig. 7) while all pairs are
   // affordable (N <= 4000), else 10 sigma searched on a grid
   const double corr_range = c.corr_max > 0 ? c.corr_max : (N <= 4000 ? 0.5 * L : std::min(10.0, L / 3.0));
-  pairs.init(D, {L, L, D == 3 ? L : 1.0}, c.walls, std::max(c.gr_max, corr_range), c.gr_bin, c.corr_bin);
+  pairs.init(D, box, c.walls, std::max(c.gr_max, corr_range), c.gr_bin, c.corr_bin);
+  // slab profiles (docs/edmd.md "Slab profiles"): collisional parts through the engine hook
+  SlabProfiles profiles;
+  SlabVelocityHistograms tails;
+  std::vector<Vec3> v_raw;
+  if (c.profiles) {
+    profiles.init({D, box, c.profile_axis, c.profile_slabs, !c.walls[c.profile_axis]});
+    tails.init(D, c.profile_slabs, c.tail_bins, c.tail_range * std::sqrt(T));
+    eng.set_collision_hook(&SlabProfiles::collision_hook, &profiles);
+    v_raw.resize(N);
+  }
+  std::vector<double> wall_in_series, loss_series;
   VelocityHistogram vhist;
   vhist.init(5.0, 100);
   Series s;
@@ -318,6 +430,16 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       s.heating.push_back((cur.heating_energy - prev.heating_energy) / (volume * dt));
       s.background.push_back((cur.background_energy - prev.background_energy) / (volume * dt));
       s.collisions.push_back(static_cast<double>(cur.collisions - prev.collisions) * 2.0 / (N * dt));
+      if (driving) {
+        wall_in_series.push_back((cur.wall_energy[0] + cur.wall_energy[1] - prev.wall_energy[0] - prev.wall_energy[1]) / dt);
+        loss_series.push_back((cur.energy_lost - prev.energy_lost) / dt);
+      }
+    }
+    if (c.profiles) {
+      for (std::size_t i = 0; i < N; ++i) v_raw[i] = eng.velocity(i);  // lab frame (snapshot() removed the mean)
+      profiles.add_snapshot(x, v_raw);
+      profiles.end_interval(dt);
+      tails.add(profiles, x, v_raw);
     }
     if (!c.free_cooling) {
       vhist.add(v, T, D);
@@ -410,7 +532,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   // conservation
   summary.set("conservation.energy_change",
-              (eng.kinetic_energy() - e_initial) - (f.heating_energy + f.background_energy - f.energy_lost));
+              (eng.kinetic_energy() - e_initial) -
+                  (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost));
   summary.set("conservation.relative_energy_change_elastic", (eng.kinetic_energy() - e_initial) / e_initial);
   summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
   summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
@@ -452,6 +575,34 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   summary.set("guard.clamped", static_cast<std::int64_t>(f.clamped));
   summary.set("background.collisions", static_cast<std::int64_t>(f.background_collisions));
   summary.set("walls.collisions", static_cast<std::int64_t>(f.wall_collisions));
+  if (driving) {
+    // steady-state energy balance from the run's own counters (docs/edmd.md "Driving walls")
+    const double in = (f.wall_energy[0] + f.wall_energy[1]) / t_run, loss = f.energy_lost / t_run;
+    summary.set("walls.energy_input_rate", in);                  // energy per unit time, whole box
+    summary.set("walls.energy_input_low", f.wall_energy[0] / t_run);
+    summary.set("walls.energy_input_high", f.wall_energy[1] / t_run);
+    summary.set("walls.hits_low", static_cast<std::int64_t>(f.wall_hits[0]));
+    summary.set("walls.hits_high", static_cast<std::int64_t>(f.wall_hits[1]));
+    summary.set("walls.collisional_loss_rate", loss);
+    summary.set("walls.balance", in / loss - 1.0);
+    // error of the balance from the blocked per-interval series of (input - loss)
+    std::vector<double> diff(wall_in_series.size());
+    for (std::size_t k = 0; k < diff.size(); ++k) diff[k] = wall_in_series[k] - loss_series[k];
+    summary.set("walls.balance_stderr", block_average(diff).stderr_ / loss);
+    summary.set("walls.energy_change_per_time", (eng.kinetic_energy() - e_initial) / t_run);
+    const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
+    const double Lw = wd == 0 ? box.x : wd == 1 ? box.y : box.z;
+    const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
+                                    c.wall_restitution_side[1], Lw};
+    const double T_bal = theory::wall_balance_temperature(law, D, c.packing_fraction, drive, true);
+    const double T_bal_dilute = theory::wall_balance_temperature(law, D, c.packing_fraction, drive, false);
+    summary.set("theory.wall_balance_temperature", T_bal);
+    summary.set("theory.wall_balance_temperature_dilute", T_bal_dilute);
+    summary.set("theory.wall_balance_temperature_thesis_reading",
+                theory::wall_balance_temperature(law, D, c.packing_fraction, drive, false, true));
+    summary.set("walls.temperature_over_balance_dilute", T_mean / T_bal_dilute);
+    summary.set("walls.temperature_over_balance", T_mean / T_bal);
+  }
 
   // ---- results.h5 ----------------------------------------------------------------------
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
@@ -490,7 +641,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
              {static_cast<hsize_t>(traj_time.size()), static_cast<hsize_t>(N), static_cast<hsize_t>(D)});
     h5.write("/particles/all/position/time", traj_time);
     h5.write("/particles/all/position/step", traj_step);
-    h5.write("/particles/all/box/edges", std::vector<double>(D, L));
+    std::vector<double> edges{box.x, box.y, box.z};
+    edges.resize(static_cast<std::size_t>(D));
+    h5.write("/particles/all/box/edges", edges);
     h5.attribute("/particles/all/box", "dimension", static_cast<double>(D));
     h5.attribute("/particles/all/box", "boundary", c.walls[0] || c.walls[1] || c.walls[2] ? "mixed" : "periodic");
     h5.attribute("/h5md", "version", "1.1");
@@ -498,6 +651,21 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   for (const auto& [k, val] : summary.entries()) {
     if (const double* d = std::get_if<double>(&val)) h5.attribute("/summary", k, *d);
+  }
+  if (c.profiles) {
+    const ProfileResult pr = profiles.result();
+    h5.write("/profiles/z", pr.centres);
+    h5.attribute("/profiles", "axis", std::string(1, "xyz"[c.profile_axis]));
+    h5.attribute("/profiles", "slab_volume", pr.slab_volume);
+    h5.attribute("/profiles", "batches", static_cast<double>(pr.batches));
+    for (const auto& fld : pr.fields) {
+      h5.write("/profiles/" + fld.name, fld.mean);
+      h5.write("/profiles/" + fld.name + "_stderr", fld.stderr_);
+    }
+    h5.write("/profiles/velocity_histogram/v", tails.centres());
+    h5.write("/profiles/velocity_histogram/counts", tails.counts,
+             {static_cast<hsize_t>(c.profile_slabs), static_cast<hsize_t>(D), static_cast<hsize_t>(tails.bins)});
+    h5.write("/profiles/velocity_histogram/samples_per_slab", tails.samples);
   }
   h5.close();  // a failed write (disk full) surfaces here, before the output is committed
 }

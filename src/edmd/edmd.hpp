@@ -29,6 +29,12 @@ struct Config {
   double contact_time = 0.0;       // TC-model guard (0: off)
   std::array<bool, 3> walls{false, false, false};
   double wall_restitution = 1.0;
+  // driving walls (docs/edmd.md "Driving walls"): index 0 = wall at 0, 1 = wall at L
+  std::array<double, 2> wall_driving{0.0, 0.0};
+  std::array<double, 2> wall_restitution_side{1.0, 1.0};
+  bool driving_walls() const { return wall_driving[0] > 0.0 || wall_driving[1] > 0.0 ||
+                                      wall_restitution_side[0] != wall_restitution || wall_restitution_side[1] != wall_restitution; }
+  Vec3 aspect{1.0, 1.0, 1.0};      // relative edge lengths of the box (volume fixed by N and packing)
   RestitutionLaw restitution = ElasticRestitution{};
   BackgroundParameters background;
   Heating heating;
@@ -40,8 +46,15 @@ struct Config {
   double corr_bin = 0.1;           // Bizon: delta r = sigma/10
   double trajectory_interval = 0.0;  // collisions per particle between H5MD frames (0: none)
   bool free_cooling = false;       // record T(t) against Haff's law
+  // [profiles] (docs/edmd.md "Slab profiles")
+  bool profiles = false;
+  int profile_axis = 0;
+  int profile_slabs = 20;
+  int tail_bins = 400;             // velocity histograms per slab: bins over [-range, range]
+  double tail_range = 12.0;        // in units of sqrt(T) at the start of the measurement
   // derived
-  double box_length() const;
+  double box_length() const;       // edge of the cube / square of the same volume
+  Vec3 box() const;                // edges (aspect applied); z = 1 in 2D
   std::uint64_t seed = 1;  // set by run() from the RunContext
 };
 

@@ -99,6 +99,16 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
     : n_(positions.size()), dims_(s.dims), L_(s.length), walls_(s.walls), wall_e_(s.wall_restitution),
       tc_(s.contact_time), heating_(s.heating), bg_(s.background), seed_(s.seed),
       accelerated_(s.heating.kind == HeatingKind::air_table), vn_bin_width_(s.vn_bin_width) {
+  for (int side = 0; side < 2; ++side) {
+    wall_drive_[side] = s.wall_driving[side];
+    wall_e_side_[side] = s.wall_restitution_side[side] >= 0.0 ? s.wall_restitution_side[side] : s.wall_restitution;
+    if (!(wall_drive_[side] >= 0.0) || !std::isfinite(wall_drive_[side]))
+      throw std::invalid_argument("edmd: wall driving speed must be finite and >= 0");
+    if (!(wall_e_side_[side] >= 0.0 && wall_e_side_[side] <= 1.0))
+      throw std::invalid_argument("edmd: wall restitution must lie in [0, 1]");
+  }
+  driving_walls_ = wall_drive_[0] > 0.0 || wall_drive_[1] > 0.0 || wall_e_side_[0] != wall_e_ ||
+                   wall_e_side_[1] != wall_e_;
   if (dims_ != 2 && dims_ != 3) throw std::invalid_argument("edmd: dimensions must be 2 or 3");
   if (velocities.size() != n_) throw std::invalid_argument("edmd: positions and velocities differ in length");
   if (n_ < 2) throw std::invalid_argument("edmd: need at least 2 particles");
@@ -632,9 +642,22 @@ void Engine::process_wall(std::uint32_t i) {
   const bool high = ev_[i].aux & 1;
   if ((high && v > 0.0) || (!high && v < 0.0)) {
     const double e0 = 0.5 * v * v;
-    c_.wall_virial += (1.0 + wall_e_) * std::abs(v);
-    v = -wall_e_ * v;
-    c_.energy_lost += e0 - 0.5 * v * v;
+    if (driving_walls_) {
+      // Infinitely fast vibration (thesis ch. 3; docs/edmd.md "Driving walls"): the grain
+      // leaves with normal speed alpha_w |v_n| + v_dr whatever the wall's phase.
+      const int side = high ? 1 : 0;
+      const double out = wall_e_side_[side] * std::abs(v) + wall_drive_[side];
+      const double v_new = high ? -out : out;
+      c_.wall_virial += std::abs(v_new - v);
+      c_.wall_momentum[side] += std::abs(v_new - v);
+      v = v_new;
+      c_.wall_energy[side] += 0.5 * v * v - e0;
+      ++c_.wall_hits[side];
+    } else {
+      c_.wall_virial += (1.0 + wall_e_) * std::abs(v);
+      v = -wall_e_ * v;
+      c_.energy_lost += e0 - 0.5 * v * v;
+    }
     // pin to the wall against round-off drift
     comp(k_[i].r, d) = high ? comp(L_, d) - 0.5 : 0.5;
     trajectory_changed(i);

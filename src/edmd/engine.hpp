@@ -46,6 +46,19 @@ inline constexpr std::uint64_t kSystemEntity = std::uint64_t{1} << 62;
 
 enum class HeatingKind { none, white_noise, air_table, boltzmann };
 
+// One grain-grain collision as a measurement hook sees it (slab profiles, docs/edmd.md
+// "Slab profiles"). Masses are 1, so momenta are velocities.
+struct CollisionRecord {
+  Vec3 ri;            // centre of grain i at contact (inside the box up to a cell crossing)
+  Vec3 rij;           // r_j - r_i, minimum image: |rij| = sigma
+  Vec3 impulse;       // momentum given to j (grain i receives -impulse)
+  double dEi = 0.0;   // kinetic energy change of i (lab frame)
+  double dEj = 0.0;   // kinetic energy change of j
+};
+// Called once per processed collision when set (Engine::set_collision_hook); the
+// non-measuring path pays one predictable branch.
+using CollisionHook = void (*)(void* context, const CollisionRecord& record);
+
 // Bizon Sec. III. All three act at grain-grain collisions, "rate" pairs/particles per collision.
 struct Heating {
   HeatingKind kind = HeatingKind::none;
@@ -60,6 +73,11 @@ struct EngineSetup {
   Vec3 length{1, 1, 1};
   std::array<bool, 3> walls{false, false, false};  // hard walls at 0 and L in that direction
   double wall_restitution = 1.0;
+  // Driving walls (thesis ch. 3, infinitely fast vibration, docs/edmd.md "Driving walls"):
+  // a grain hitting the wall at the low (index 0) / high (index 1) end of a wall direction
+  // leaves with normal speed restitution * |v_n| + driving_speed. Both zero: plain walls.
+  std::array<double, 2> wall_driving{0.0, 0.0};
+  std::array<double, 2> wall_restitution_side{-1.0, -1.0};  // < 0: wall_restitution
   double contact_time = 0.0;  // TC-model collapse guard: e = 1 if either grain collided within t_c
   Heating heating;
   std::optional<BackgroundState> background;
@@ -85,6 +103,12 @@ struct Counters {
   double heating_energy = 0.0;        // energy injected by the heat bath (air table: work of the forces)
   double background_energy = 0.0;     // energy given by the background medium
   double wall_virial = 0.0;           // Sum m |dv_n| at walls (momentum transferred)
+  // Driving walls only (plain walls book their loss in energy_lost): energy given to the
+  // grains by the low / high wall (signed, net of the wall's restitution loss), and the
+  // momentum given along the wall normal (into the box positive).
+  std::array<double, 2> wall_energy{0.0, 0.0};
+  std::array<double, 2> wall_momentum{0.0, 0.0};
+  std::array<std::uint64_t, 2> wall_hits{0, 0};
   double sum_vn = 0.0, sum_vn2 = 0.0, sum_e = 0.0;
   std::vector<std::uint64_t> vn_histogram;
 };
@@ -125,6 +149,11 @@ class Engine {
   std::uint64_t rebuilds() const { return rebuilds_; }
   // Replace velocities (e.g. rescaling during equilibration); rebuilds the calendar.
   void set_velocities(const std::vector<Vec3>& v);
+  // Measurement hook called at every grain-grain collision (nullptr: off).
+  void set_collision_hook(CollisionHook hook, void* context) {
+    hook_ = hook;
+    hook_context_ = context;
+  }
 
  private:
   enum EventType : std::uint8_t { ev_none, ev_collision, ev_cell, ev_wall, ev_background };
@@ -170,6 +199,11 @@ class Engine {
   Vec3 L_;
   std::array<bool, 3> walls_{};
   double wall_e_ = 1.0;
+  std::array<double, 2> wall_drive_{0.0, 0.0};
+  std::array<double, 2> wall_e_side_{1.0, 1.0};
+  bool driving_walls_ = false;
+  CollisionHook hook_ = nullptr;
+  void* hook_context_ = nullptr;
   double tc_ = 0.0;
   Heating heating_;
   std::optional<BackgroundState> bg_;
@@ -256,7 +290,17 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
     e = out.e;
     if (out.clamped) ++c_.clamped;
   }
+  const Vec3 va0 = a.v, vb0 = b.v;  // for the measurement hook
   c_.energy_lost += inelastic_collision(a.v, b.v, n, e, 1.0);  // Bizon eq. 28 per collision
+  if (hook_) {
+    CollisionRecord rec;
+    rec.ri = a.r;
+    rec.rij = dr;
+    rec.impulse = b.v - vb0;
+    rec.dEi = 0.5 * (norm2(a.v) - norm2(va0));
+    rec.dEj = 0.5 * (norm2(b.v) - norm2(vb0));
+    hook_(hook_context_, rec);
+  }
   c_.virial += 0.5 * (1.0 + e) * gn;                             // sigma k.dv, Bizon eq. 24
   c_.sum_vn += gn;
   c_.sum_vn2 += gn * gn;
