@@ -10,10 +10,10 @@
 #include <variant>
 
 #include "core/case_file.hpp"
+#include "core/checkpoint.hpp"
 #include "core/physics_config.hpp"
 #include "core/run_support.hpp"
 #include "core/summary.hpp"
-#include "dsmc/checkpoint.hpp"
 #include "dsmc/dsmc.hpp"
 #include "edmd/edmd.hpp"
 
@@ -34,7 +34,7 @@ std::vector<std::pair<std::string, double>> solver_theory(const edmd::Config& c)
 void solver_run(const dsmc::Config& c, const RunContext& ctx, Summary& s) { dsmc::run(c, ctx, s); }
 void solver_run(const edmd::Config& c, const RunContext& ctx, Summary& s) { edmd::run(c, ctx, s); }
 bool keep_checkpoints(const dsmc::Config& c) { return c.checkpoint.keep; }
-bool keep_checkpoints(const edmd::Config&) { return false; }
+bool keep_checkpoints(const edmd::Config& c) { return c.checkpoint.keep; }
 
 struct LoadedCase {
   CaseReader reader;
@@ -154,8 +154,17 @@ int command_run(const RunArgs& a) {
   ctx.case_text = lc->reader.source_text();
   ctx.resolved = lc->reader.resolved();
   ctx.stop_requested = &g_stop;
-  ctx.checkpoint_dir = dsmc::checkpoint_directory(out);
+  ctx.checkpoint_dir = checkpoint_directory(out);
   ctx.resume = a.resume;
+  {
+    auto quote = [](const std::string& x) {
+      return x.find_first_of(" \t'\"$\\") == std::string::npos ? x : "'" + x + "'";
+    };
+    std::string cmd = "grainbath run " + quote(a.case_dir);
+    if (!a.out_dir.empty()) cmd += " --out " + quote(a.out_dir);
+    for (const auto& o : a.overrides) cmd += " --set " + quote(o);
+    ctx.resume_command = cmd + " --resume";
+  }
   Summary summary;
   try {
     std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu) -> %s\n", GRAINBATH_VERSION,

@@ -22,6 +22,7 @@ struct RunContext {
   const std::atomic<bool>* stop_requested = nullptr;  // set by SIGINT/SIGTERM
   std::filesystem::path checkpoint_dir;  // where checkpoints go (empty: none)
   bool resume = false;                   // continue from the newest valid checkpoint
+  std::string resume_command;            // the command line that resumes this run (messages)
 };
 
 // Writes the provenance every results.h5 carries: version, seed, case text, resolved

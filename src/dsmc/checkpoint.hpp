@@ -2,6 +2,7 @@
 // Checkpoints: the whole DSMC State in one HDF5 file, written to a temporary name, flushed
 // and renamed (the previous checkpoint is kept). A 64-bit checksum over every dataset
 // detects truncated or corrupt files; resume falls back to the previous one with a warning.
+// The file machinery is shared with EDMD (core/checkpoint.hpp).
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -11,10 +12,6 @@
 #include "dsmc/state.hpp"
 
 namespace grainbath::dsmc {
-
-// Where checkpoints of the run writing to OUT live: OUT.checkpoints/ (next to the output,
-// so that they survive a crash of the run that is writing OUT).
-std::filesystem::path checkpoint_directory(const std::filesystem::path& final_out);
 
 void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx);
 

@@ -193,9 +193,7 @@ Config read_config(CaseReader& r) {
                                          std::to_string(c.domain.cell_count()) + " cells), found " +
                                          std::to_string(per_cell));
   }
-  c.checkpoint.every = r.real("checkpoint", "every", 0.0, Bounds::non_negative(), "time");
-  c.checkpoint.every_minutes = r.real("checkpoint", "every_minutes", 0.0, Bounds::non_negative(), "minutes");
-  c.checkpoint.keep = r.boolean("checkpoint", "keep", false);
+  c.checkpoint = read_checkpoint_settings(r, "time");
   if (c.dt > c.t_end) r.problem("dsmc", "dt", "expected dt <= t_end");
   c.steps = static_cast<std::int64_t>(std::ceil(c.t_end / c.dt - 1e-9));
   c.sample_every_steps = std::max<std::int64_t>(1, std::llround(c.sample_every / c.dt));

@@ -300,8 +300,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       progress.finish();
       throw std::runtime_error("interrupted at step " + std::to_string(s.step) + " (t = " +
                                std::to_string(s.step * c.dt) + "); a checkpoint was written to " +
-                               ctx.checkpoint_dir.string() + "; continue with: grainbath run " +
-                               ctx.case_dir.string() + " --resume");
+                               ctx.checkpoint_dir.string() + "; continue with: " +
+                               (ctx.resume_command.empty() ? "grainbath run " + ctx.case_dir.string() + " --resume"
+                                                           : ctx.resume_command));
     }
   }
   progress.finish();

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/case_file.hpp"
+#include "core/checkpoint.hpp"
 #include "core/physics_config.hpp"
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
@@ -55,11 +56,8 @@ struct GrainParameters {
   int wavenumber_index = 1;  // k = 2 pi index / length_x
 };
 
-struct CheckpointSettings {
-  double every = 0.0;          // simulated time between checkpoints (0: none)
-  double every_minutes = 0.0;  // wall-clock minutes between checkpoints (0: none)
-  bool keep = false;           // keep the checkpoints after a successful run
-};
+// [checkpoint] (core/checkpoint.hpp); `every` is simulated time here.
+using grainbath::CheckpointSettings;
 
 struct Config {
   GrainParameters grains;

@@ -9,6 +9,7 @@
 
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
+#include "edmd/checkpoint.hpp"
 #include "edmd/edmd.hpp"
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
@@ -206,6 +207,7 @@ Config read_config(CaseReader& r) {
     c.tail_range = r.real("profiles", "velocity_range", 12.0, Bounds::positive(), "sqrt(T)");
     if (c.free_cooling) r.problem("profiles", "slabs", "profiles need a steady state (not free_cooling)");
   }
+  c.checkpoint = read_checkpoint_settings(r, "collisions per particle");
   return c;
 }
 
@@ -317,10 +319,6 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
 
 namespace {
 
-struct Series {
-  std::vector<double> time, temperature, z, energy_lost, heating, background, collisions;
-};
-
 template <class Law>
 void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& summary) {
   const std::uint64_t seed = ctx.seed;
@@ -346,76 +344,161 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     return ke / (D * N);  // granular temperature (Bizon eq. 3)
   };
 
+  // Run state carried across the loop (checkpointed with the engine); the measurement
+  // bins come from the case.
+  const double L = std::min({box.x, box.y, D == 3 ? box.z : box.y});  // shortest edge
+  // range of the pair statistics: corr_max, or L/2 (Bizon Fig. 7) while all pairs are
+  // affordable (N <= 4000), else 10 sigma searched on a grid
+  const double corr_range = c.corr_max > 0 ? c.corr_max : (N <= 4000 ? 0.5 * L : std::min(10.0, L / 3.0));
+  RunState rs;
+  rs.pairs.init(D, box, c.walls, std::max(c.gr_max, corr_range), c.gr_bin, c.corr_bin);
+  rs.vhist.init(5.0, 100);
+  // slab profiles (docs/edmd.md "Slab profiles"); the tails' range is set from the
+  // temperature when the measurements start (or restored from the checkpoint)
+  if (c.profiles) {
+    rs.profiles.init({D, box, c.profile_axis, c.profile_slabs, !c.walls[c.profile_axis]});
+    rs.tails.init(D, c.profile_slabs, c.tail_bins, 1.0);
+  }
+  if (ctx.resume) {
+    std::string warning;
+    const bool ok = read_newest_checkpoint(ctx.checkpoint_dir, ctx, eng, rs, warning);
+    if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+    if (!ok) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
+    std::fprintf(stderr, "resuming at %.6g collisions per particle (%s, t = %.6g)\n",
+                 static_cast<double>(eng.total_collisions()) / N,
+                 rs.phase == RunState::equilibrating ? "equilibrating" : "measuring", eng.time());
+  }
+  PairStatistics& pairs = rs.pairs;
+  VelocityHistogram& vhist = rs.vhist;
+  Series& s = rs.series;
+  Counters& prev = rs.prev;
+  double& t_prev = rs.t_prev;
+  double& T_prev = rs.T_prev;
+  std::vector<double>& traj_pos = rs.traj_pos;
+  std::vector<double>& traj_time = rs.traj_time;
+  std::vector<std::int64_t>& traj_step = rs.traj_step;
+
   const auto wall0 = std::chrono::steady_clock::now();
   Progress progress("edmd", c.equilibrate + c.collisions, ctx.quiet);
-  // --- equilibration -------------------------------------------------------------------
   const std::uint64_t n_eq = static_cast<std::uint64_t>(c.equilibrate * N);
-  double engine_seconds = 0.0;
+  double& engine_seconds = rs.engine_seconds;
   auto timed_advance = [&](double t_end, std::uint64_t max_coll) {
     const auto t_a = std::chrono::steady_clock::now();
     eng.advance(law, t_end, max_coll);
     engine_seconds += wall_seconds_since(t_a);
   };
-  for (int k = 1; k <= 20 && n_eq > 0; ++k) {
-    timed_advance(kInf, n_eq * k / 20);
-    progress.update(static_cast<double>(eng.counters().collisions) / N);
-    if (ctx.stop_requested && ctx.stop_requested->load()) throw std::runtime_error("edmd: interrupted");
+  // Checkpoints (issue #8) are taken at the engine's scheduled rebuilds (every
+  // rebuild_interval = 10 collisions per particle), the points from which the state
+  // restores bitwise: `every` collisions per particle (the first rebuild at or after each
+  // multiple of every * N collisions, counted from the start of the run), `every_minutes`
+  // of wall clock, and on SIGINT/SIGTERM (which therefore wait for the next rebuild).
+  const double every_coll = c.checkpoint.every * static_cast<double>(N);
+  auto next_multiple = [&](std::uint64_t total) -> std::uint64_t {
+    if (!(every_coll >= 1.0)) return c.checkpoint.every > 0 ? total + 1 : UINT64_MAX;
+    const double k = std::floor(static_cast<double>(total) / every_coll) + 1.0;
+    return static_cast<std::uint64_t>(std::ceil(k * every_coll));
+  };
+  std::uint64_t next_checkpoint = next_multiple(eng.total_collisions());
+  auto last_checkpoint_wall = std::chrono::steady_clock::now();
+  auto at_rebuild_point = [&]() {
+    const bool stop = ctx.stop_requested && ctx.stop_requested->load();
+    const bool due_coll = eng.total_collisions() >= next_checkpoint;
+    const bool due_wall = c.checkpoint.every_minutes > 0 &&
+                          wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes;
+    if (!ctx.checkpoint_dir.empty() && (stop || due_coll || due_wall)) {
+      write_checkpoint(ctx.checkpoint_dir, eng, rs, ctx);
+      last_checkpoint_wall = std::chrono::steady_clock::now();
+      next_checkpoint = next_multiple(eng.total_collisions());
+    }
+    if (stop) {
+      progress.finish();
+      char where[96];
+      std::snprintf(where, sizeof where, "%.6g collisions per particle (t = %.6g)",
+                    static_cast<double>(eng.total_collisions()) / N, eng.time());
+      throw std::runtime_error(std::string("interrupted at ") + where +
+                               (ctx.checkpoint_dir.empty() ? std::string("; no checkpoint directory, nothing saved")
+                                                           : "; a checkpoint was written to " + ctx.checkpoint_dir.string() +
+                                                                 "; continue with: " +
+                                                                 (ctx.resume_command.empty()
+                                                                      ? "grainbath run " + ctx.case_dir.string() + " --resume"
+                                                                      : ctx.resume_command)));
+    }
+  };
+  // advance() split at the scheduled rebuilds: it stops just before one, the rebuild is
+  // done exactly as advance() would have done it, then the state may be checkpointed.
+  // The event sequence is the same as one advance(t_end, max_coll) call.
+  auto advance_checked = [&](double t_end, std::uint64_t max_coll) {
+    for (;;) {
+      const std::uint64_t cur = eng.counters().collisions;
+      if (cur >= max_coll) return;
+      const std::uint64_t due = eng.collisions_until_rebuild();
+      const std::uint64_t stop = due < max_coll - cur ? cur + due : max_coll;
+      timed_advance(t_end, stop);
+      const std::uint64_t done = eng.counters().collisions;
+      if (done >= max_coll || done < stop) return;  // finished, or stopped by t_end
+      if (!eng.rebuild_if_due()) throw std::logic_error("edmd: expected a scheduled rebuild");
+      at_rebuild_point();
+    }
+  };
+
+  double T = 0.0;
+  if (rs.phase == RunState::equilibrating) {
+    // --- equilibration -----------------------------------------------------------------
+    for (; rs.eq_chunk <= 20 && n_eq > 0; ++rs.eq_chunk) {
+      advance_checked(kInf, n_eq * rs.eq_chunk / 20);
+      progress.update(static_cast<double>(eng.counters().collisions) / N);
+    }
+    T = snapshot();
+    const double t_eq = eng.time();
+    rs.rate_eq = t_eq > 0 ? eng.counters().collisions / t_eq : 0.0;
+    eng.rebuild();
+    rs.c_eq = eng.counters();
+    eng.counters() = Counters{};
+    eng.counters().vn_histogram.assign(rs.c_eq.vn_histogram.size(), 0);
+    rs.t0 = eng.time();
+    rs.T0 = T;
+    T = snapshot();
+    rs.e_initial = eng.kinetic_energy();
+    rs.p_initial = eng.momentum();
+    s.time.push_back(0.0);
+    s.temperature.push_back(T);
+    prev = eng.counters();
+    t_prev = rs.t0;
+    T_prev = T;
+    if (c.profiles) rs.tails.init(D, c.profile_slabs, c.tail_bins, c.tail_range * std::sqrt(rs.T0));
+    rs.phase = RunState::measuring;
   }
-  double T = snapshot();
-  const double t_eq = eng.time();
-  const double rate_eq = t_eq > 0 ? eng.counters().collisions / t_eq : 0.0;
-  eng.rebuild();
-  const Counters c_eq = eng.counters();
-  eng.counters() = Counters{};
-  eng.counters().vn_histogram.assign(c_eq.vn_histogram.size(), 0);
-
-  // sampling interval in time (steady state) from the equilibration's collision rate;
-  // collision-based when cooling freely or when there was no equilibration
-  const bool by_collisions = c.free_cooling || rate_eq <= 0.0;
-  const double dt_sample = by_collisions ? 0.0 : c.sample_interval * N / rate_eq;
-  const std::uint64_t coll_sample = static_cast<std::uint64_t>(std::max(1.0, c.sample_interval * N));
-  const std::uint64_t n_prod = static_cast<std::uint64_t>(c.collisions * N);
-
-  PairStatistics pairs;
-  const double L = std::min({box.x, box.y, D == 3 ? box.z : box.y});  // shortest edge
-  // range of the pair statistics: corr_max, or L/2 (Bizon Fig. 7) while all pairs are
-  // affordable (N <= 4000), else 10 sigma searched on a grid
-  const double corr_range = c.corr_max > 0 ? c.corr_max : (N <= 4000 ? 0.5 * L : std::min(10.0, L / 3.0));
-  pairs.init(D, box, c.walls, std::max(c.gr_max, corr_range), c.gr_bin, c.corr_bin);
-  // slab profiles (docs/edmd.md "Slab profiles"): collisional parts through the engine hook
-  SlabProfiles profiles;
-  SlabVelocityHistograms tails;
+  // collisional parts of the profiles through the engine hook, measuring phase only
+  SlabProfiles& profiles = rs.profiles;
+  SlabVelocityHistograms& tails = rs.tails;
+  std::vector<double>& wall_in_series = rs.wall_in_series;
+  std::vector<double>& loss_series = rs.loss_series;
   std::vector<Vec3> v_raw;
   if (c.profiles) {
-    profiles.init({D, box, c.profile_axis, c.profile_slabs, !c.walls[c.profile_axis]});
-    tails.init(D, c.profile_slabs, c.tail_bins, c.tail_range * std::sqrt(T));
     eng.set_collision_hook(&SlabProfiles::collision_hook, &profiles);
     v_raw.resize(N);
   }
-  std::vector<double> wall_in_series, loss_series;
-  VelocityHistogram vhist;
-  vhist.init(5.0, 100);
-  Series s;
-  const double t0 = eng.time();
-  const double T0 = T;
-  T = snapshot();
-  const double e_initial = eng.kinetic_energy();
-  const Vec3 p_initial = eng.momentum();
-  s.time.push_back(0.0);
-  s.temperature.push_back(T);
-  Counters prev = eng.counters();
-  double t_prev = t0;
-  double T_prev = T;
+  const Counters& c_eq = rs.c_eq;
+  const double t0 = rs.t0, T0 = rs.T0, e_initial = rs.e_initial;
+  const Vec3 p_initial = rs.p_initial;
+
+  // sampling interval in time (steady state) from the equilibration's collision rate;
+  // collision-based when cooling freely or when there was no equilibration
+  const bool by_collisions = c.free_cooling || rs.rate_eq <= 0.0;
+  const double dt_sample = by_collisions ? 0.0 : c.sample_interval * N / rs.rate_eq;
+  const std::uint64_t coll_sample = static_cast<std::uint64_t>(std::max(1.0, c.sample_interval * N));
+  const std::uint64_t n_prod = static_cast<std::uint64_t>(c.collisions * N);
+
   // trajectories (H5MD layout)
-  std::vector<double> traj_pos, traj_time;
-  std::vector<std::int64_t> traj_step;
   const std::uint64_t coll_traj = c.trajectory_interval > 0 ? static_cast<std::uint64_t>(c.trajectory_interval * N) : 0;
-  std::uint64_t next_traj = 0;
-  int sample_no = 0;
+  std::uint64_t& next_traj = rs.next_traj;
+  std::int64_t& sample_no = rs.sample_no;
   const int pair_every = std::max<int>(1, static_cast<int>(std::ceil(5.0 / c.sample_interval)));  // pair stats every ~5 coll/particle
   while (eng.counters().collisions < n_prod) {
-    if (by_collisions) timed_advance(kInf, std::min(n_prod, eng.counters().collisions + coll_sample));
-    else timed_advance(t_prev + dt_sample, n_prod);
+    // targets from the state at the last sample, so that a resumed run continues the
+    // interpolated interval the checkpoint was taken in
+    if (by_collisions) advance_checked(kInf, std::min(n_prod, prev.collisions + coll_sample));
+    else advance_checked(t_prev + dt_sample, n_prod);
     T = snapshot();
     const Counters& cur = eng.counters();
     const double dt = eng.time() - t_prev;
@@ -456,7 +539,6 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     t_prev = eng.time();
     T_prev = T;
     progress.update(c.equilibrate + static_cast<double>(cur.collisions) / N);
-    if (ctx.stop_requested && ctx.stop_requested->load()) throw std::runtime_error("edmd: interrupted");
   }
   progress.finish();
   eng.synchronize();
@@ -649,7 +731,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     h5.attribute("/h5md", "version", "1.1");
     h5.attribute("/h5md", "creator", "grainbath edmd");
   }
+  // every numeric summary value but the wall-clock performance block, so that results.h5
+  // is a function of case and seed alone (and a resumed run's file equals an uninterrupted one's)
   for (const auto& [k, val] : summary.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
     if (const double* d = std::get_if<double>(&val)) h5.attribute("/summary", k, *d);
   }
   if (c.profiles) {

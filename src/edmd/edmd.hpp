@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/case_file.hpp"
+#include "core/checkpoint.hpp"
 #include "core/physics_config.hpp"
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
@@ -52,6 +53,9 @@ struct Config {
   int profile_slabs = 20;
   int tail_bins = 400;             // velocity histograms per slab: bins over [-range, range]
   double tail_range = 12.0;        // in units of sqrt(T) at the start of the measurement
+  // [checkpoint]: `every` in collisions per particle (checkpoints at the next scheduled
+  // rebuild, every 10 collisions per particle; docs/edmd.md)
+  CheckpointSettings checkpoint;
   // derived
   double box_length() const;       // edge of the cube / square of the same volume
   Vec3 box() const;                // edges (aspect applied); z = 1 in 2D

@@ -207,12 +207,11 @@ void Engine::assign_cell(std::uint32_t i) {
 
 void Engine::fill_cells() {
   for (;;) {
-    members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * cap_, 0);
-    count_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2], 0);
+    members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
       const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
-      if (count_[c] >= cap_) ok = false;
+      if (cell_block(c)[0] >= static_cast<std::uint32_t>(cap_)) ok = false;
       else insert_cell(i);
     }
     if (ok) return;
@@ -227,22 +226,23 @@ void Engine::grow_cells() {
 
 void Engine::insert_cell(std::uint32_t i) {
   const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
-  if (count_[c] >= cap_) {
+  std::uint32_t* b = cell_block(c);
+  if (b[0] >= static_cast<std::uint32_t>(cap_)) {
     grow_cells();  // rare: re-inserts everyone including i
     return;
   }
-  const std::size_t s = count_[c]++;
-  members_[static_cast<std::size_t>(c) * cap_ + s] = i;
-  slot_[i] = static_cast<std::uint32_t>(s);
+  const std::uint32_t s = b[0]++;
+  b[1 + s] = i;
+  slot_[i] = s;
 }
 
 void Engine::remove_cell(std::uint32_t i) {
   const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
-  const std::size_t base = static_cast<std::size_t>(c) * cap_;
-  const std::uint32_t last = members_[base + count_[c] - 1];
-  members_[base + slot_[i]] = last;
+  std::uint32_t* b = cell_block(c);
+  const std::uint32_t last = b[b[0]];  // the last member, b[1 + count - 1]
+  b[1 + slot_[i]] = last;
   slot_[last] = slot_[i];
-  --count_[c];
+  --b[0];
 }
 
 void Engine::move_to(std::uint32_t i, double t) {
@@ -262,6 +262,10 @@ void Engine::move_to(std::uint32_t i, double t) {
 
 void Engine::trajectory_changed(std::uint32_t i) {
   ++counter_[i];
+  draw_background_time(i);
+}
+
+void Engine::draw_background_time(std::uint32_t i) {
   if (bg_) {
     CounterRng rng(seed_, Stream::edmd_background, id_[i], counter_[i]);
     const double rate = dims_ == 2 ? background_majorant_rate_2d(k_[i].v, *bg_)
@@ -304,8 +308,8 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
 inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
                               double& best, std::uint32_t& partner) const {
   const double t = ki.t;
-  const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
-  const int cnt = count_[cell];
+  const std::uint32_t* m = cell_block(cell) + 1;
+  const int cnt = static_cast<int>(m[-1]);
   for (int q = 0; q < cnt; ++q) {
     const std::uint32_t j = m[q];
     if (j == i) continue;
@@ -377,8 +381,8 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
           const int cell = row + dx;
-          const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
-          const int cnt = count_[cell];
+          const std::uint32_t* m = cell_block(cell) + 1;
+          const int cnt = static_cast<int>(m[-1]);
           if (nb + cnt > kMax) overflow = true;
           for (int q = 0; q < cnt && !overflow; ++q) {
             const std::uint32_t j = m[q];
@@ -482,8 +486,8 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
   bool overflow = false;
   const int zr = dims_ == 3 ? 1 : 0;
   auto add_cell = [&](int cell) {
-    const std::uint32_t* m = &members_[static_cast<std::size_t>(cell) * cap_];
-    const int cnt = count_[cell];
+    const std::uint32_t* m = cell_block(cell) + 1;
+    const int cnt = static_cast<int>(m[-1]);
     if (nb + cnt > kMax) {
       overflow = true;
       return;
@@ -774,6 +778,10 @@ void Engine::rebuild() {
   now_ = 0.0;
   ++rebuilds_;
   for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
+  rebuild_calendar();
+}
+
+void Engine::rebuild_calendar() {
 #ifdef GRAINBATH_EDMD_HEAP
   heap_.reset(n_);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
@@ -791,6 +799,7 @@ void Engine::rebuild() {
   heap_.reset(n_, 0.0, calendar_width_);
   for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time_[i]);
 #endif
+  at_rebuild_ = true;
 }
 
 namespace {
@@ -839,6 +848,88 @@ void Engine::sort_by_cell() {
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
 }
 
+bool Engine::rebuild_if_due() {
+  // the same test and bookkeeping as at the top of advance()'s loop
+  if (!(rebuild_every_ && total_collisions_ >= next_rebuild_)) return false;
+  next_rebuild_ += rebuild_every_;
+  rebuild();
+  return true;
+}
+
+EngineState Engine::state() const {
+  if (!at_rebuild_)
+    throw std::logic_error("edmd: Engine::state() needs a rebuild point (events were processed since the last rebuild)");
+  EngineState st;
+  st.positions.resize(n_);
+  st.velocities.resize(n_);
+  st.event_counters.resize(n_);
+  st.last_collision.resize(n_);
+  if (!omega_.empty()) st.omega.resize(n_);
+  if (accelerated_) st.accelerations.resize(n_), st.pairs = pair_;
+  for (std::uint32_t s = 0; s < n_; ++s) {
+    const std::uint32_t id = id_[s];
+    st.positions[id] = k_[s].r;
+    st.velocities[id] = k_[s].v;
+    st.event_counters[id] = counter_[s];
+    st.last_collision[id] = last_collision_[s];
+    if (!omega_.empty()) st.omega[id] = omega_[s];
+    if (accelerated_) st.accelerations[id] = a_[s];
+  }
+  st.offset = offset_;
+  st.calendar_width = calendar_width_;
+  st.rebuilds = rebuilds_;
+  st.total_collisions = total_collisions_;
+  st.next_rebuild = next_rebuild_;
+  st.rebuild_every = rebuild_every_;
+  st.cell_capacity = static_cast<std::uint64_t>(cap_);
+  st.counters = c_;
+  return st;
+}
+
+void Engine::restore(const EngineState& st) {
+  auto bad = [](const std::string& what) { throw std::runtime_error("edmd: checkpoint state: " + what); };
+  if (st.positions.size() != n_ || st.velocities.size() != n_ || st.event_counters.size() != n_ ||
+      st.last_collision.size() != n_)
+    bad("particle arrays do not have N = " + std::to_string(n_) + " entries");
+  if (!st.omega.empty() && st.omega.size() != n_) bad("angular velocities do not have N entries");
+  if (accelerated_ != !st.accelerations.empty() || (accelerated_ && (st.accelerations.size() != n_ || st.pairs.size() != n_)))
+    bad("air-table accelerations do not match the case");
+  if (st.rebuild_every != rebuild_every_) bad("rebuild interval differs from the case");
+  if (st.cell_capacity < 1 || st.cell_capacity > 65535) bad("cell capacity out of range");
+  if (st.counters.vn_histogram.size() != c_.vn_histogram.size()) bad("normal-speed histogram size differs from the case");
+  for (std::uint32_t i = 0; i < n_; ++i)
+    for (int d = 0; d < dims_; ++d) {
+      const double x = comp(st.positions[i], d), l = comp(L_, d);
+      if (!std::isfinite(x) || x < 0.0 || x > l) bad("particle " + std::to_string(i) + " is outside the box");
+    }
+  // checks done: from here on nothing throws
+  for (std::uint32_t i = 0; i < n_; ++i) {
+    id_[i] = slot_of_[i] = i;
+    k_[i].r = st.positions[i];
+    k_[i].v = st.velocities[i];
+    k_[i].t = 0.0;
+    counter_[i] = st.event_counters[i];
+    last_collision_[i] = st.last_collision[i];
+    assign_cell(i);
+  }
+  if (!st.omega.empty()) omega_ = st.omega;
+  if (accelerated_) a_ = st.accelerations, pair_ = st.pairs;
+  // the second half of rebuild(), with the counters as saved (rebuild() had bumped them
+  // before the state was taken): same cells, storage order, background times, calendar
+  sort_by_cell();
+  cap_ = static_cast<int>(st.cell_capacity);
+  fill_cells();
+  offset_ = st.offset;
+  now_ = 0.0;
+  rebuilds_ = st.rebuilds;
+  total_collisions_ = st.total_collisions;
+  next_rebuild_ = st.next_rebuild;
+  c_ = st.counters;
+  calendar_width_ = st.calendar_width;
+  for (std::uint32_t i = 0; i < n_; ++i) draw_background_time(i);
+  rebuild_calendar();
+}
+
 void Engine::set_velocities(const std::vector<Vec3>& v) {
   synchronize();
   for (std::size_t i = 0; i < n_; ++i) {
@@ -881,8 +972,9 @@ double Engine::min_distance() const {
           }
           if (skip) continue;
           const int cell = cell_index(cc[0], cc[1], cc[2]);
-          for (int q = 0; q < count_[cell]; ++q) {
-            const std::uint32_t j = members_[static_cast<std::size_t>(cell) * cap_ + q];
+          const std::uint32_t* m = cell_block(cell) + 1;
+          for (int q = 0; q < static_cast<int>(m[-1]); ++q) {
+            const std::uint32_t j = m[q];
             if (j <= i) continue;
             Vec3 dr = k_[j].r - k_[i].r;
             for (int d = 0; d < dims_; ++d) {

@@ -113,6 +113,23 @@ struct Counters {
   std::vector<std::uint64_t> vn_histogram;
 };
 
+// The engine's whole mutable state at a rebuild point (issue #8), arrays by particle id.
+// With the EngineSetup it fixes the rest of the run bitwise: cells, storage order,
+// background times and the calendar are recomputed from it exactly as rebuild() does.
+struct EngineState {
+  std::vector<Vec3> positions, velocities;  // wrapped into the box, at the time origin
+  std::vector<Vec3> omega;                  // angular velocities (empty if not allocated)
+  std::vector<Vec3> accelerations;          // air table (empty otherwise)
+  std::vector<std::uint32_t> pairs;         // air-table partner ids (empty otherwise)
+  std::vector<std::uint64_t> event_counters;
+  std::vector<double> last_collision;       // relative to the time origin
+  double offset = 0.0;                      // time of the origin: time() = offset
+  double calendar_width = 0.0;
+  std::uint64_t rebuilds = 0, total_collisions = 0, next_rebuild = 0, rebuild_every = 0;
+  std::uint64_t cell_capacity = 4;
+  Counters counters;
+};
+
 class Engine {
  public:
   // Throws std::invalid_argument on overlapping or out-of-box positions.
@@ -155,6 +172,22 @@ class Engine {
     hook_context_ = context;
   }
 
+  // Checkpoint support (issue #8). Automatic rebuilds happen when the never-reset collision
+  // total reaches the next multiple of rebuild_interval * N; advance(max_collisions =
+  // collisions + collisions_until_rebuild()) stops just before one, and rebuild_if_due()
+  // then performs it exactly as advance() would have (splitting advance() there changes
+  // nothing). state() is valid only right after a rebuild (throws std::logic_error
+  // otherwise); restore() on an engine built with the same EngineSetup and N continues
+  // bitwise as the engine state() was taken from.
+  std::uint64_t collisions_until_rebuild() const {
+    if (!rebuild_every_) return std::numeric_limits<std::uint64_t>::max();
+    return next_rebuild_ > total_collisions_ ? next_rebuild_ - total_collisions_ : 0;
+  }
+  bool rebuild_if_due();
+  std::uint64_t total_collisions() const { return total_collisions_; }
+  EngineState state() const;
+  void restore(const EngineState& state);
+
  private:
   enum EventType : std::uint8_t { ev_none, ev_collision, ev_cell, ev_wall, ev_background };
   struct Kin {          // the kinematic record, read together in every prediction
@@ -178,6 +211,8 @@ class Engine {
   void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, double& best,
                  std::uint32_t& partner) const;
   void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
+  void draw_background_time(std::uint32_t i);  // from (id, counter): next background candidate
+  void rebuild_calendar();  // predict everyone, size and fill the calendar (rebuild, restore)
   void insert_cell(std::uint32_t i);
   void remove_cell(std::uint32_t i);
   int cell_index(int cx, int cy, int cz) const { return (cz * nc_[1] + cy) * nc_[0] + cx; }
@@ -233,8 +268,11 @@ class Engine {
   std::array<int, 3> nc_{1, 1, 1};
   Vec3 w_;  // cell widths
   int cap_ = 8;
+  // cell c's block at c * (cap_ + 1): [member count, members...]; the count sits next to
+  // the members, so a neighbour scan touches one cache line per row of cells, not two
   std::vector<std::uint32_t> members_;
-  std::vector<std::uint16_t> count_;
+  std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
+  const std::uint32_t* cell_block(int c) const { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
 
   // The calendar: bounded calendar queue by default (O(1) per update); the 4-ary heap gives
   // bitwise the same event order and is kept for small systems / cross-checks.
@@ -248,6 +286,7 @@ class Engine {
   std::uint64_t rebuilds_ = 0;
   std::uint64_t total_collisions_ = 0;   // never reset (schedules the automatic rebuilds)
   std::uint64_t rebuild_every_ = 0, next_rebuild_ = 0;
+  bool at_rebuild_ = false;  // no event processed since the last rebuild / restore (state())
   Counters c_;
 };
 
@@ -333,6 +372,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
       return;
     }
     now_ = t;
+    at_rebuild_ = false;
     ++c_.events;
     const Event ev = ev_[i];
     switch (ev.type) {

@@ -1,0 +1,164 @@
+#include "core/checkpoint.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <stdexcept>
+
+#include "core/h5.hpp"
+
+namespace grainbath {
+
+namespace fs = std::filesystem;
+
+CheckpointSettings read_checkpoint_settings(CaseReader& r, const char* every_unit) {
+  CheckpointSettings s;
+  s.every = r.real("checkpoint", "every", 0.0, Bounds::non_negative(), every_unit);
+  s.every_minutes = r.real("checkpoint", "every_minutes", 0.0, Bounds::non_negative(), "minutes");
+  s.keep = r.boolean("checkpoint", "keep", false);
+  return s;
+}
+
+fs::path checkpoint_directory(const fs::path& final_out) {
+  fs::path p = final_out;
+  p += ".checkpoints";
+  return p;
+}
+
+namespace {
+
+// FNV-1a over bytes, chained across arrays in a fixed order (each prefixed by its length).
+struct Checksum {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t bytes) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) {
+      h ^= b[i];
+      h *= 1099511628211ull;
+    }
+  }
+  template <class T>
+  void add(const std::vector<T>& v) {
+    const std::uint64_t n = v.size();
+    add(&n, sizeof n);
+    if (!v.empty()) add(v.data(), v.size() * sizeof(T));
+  }
+};
+
+std::string hex(std::uint64_t x) {
+  char b[24];
+  std::snprintf(b, sizeof b, "%016llx", static_cast<unsigned long long>(x));
+  return b;
+}
+
+// checkpoint-<digits>.h5 files of `dir` with their index, sorted by index (oldest first):
+// numeric order, so the name's width never matters.
+std::vector<std::pair<std::uint64_t, fs::path>> list_checkpoints(const fs::path& dir) {
+  std::vector<std::pair<std::uint64_t, fs::path>> all;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.path().extension() != ".h5" || name.rfind("checkpoint-", 0) != 0) continue;
+    const std::string digits = name.substr(11, name.size() - 11 - 3);
+    if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 19) continue;
+    all.emplace_back(std::stoull(digits), e.path());
+  }
+  std::sort(all.begin(), all.end());
+  return all;
+}
+
+}  // namespace
+
+std::uint64_t CheckpointArrays::checksum() const {
+  Checksum c;
+  for (const auto& [name, v] : real) c.add(*v);
+  for (const auto& [name, v] : integer) c.add(*v);
+  return c.h;
+}
+
+void write_checkpoint_file(const fs::path& dir, std::uint64_t index, const CheckpointArrays& arrays,
+                           const RunContext& ctx, const std::string& solver) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw std::runtime_error(dir.string() + ": cannot create the checkpoint directory: " + ec.message());
+  char name[64];
+  std::snprintf(name, sizeof name, "checkpoint-%012llu.h5", static_cast<unsigned long long>(index));
+  const fs::path final_path = dir / name;
+  fs::path tmp = final_path;
+  tmp += ".partial";
+  {
+    H5File h(tmp.string(), H5File::Mode::create);
+    for (const auto& [n, v] : arrays.real) h.write("/" + n, *v);
+    for (const auto& [n, v] : arrays.integer) h.write("/" + n, *v);
+    h.write_string("/case/case.toml", ctx.case_text);
+    for (const auto& [key, value] : ctx.resolved) h.attribute("/parameters", key, value);
+    h.attribute("/", "checksum", hex(arrays.checksum()));
+    h.attribute("/", "seed", std::to_string(ctx.seed));
+    h.attribute("/", "solver", solver);
+    h.attribute("/", "grainbath_version", std::string(GRAINBATH_VERSION));
+    h.close();  // flushes; a failed write (disk full) throws here, before the rename
+  }
+  fs::rename(tmp, final_path, ec);
+  if (ec) throw std::runtime_error(final_path.string() + ": cannot move the checkpoint into place: " + ec.message());
+  // keep this one and the previous one
+  auto all = list_checkpoints(dir);
+  while (all.size() > 2) {
+    fs::remove(all.front().second, ec);
+    all.erase(all.begin());
+  }
+}
+
+fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx, const std::string& solver,
+                                     const std::function<bool(const std::string&)>& may_change,
+                                     const std::string& may_change_text,
+                                     const std::function<CheckpointArrays()>& prepare,
+                                     const std::function<void()>& finish, std::string& warning) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return {};
+  auto all = list_checkpoints(dir);
+  std::reverse(all.begin(), all.end());
+  for (const auto& [index, path] : all) {
+    try {
+      H5File h(path.string(), H5File::Mode::read);
+      const CheckpointArrays a = prepare();
+      for (const auto& [n, v] : a.real) *v = h.read_doubles("/" + n);
+      for (const auto& [n, v] : a.integer) *v = h.read_u64("/" + n);
+      const std::string stored = h.read_attribute("/", "checksum");
+      if (stored != hex(a.checksum())) throw std::runtime_error("checksum mismatch");
+      std::string stored_solver = solver;
+      try {
+        stored_solver = h.read_attribute("/", "solver");
+      } catch (const std::runtime_error&) {
+        // checkpoints written before the attribute existed were DSMC's
+        stored_solver = "dsmc";
+      }
+      if (stored_solver != solver)
+        throw std::invalid_argument(path.string() + ": the checkpoint was written by solver " + stored_solver +
+                                    ", the case now runs " + solver);
+      if (h.read_attribute("/", "seed") != std::to_string(ctx.seed))
+        throw std::invalid_argument(path.string() + ": the checkpoint was written with seed " +
+                                    h.read_attribute("/", "seed") + ", the case now has " + std::to_string(ctx.seed));
+      for (const auto& [key, value] : ctx.resolved) {
+        if (may_change(key)) continue;
+        std::string old;
+        try {
+          old = h.read_attribute("/parameters", key);
+        } catch (const std::runtime_error&) {
+          old = "(absent)";
+        }
+        if (old != value)
+          throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
+                                      ", now " + value + " (only " + may_change_text + " may change on --resume)");
+      }
+      finish();
+      return path;
+    } catch (const std::invalid_argument&) {
+      throw;
+    } catch (const std::exception& e) {
+      warning += (warning.empty() ? "" : "; ") + path.string() + " is unreadable or corrupt (" + e.what() +
+                 "), trying the previous checkpoint";
+    }
+  }
+  return {};
+}
+
+}  // namespace grainbath

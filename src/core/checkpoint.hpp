@@ -1,0 +1,62 @@
+#pragma once
+// Checkpoint files shared by every solver (issue #8). A solver describes its state as named
+// arrays (CheckpointArrays: one list drives writing, reading and the checksum, so the
+// three can never disagree); this module writes them with the provenance to one HDF5 file
+// OUT.checkpoints/checkpoint-<index>.h5 through a temporary name (flushed, closed with
+// checked errors, renamed; the previous checkpoint is kept), and reads back the newest one
+// that verifies (64-bit FNV-1a checksum over every array), falling back to the previous one
+// with a warning when the newest is truncated or corrupt.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/case_file.hpp"
+#include "core/run_context.hpp"
+
+namespace grainbath {
+
+// [checkpoint]: the same keys for every solver; the unit of `every` is the solver's.
+struct CheckpointSettings {
+  double every = 0.0;          // solver units between checkpoints (0: none)
+  double every_minutes = 0.0;  // wall-clock minutes between checkpoints (0: none)
+  bool keep = false;           // keep the checkpoints after a successful run
+};
+// `every_unit` names the unit of `every` in error messages ("time", "collisions per particle").
+CheckpointSettings read_checkpoint_settings(CaseReader& reader, const char* every_unit);
+
+// Where checkpoints of the run writing to OUT live: OUT.checkpoints/ (next to the output,
+// so that they survive a crash of the run that is writing OUT).
+std::filesystem::path checkpoint_directory(const std::filesystem::path& final_out);
+
+struct CheckpointArrays {
+  std::vector<std::pair<std::string, std::vector<double>*>> real;
+  std::vector<std::pair<std::string, std::vector<std::uint64_t>*>> integer;
+  void add(std::string name, std::vector<double>& v) { real.emplace_back(std::move(name), &v); }
+  void add(std::string name, std::vector<std::uint64_t>& v) { integer.emplace_back(std::move(name), &v); }
+  std::uint64_t checksum() const;
+};
+
+// Writes `arrays` to dir/checkpoint-<index>.h5 (index: a number that grows along the run,
+// e.g. the step or the collision count) with the case text, the resolved parameters, the
+// seed, the solver and the version; keeps this checkpoint and the previous one.
+void write_checkpoint_file(const std::filesystem::path& dir, std::uint64_t index, const CheckpointArrays& arrays,
+                           const RunContext& ctx, const std::string& solver);
+
+// Tries the checkpoints in `dir` newest first. For each, `prepare()` resets the caller's
+// candidate state and returns its arrays (filled from the file), then the checksum, seed,
+// solver and every resolved parameter not accepted by `may_change` are verified, then
+// `finish()` unpacks (it may throw std::runtime_error on a bad layout: treated as corrupt).
+// Returns the path loaded, or an empty path if none verifies; `warning` receives one
+// message per checkpoint skipped as corrupt. Throws std::invalid_argument if the case
+// changed in a key that may not change (naming the key; `may_change_text` says which may).
+std::filesystem::path read_newest_checkpoint_file(const std::filesystem::path& dir, const RunContext& ctx,
+                                                  const std::string& solver,
+                                                  const std::function<bool(const std::string&)>& may_change,
+                                                  const std::string& may_change_text,
+                                                  const std::function<CheckpointArrays()>& prepare,
+                                                  const std::function<void()>& finish, std::string& warning);
+
+}  // namespace grainbath

@@ -1,0 +1,291 @@
+// Exact continuation for EDMD (issue #8): a run equals the same run stopped at a checkpoint
+// and resumed -- byte for byte in results.h5 and in every summary.json number except the
+// wall-clock performance block. Homogeneous heated spheres, disks between walls in a
+// background medium, and the air table (per-grain accelerations). Also: a stop request
+// (what SIGINT/SIGTERM set) checkpoints at the next rebuild and the resumed run is again
+// identical; a truncated newest checkpoint falls back to the previous one with a warning;
+// a changed case is refused.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include <hdf5.h>
+
+#include "core/case_file.hpp"
+#include "core/run_context.hpp"
+#include "core/summary.hpp"
+#include "edmd/edmd.hpp"
+
+namespace fs = std::filesystem;
+using namespace grainbath;
+
+namespace {
+
+struct EdmdRun {
+  Summary summary;
+  fs::path dir;
+};
+
+EdmdRun run_edmd(const std::string& toml, const std::string& tag, const fs::path& checkpoint_dir, bool resume,
+                 const std::atomic<bool>* stop = nullptr) {
+  CaseReader reader(toml, "/tmp/test.toml");
+  reader.accept("run", "solver");
+  edmd::Config cfg = edmd::read_config(reader);
+  reader.finish();
+  EdmdRun out;
+  out.dir = fs::temp_directory_path() / ("grainbath-edmd-restart-" + tag + "-" + std::to_string(::getpid()));
+  fs::remove_all(out.dir);
+  fs::create_directories(out.dir);
+  RunContext ctx;
+  ctx.out_dir = out.dir;
+  ctx.seed = 17;
+  ctx.quiet = true;
+  ctx.case_text = toml;
+  ctx.resolved = reader.resolved();
+  ctx.checkpoint_dir = checkpoint_dir;
+  ctx.resume = resume;
+  ctx.stop_requested = stop;
+  edmd::run(cfg, ctx, out.summary);
+  return out;
+}
+
+std::string file_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+std::vector<fs::path> checkpoints(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+void expect_same(const EdmdRun& a, const EdmdRun& b) {
+  const std::string x = file_bytes(a.dir / "results.h5"), y = file_bytes(b.dir / "results.h5");
+  ASSERT_FALSE(x.empty());
+  const auto diff = std::mismatch(x.begin(), x.end(), y.begin(), y.end());
+  EXPECT_TRUE(x == y) << "results.h5 differ: sizes " << x.size() << " and " << y.size() << ", first difference at byte "
+                      << (diff.first - x.begin());
+  std::size_t compared = 0;
+  for (const auto& [k, v] : a.summary.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
+    ASSERT_NE(b.summary.get(k), nullptr) << k;
+    EXPECT_EQ(v, *b.summary.get(k)) << k;
+    ++compared;
+  }
+  EXPECT_GT(compared, 20u);
+  EXPECT_EQ(a.summary.entries().size(), b.summary.entries().size());
+}
+
+// 80 collisions per particle in all (20 equilibrating, 60 measuring); checkpoints at 20,
+// 40, 60 collisions per particle (scheduled rebuilds every 10), the two newest kept.
+const char* kHeatedSpheres = R"(
+[edmd]
+dimensions = 3
+particles = 1000
+packing_fraction = 0.3
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "constant"
+e = 0.8
+[heating]
+model = "white_noise"
+kick = 0.4
+[sampling]
+trajectory_interval = 15
+[checkpoint]
+every = 20
+keep = true
+)";
+
+const char* kWallsAndMedium = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.35
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "bizon"
+[walls]
+directions = ["y"]
+restitution = 0.9
+[background]
+mass_ratio = 0.3
+density = 1.0
+knudsen = 2.0
+temperature = 1.0
+velocity = [0.2, 0.0, 0.0]
+[checkpoint]
+every = 20
+keep = true
+)";
+
+const char* kAirTable = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.3
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "constant"
+e = 0.9
+[heating]
+model = "air_table"
+acceleration = 0.5
+[checkpoint]
+every = 20
+keep = true
+)";
+
+// Driving walls (two different ones) with slab profiles: the profile blocks, the
+// per-slab velocity histograms and the wall energy series must all be in the checkpoint.
+const char* kDrivingWallsProfiles = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.1
+aspect = [2.0, 1.0]
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "constant"
+e = 0.9
+[walls]
+directions = ["x"]
+driving_speed_low = 1.0
+driving_speed_high = 0.6
+restitution = 0.8
+[profiles]
+slabs = 10
+velocity_bins = 50
+[checkpoint]
+every = 20
+keep = true
+)";
+
+void check_exact_continuation(const char* toml, const std::string& tag) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const EdmdRun full = run_edmd(toml, tag + "-full", ck, false);
+  auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);  // 40 and 60 collisions per particle
+  EXPECT_NE(files.front().filename().string().find("checkpoint-"), std::string::npos);
+  fs::remove(files.back());  // resume from 40: 20 measured, 40 to go
+  const EdmdRun resumed = run_edmd(toml, tag + "-resumed", ck, true);
+  expect_same(full, resumed);
+  fs::remove_all(ck);
+  fs::remove_all(full.dir);
+  fs::remove_all(resumed.dir);
+}
+
+}  // namespace
+
+TEST(EdmdRestart, HeatedSpheresContinueBitwise) { check_exact_continuation(kHeatedSpheres, "heated"); }
+TEST(EdmdRestart, WallsAndMediumContinueBitwise) { check_exact_continuation(kWallsAndMedium, "walls"); }
+TEST(EdmdRestart, AirTableContinuesBitwise) { check_exact_continuation(kAirTable, "air"); }
+TEST(EdmdRestart, DrivingWallsWithProfilesContinueBitwise) {
+  check_exact_continuation(kDrivingWallsProfiles, "driven");
+}
+
+// What SIGINT/SIGTERM do: the stop flag is seen at the next scheduled rebuild (here the
+// first one, during the equilibration), a checkpoint is written and the run throws with
+// the resume command; the resumed run equals an uninterrupted one.
+TEST(EdmdRestart, StopRequestCheckpointsAndResumesBitwise) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-stop-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  std::string toml = kWallsAndMedium;
+  toml.replace(toml.find("every = 20"), 10, "every = 0");
+  const EdmdRun full = run_edmd(toml, "stop-full", {}, false);
+  std::atomic<bool> stop{true};
+  try {
+    run_edmd(toml, "stop-interrupted", ck, false, &stop);
+    FAIL() << "the run did not stop";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("interrupted at 10 collisions per particle"), std::string::npos) << m;
+    EXPECT_NE(m.find("--resume"), std::string::npos) << m;
+  }
+  ASSERT_EQ(checkpoints(ck).size(), 1u);
+  const EdmdRun resumed = run_edmd(toml, "stop-resumed", ck, true);
+  expect_same(full, resumed);
+  fs::remove_all(ck);
+}
+
+TEST(EdmdRestart, CorruptNewestCheckpointFallsBackToPrevious) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-corrupt-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const EdmdRun full = run_edmd(kHeatedSpheres, "corrupt-full", ck, false);
+  auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);
+  fs::resize_file(files.back(), fs::file_size(files.back()) / 2);  // truncated half-way
+  testing::internal::CaptureStderr();
+  const EdmdRun resumed = run_edmd(kHeatedSpheres, "corrupt-resumed", ck, true);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("corrupt"), std::string::npos) << err;
+  EXPECT_NE(err.find(files.back().filename().string()), std::string::npos) << err;
+  expect_same(full, resumed);
+  fs::remove_all(ck);
+}
+
+// A flipped bit inside the particle data leaves the file readable: the checksum catches it.
+TEST(EdmdRestart, FlippedBitIsCaughtByTheChecksum) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-flip-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const EdmdRun full = run_edmd(kWallsAndMedium, "flip-full", ck, false);
+  auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);
+  haddr_t offset = HADDR_UNDEF;
+  {
+    const hid_t f = H5Fopen(files.back().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    const hid_t d = H5Dopen2(f, "/engine/velocities", H5P_DEFAULT);
+    ASSERT_GE(d, 0);
+    offset = H5Dget_offset(d);  // contiguous layout: the raw doubles start here
+    H5Dclose(d);
+    H5Fclose(f);
+  }
+  ASSERT_NE(offset, HADDR_UNDEF);
+  {
+    std::fstream io(files.back(), std::ios::in | std::ios::out | std::ios::binary);
+    io.seekg(static_cast<std::streamoff>(offset + 8 * 1000 + 3));
+    char b = 0;
+    io.read(&b, 1);
+    b ^= 0x10;
+    io.seekp(static_cast<std::streamoff>(offset + 8 * 1000 + 3));
+    io.write(&b, 1);
+  }
+  testing::internal::CaptureStderr();
+  const EdmdRun resumed = run_edmd(kWallsAndMedium, "flip-resumed", ck, true);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("checksum mismatch"), std::string::npos) << err;
+  expect_same(full, resumed);
+  fs::remove_all(ck);
+}
+
+TEST(EdmdRestart, ChangedCaseIsRefused) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-changed-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  run_edmd(kAirTable, "changed-full", ck, false);
+  std::string other = kAirTable;
+  other.replace(other.find("acceleration = 0.5"), 18, "acceleration = 0.6");
+  try {
+    run_edmd(other, "changed-resumed", ck, true);
+    FAIL() << "a changed case was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("heating.acceleration"), std::string::npos) << e.what();
+  }
+  // the run length may change: extending the measurement resumes
+  other = kAirTable;
+  other.replace(other.find("collisions = 60"), 15, "collisions = 70");
+  EXPECT_NO_THROW(run_edmd(other, "changed-extended", ck, true));
+  fs::remove_all(ck);
+}
