@@ -5,7 +5,7 @@ set -euo pipefail
 pkgs=(cmake g++ make pkg-config ninja-build
       libeigen3-dev libfftw3-dev libhdf5-dev hdf5-tools libgsl-dev
       librandom123-dev libtomlplusplus-dev libcli11-dev libfmt-dev libspdlog-dev
-      libgtest-dev libgmock-dev libbenchmark-dev
+      libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev
       python3-numpy python3-h5py python3-matplotlib)
 missing=()
 for p in "${pkgs[@]}"; do

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <fstream>
 #include <stdexcept>
@@ -139,6 +140,17 @@ MeanError block_average(const std::vector<double>& series) {
 
 double wall_seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::int64_t fault_nonfinite_sample() {
+  static const std::int64_t k = [] {
+    const char* v = std::getenv("GRAINBATH_FAULT_NONFINITE_SAMPLE");
+    if (!v || !*v) return std::int64_t{-1};
+    char* end = nullptr;
+    const long long x = std::strtoll(v, &end, 10);
+    return (*end == '\0' && x >= 0) ? static_cast<std::int64_t>(x) : std::int64_t{-1};
+  }();
+  return k;
 }
 
 std::string utc_timestamp() {

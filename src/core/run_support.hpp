@@ -56,6 +56,12 @@ struct MeanError {
 MeanError block_average(const std::vector<double>& series);
 
 double wall_seconds_since(std::chrono::steady_clock::time_point start);
+
+// Test hook for the non-finite monitors (issue #8, docs/RELIABILITY.md): when the
+// environment variable GRAINBATH_FAULT_NONFINITE_SAMPLE = K is set, the drivers replace the
+// temperature of their K-th sample (0 = the initial one) by NaN, so that tests can show the
+// run stops with a clear message and a checkpoint. -1 when unset or not a whole number.
+std::int64_t fault_nonfinite_sample();
 std::string utc_timestamp();
 
 }  // namespace grainbath

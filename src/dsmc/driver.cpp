@@ -142,8 +142,9 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
 void sample(State& s, const Config& c, double t) {
   const Particles& p = s.particles;
   const std::size_t n = p.size();
-  const Moments mo = measure_moments(p, 0, n, c.grains.mass);
+  Moments mo = measure_moments(p, 0, n, c.grains.mass);
   TimeSeries& ts = s.series;
+  if (static_cast<std::int64_t>(ts.t.size()) == fault_nonfinite_sample()) mo.temperature = std::nan("");  // test hook
   // grain density of the sampled population (spatial: mean over the box)
   const double density = c.grains.density * static_cast<double>(n) / static_cast<double>(c.particles);
   ts.t.push_back(t);

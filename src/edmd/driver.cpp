@@ -503,6 +503,22 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     const Counters& cur = eng.counters();
     const double dt = eng.time() - t_prev;
     ++sample_no;
+    if (sample_no == fault_nonfinite_sample()) T = std::nan("");  // test hook (core/run_support.hpp)
+    // NaN/Inf monitor (issue #8). The engine can only be checkpointed at a scheduled rebuild
+    // (docs/edmd.md "Checkpoints"), so the run stops here and points at the newest one,
+    // taken at most 10 collisions per particle before the fault.
+    if (!std::isfinite(T) || !std::isfinite(cur.energy_lost) || !std::isfinite(cur.heating_energy) ||
+        !std::isfinite(cur.background_energy) || !std::isfinite(cur.virial)) {
+      progress.finish();
+      char where[160];
+      std::snprintf(where, sizeof where, "non-finite sample %lld (T = %g, energy lost %g, heating %g) at t = %.6g, %.6g collisions per particle",
+                    static_cast<long long>(sample_no), T, cur.energy_lost, cur.heating_energy, eng.time() - t0,
+                    static_cast<double>(eng.total_collisions()) / N);
+      throw std::runtime_error(std::string(where) + ": stopping" +
+                               (ctx.checkpoint_dir.empty() ? std::string("; no checkpoint directory")
+                                                           : "; the newest checkpoint before the fault is kept in " +
+                                                                 ctx.checkpoint_dir.string()));
+    }
     if (dt > 0) {
       const double Tm = 0.5 * (T + T_prev);
       // Bizon eq. 24: P V = N T + (m sigma / (D t)) Sum k.dv

@@ -762,3 +762,49 @@ TEST_F(FullDisk, RealEnospcOnATinyTmpfs) {
 }
 
 }  // namespace
+
+// NaN/Inf monitors (issue #8): the test hook GRAINBATH_FAULT_NONFINITE_SAMPLE (see
+// core/run_support.hpp) poisons one sampled temperature. The run must stop with a message
+// naming the fault, exit non-zero (not 2: this is no bad input), keep the previous output
+// and leave a checkpoint directory (DSMC: the state at the fault, the previous good one kept
+// beside it; EDMD: the newest checkpoint before the fault).
+class NonFiniteMonitor : public FullDisk {
+ protected:
+  RunResult run_poisoned(const std::string& sample) {
+    ::setenv("GRAINBATH_FAULT_NONFINITE_SAMPLE", sample.c_str(), 1);
+    auto r = grainbath({"run", case_dir().string(), "--out", out().string(), "--quiet"});
+    ::unsetenv("GRAINBATH_FAULT_NONFINITE_SAMPLE");
+    return r;
+  }
+};
+
+TEST_F(NonFiniteMonitor, DsmcStopsWithACheckpoint) {
+  Case c = dsmc_case();
+  c.set("checkpoint", "every", "0.05");
+  write_text(case_file(), c.text());
+  auto r = run_poisoned("3");
+  EXPECT_TRUE(r.exited && r.code != 0 && r.code != 2) << r.describe();
+  EXPECT_NE(r.err.find("non-finite temperature"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("checkpointed to"), std::string::npos) << r.err;
+  ASSERT_TRUE(fs::is_directory(tmp / "out.checkpoints")) << r.err;
+  EXPECT_FALSE(fs::is_empty(tmp / "out.checkpoints"));
+  expect_previous_output_intact({"out.checkpoints"});
+  // the same case without the hook runs to the end
+  auto ok = grainbath({"run", case_dir().string(), "--out", out().string(), "--quiet"});
+  EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
+}
+
+TEST_F(NonFiniteMonitor, EdmdStopsAndPointsAtTheNewestCheckpoint) {
+  Case c = edmd_case();
+  c.set("edmd", "collisions", "40.0").set("checkpoint", "every", "10.0");
+  write_text(case_file(), c.text());
+  auto r = run_poisoned("30");
+  EXPECT_TRUE(r.exited && r.code != 0 && r.code != 2) << r.describe();
+  EXPECT_NE(r.err.find("non-finite sample 30"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("newest checkpoint before the fault"), std::string::npos) << r.err;
+  ASSERT_TRUE(fs::is_directory(tmp / "out.checkpoints")) << r.err;
+  EXPECT_FALSE(fs::is_empty(tmp / "out.checkpoints"));
+  expect_previous_output_intact({"out.checkpoints"});
+  auto ok = grainbath({"run", case_dir().string(), "--out", out().string(), "--quiet"});
+  EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
+}
