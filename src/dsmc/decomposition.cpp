@@ -18,7 +18,7 @@ std::size_t reduction_block_cells(const Config& c) {
   if (!c.spatial()) return 1;
   const double per_cell = static_cast<double>(c.particles) / static_cast<double>(c.domain.cell_count());
   std::size_t b = 1;
-  while (b < 256 && static_cast<double>(2 * b) * per_cell <= 4096.0) b *= 2;
+  while (b < 256 && static_cast<double>(2 * b) * per_cell <= 1024.0) b *= 2;
   return b;
 }
 

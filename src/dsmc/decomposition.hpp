@@ -23,8 +23,9 @@
 
 namespace grainbath::dsmc {
 
-// Cells per reduction block: the largest power of two <= 256 holding about 4096 particles
-// (on average) or fewer. A function of the case alone.
+// Cells per reduction block: the largest power of two <= 256 holding about 1024 particles
+// (on average) or fewer: enough work per block for the threads, fine enough for the load
+// balance between ranks. A function of the case alone.
 std::size_t reduction_block_cells(const Config& c);
 
 namespace mpi_env {

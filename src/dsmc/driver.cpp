@@ -351,6 +351,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   }
   summary.set("performance.ranks", static_cast<std::int64_t>(dec.size()));
   summary.set("performance.rank_load_imbalance", dec.imbalance());
+  summary.set("performance.rank_rebalances", static_cast<std::int64_t>(dec.rebalances()));
 }
 
 }  // namespace grainbath::dsmc
