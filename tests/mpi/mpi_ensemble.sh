@@ -11,6 +11,8 @@ case_dir=$2
 work=$3
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
+# containers often forbid cross-process memory access (CMA): copy through shared memory
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
 rm -rf "$work"
 mkdir -p "$work"
 seeds=1,2,3,4,5
