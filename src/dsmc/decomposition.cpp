@@ -130,6 +130,8 @@ Decomposition::Decomposition(const Config& c, bool use_world) {
   blocks_ = (cells_ + block_cells_ - 1) / block_cells_;
   first_block_.assign(size_ + 1, blocks_);
   first_block_[0] = 0;  // until distribute(): everything on rank 0
+  spatial_ = c.spatial();
+  if (size_ > 1) work_.assign(blocks_, 0);
 }
 
 std::size_t Decomposition::first_cell(int r) const { return std::min(cells_, first_block_[r] * block_cells_); }
@@ -194,10 +196,17 @@ std::vector<std::size_t> Decomposition::balanced_boundaries(const std::vector<st
   first[0] = 0;
   std::uint64_t total = 0;
   for (auto x : w) total += x;
+  const auto n = static_cast<std::uint64_t>(size_);
   std::uint64_t run = 0;  // weight of the blocks before b
   int r = 1;
   for (std::size_t b = 0; b < blocks_; ++b) {
-    while (r < size_ && run * static_cast<std::uint64_t>(size_) >= static_cast<std::uint64_t>(r) * total) first[r++] = b;
+    while (r < size_ && run * n >= static_cast<std::uint64_t>(r) * total) {
+      // cut before b, or before b - 1 if that is nearer the target r * total / size
+      const std::uint64_t target = static_cast<std::uint64_t>(r) * total, before = (run - (b > 0 ? w[b - 1] : 0)) * n;
+      const bool earlier = b > first[r - 1] && target - before < run * n - target;
+      first[r] = earlier ? b - 1 : b;
+      ++r;
+    }
     run += w[b];
   }
   std::uint64_t worst = 0;
@@ -244,6 +253,7 @@ void Decomposition::distribute(State& s, const Config& c) {
   for (std::uint32_t k : s.sort.cell)
     if (k != kRemoved) ++w[k / block_cells_];
   first_block_ = balanced_boundaries(w);
+  balanced_at_step_ = s.step;
   const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
   for (auto& k : s.sort.cell)
     if (k < lo || k >= hi) k = kRemoved;
@@ -349,6 +359,10 @@ bool Decomposition::rebalance(State& s, const Config& c) {
     w.push_back(1 + s.cell_start[hi] - s.cell_start[lo]);
   }
   combine_in_order(w);  // all blocks in global order
+  const auto steps = static_cast<std::uint64_t>(std::max<std::int64_t>(1, s.step - balanced_at_step_));
+  for (std::size_t b = 0; b < blocks_; ++b) w[b] += work_[b] / steps;
+  std::fill(work_.begin(), work_.end(), 0);
+  balanced_at_step_ = s.step;
   const std::vector<std::size_t> next = balanced_boundaries(w);
   if (next == first_block_) return false;
   const std::vector<std::size_t> old = first_block_;

@@ -81,9 +81,18 @@ class Decomposition {
   // After streaming: send particles that left this rank's cells to their owners, receive
   // those that arrived. Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
   void migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed);
-  // Load balance by particle counts per block; moves particles and per-cell data (NTC
-  // remainders, field sums) of cells that change owner. True if anything moved (the
-  // caller sorts again).
+  // Measured work: the collision candidates (background and grain-grain) of every
+  // reduction block, from the per-block counters after combine_in_order, hence the same on
+  // every rank; summed until the next rebalance.
+  template <class Counters>
+  void add_work(const std::vector<Counters>& combined) {
+    if (size_ == 1 || !spatial_ || combined.size() != blocks_) return;
+    for (std::size_t b = 0; b < blocks_; ++b) work_[b] += combined[b].candidates;
+  }
+  // Load balance: block weight = particles + collision candidates per step since the last
+  // balance (a candidate costs about as much as a particle-step). Moves particles and
+  // per-cell data (NTC remainders, field sums) of cells that change owner. True if
+  // anything moved (the caller sorts again).
   bool rebalance(State& s, const Config& c);
   // All particles in global (cell, id) order on every rank (velocities, and x for spatial runs).
   void allgather_particles(const Particles& local, bool with_x, Particles& all) const;
@@ -104,7 +113,9 @@ class Decomposition {
   void move_cell_data(State& s, const std::vector<std::size_t>& old_first);
 
   int rank_ = 0, size_ = 1;
-  bool world_ = false;
+  bool world_ = false, spatial_ = false;
+  std::vector<std::uint64_t> work_;       // candidates per block since the last balance
+  std::int64_t balanced_at_step_ = 0;
   std::size_t cells_ = 1, block_cells_ = 1, blocks_ = 1;
   std::vector<std::size_t> first_block_;  // [size + 1]
   double imbalance_ = 1.0;

@@ -75,7 +75,7 @@ void initialise(State& s, const Config& c, std::uint64_t seed) {
 // Background substep for every grain, in fixed reduction blocks (deterministic reduction at
 // any thread or rank count: src/dsmc/decomposition.hpp).
 void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath, double duration,
-                  std::uint64_t seed, Stream stream, const Decomposition& dec, std::vector<std::size_t>& bounds) {
+                  std::uint64_t seed, Stream stream, Decomposition& dec, std::vector<std::size_t>& bounds) {
   Particles& p = s.particles;
   dec.block_bounds(s, c, bounds);
   const std::size_t blocks = bounds.size() - 1;
@@ -102,6 +102,7 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
     partial[blk] = cnt;
   }
   dec.combine_in_order(partial);
+  dec.add_work(partial);  // load-balance weights
   for (const auto& c2 : partial) {
     s.counters.bath_candidates += c2.candidates;
     s.counters.bath_collisions += c2.collisions;
@@ -114,7 +115,7 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
 // Counters are summed per fixed block of cells (then blocks in order): the floating-point
 // sum of the inelastic loss is the same at any thread count.
 void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                const Decomposition& dec) {
+                Decomposition& dec) {
   const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
   const std::size_t cells = s.cell_start.size() - 1;
   const std::size_t first = dec.first_block(), blocks = dec.end_block() - first;
@@ -140,6 +141,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
       },
       c.restitution);
   dec.combine_in_order(per_block);
+  dec.add_work(per_block);  // load-balance weights
   for (const auto& g : per_block) s.counters.grain.add(g);
 }
 
