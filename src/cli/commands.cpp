@@ -176,7 +176,8 @@ int command_run(const RunArgs& a) {
     auto quote = [](const std::string& x) {
       return x.find_first_of(" \t'\"$\\") == std::string::npos ? x : "'" + x + "'";
     };
-    std::string cmd = "grainbath run " + quote(a.case_dir);
+    std::string cmd = (split ? "mpirun -np " + std::to_string(mpi::world_size()) + " " : std::string()) +
+                      "grainbath run " + quote(a.case_dir);
     if (!a.out_dir.empty()) cmd += " --out " + quote(a.out_dir);
     for (const auto& o : a.overrides) cmd += " --set " + quote(o);
     ctx.resume_command = cmd + " --resume";

@@ -226,6 +226,10 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   // a medium is present if [background] density > 0, or if a file supplies the fields
   const bool bath_on = bg.present() || c.field.profile == BackgroundProfile::file;
   Decomposition dec(c, ctx.decompose);  // MPI: this rank's share of the cells
+  if (dec.size() > 1 && !c.spatial() && dec.root())
+    std::fprintf(stderr, "note: a homogeneous run is one cell: rank 0 runs it and the other %d rank(s) idle; "
+                         "replicas go on ranks with `mpirun grainbath sweep CASE --set run.seed=1,2,...`\n",
+                 dec.size() - 1);
   State s;
   bool resumed = false;
   if (ctx.resume) {
