@@ -113,7 +113,8 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
 // Grain-grain collisions in every cell; each cell has its own random stream (cell id, step)
 // and its own counters, summed in cell order afterwards.
 // Counters are summed per fixed block of cells (then blocks in order): the floating-point
-// sum of the inelastic loss is the same at any thread count.
+// sum of the inelastic loss is the same at any thread count. MPI: each rank does its own
+// blocks; the partials are combined in block order on every rank.
 void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                 Decomposition& dec) {
   const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
