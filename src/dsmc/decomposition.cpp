@@ -156,29 +156,37 @@ void Decomposition::block_bounds(const State& s, const Config& c, std::vector<st
   bounds.push_back(s.cell_start[std::min(cells_, end_block() * block_cells_)]);
 }
 
-std::vector<unsigned char> Decomposition::allgather_bytes(const std::vector<unsigned char>& mine) const {
+std::vector<unsigned char> Decomposition::allgather_bytes(const std::vector<unsigned char>& mine,
+                                                         std::size_t bytes_per_block) const {
 #ifdef GRAINBATH_MPI
   std::vector<int> counts(size_);
   const int n = to_int(mine.size(), "a gathered block list");
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  if (bytes_per_block > 0) {  // one entry per block: every rank's size is known
+    for (int r = 0; r < size_; ++r)
+      counts[r] = to_int((first_block_[r + 1] - first_block_[r]) * bytes_per_block, "a gathered block list");
+    if (counts[rank_] != n) throw std::logic_error("combine_in_order: not one partial per reduction block");
+  } else {
+    MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  }
   const std::vector<int> d = displacements(counts);
   std::vector<unsigned char> all(static_cast<std::size_t>(d.back()) + counts.back());
   MPI_Allgatherv(mine.data(), n, MPI_BYTE, all.data(), counts.data(), d.data(), MPI_BYTE, MPI_COMM_WORLD);
   return all;
 #else
+  (void)bytes_per_block;
   return mine;
 #endif
 }
 
-bool Decomposition::any(bool flag) const {
+int Decomposition::any_bits(int bits) const {
 #ifdef GRAINBATH_MPI
   if (size_ > 1) {
-    int in = flag ? 1 : 0, out = 0;
-    MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-    return out != 0;
+    int out = 0;
+    MPI_Allreduce(&bits, &out, 1, MPI_INT, MPI_BOR, MPI_COMM_WORLD);
+    return out;
   }
 #endif
-  return flag;
+  return bits;
 }
 
 double Decomposition::sum(double x) const {
@@ -358,7 +366,7 @@ bool Decomposition::rebalance(State& s, const Config& c) {
     const std::size_t lo = b * block_cells_, hi = std::min(cells_, lo + block_cells_);
     w.push_back(1 + s.cell_start[hi] - s.cell_start[lo]);
   }
-  combine_in_order(w);  // all blocks in global order
+  combine_in_order(w, true);  // all blocks in global order
   const auto steps = static_cast<std::uint64_t>(std::max<std::int64_t>(1, s.step - balanced_at_step_));
   for (std::size_t b = 0; b < blocks_; ++b) w[b] += work_[b] / steps;
   std::fill(work_.begin(), work_.end(), 0);

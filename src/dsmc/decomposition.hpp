@@ -63,13 +63,15 @@ class Decomposition {
   void block_bounds(const State& s, const Config& c, std::vector<std::size_t>& bounds) const;
 
   // Every rank gets the concatenation of all ranks' per-block partials in rank order,
-  // i.e. in global block order. T must be trivially copyable.
+  // i.e. in global block order. T must be trivially copyable. per_block: one entry per
+  // reduction block of this rank (spatial runs), so the sizes are known everywhere and one
+  // collective suffices instead of two.
   template <class T>
-  void combine_in_order(std::vector<T>& partials) const {
+  void combine_in_order(std::vector<T>& partials, bool per_block = false) const {
     if (size_ == 1) return;
     std::vector<unsigned char> mine(partials.size() * sizeof(T));
     if (!mine.empty()) std::memcpy(mine.data(), partials.data(), mine.size());
-    std::vector<unsigned char> all = allgather_bytes(mine);
+    std::vector<unsigned char> all = allgather_bytes(mine, per_block && spatial_ ? sizeof(T) : 0);
     partials.resize(all.size() / sizeof(T));
     if (!all.empty()) std::memcpy(partials.data(), all.data(), all.size());
   }
@@ -100,13 +102,14 @@ class Decomposition {
   // owner); other ranks get an empty State. Collective.
   State gather_state(const State& s, const Config& c) const;
 
-  bool any(bool flag) const;        // logical OR over the ranks
+  bool any(bool flag) const { return any_bits(flag ? 1 : 0) != 0; }  // logical OR over the ranks
+  int any_bits(int bits) const;     // bitwise OR over the ranks (several flags, one collective)
   double sum(double x) const;       // sum over the ranks (rank order)
   double imbalance() const { return imbalance_; }  // max/mean particles per rank at the last balance
   int rebalances() const { return rebalances_; }
 
  private:
-  std::vector<unsigned char> allgather_bytes(const std::vector<unsigned char>& mine) const;
+  std::vector<unsigned char> allgather_bytes(const std::vector<unsigned char>& mine, std::size_t bytes_per_block) const;
   std::vector<std::size_t> balanced_boundaries(const std::vector<std::uint64_t>& weights);
   void cells_of_all(State& s, const Config& c, const std::vector<std::uint8_t>* removed) const;
   void send_to_owners(State& s, const Config& c);  // uses s.sort.cell

@@ -101,7 +101,7 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
     }
     partial[blk] = cnt;
   }
-  dec.combine_in_order(partial);
+  dec.combine_in_order(partial, true);
   dec.add_work(partial);  // load-balance weights
   for (const auto& c2 : partial) {
     s.counters.bath_candidates += c2.candidates;
@@ -141,7 +141,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
         }
       },
       c.restitution);
-  dec.combine_in_order(per_block);
+  dec.combine_in_order(per_block, true);
   dec.add_work(per_block);  // load-balance weights
   for (const auto& g : per_block) s.counters.grain.add(g);
 }
@@ -295,7 +295,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       dec.block_bounds(s, c, bounds);
       stream(s, c, ctx.seed, removed, bounds, walls);
       if (walls_counted) {
-        dec.combine_in_order(walls);
+        dec.combine_in_order(walls, true);
         for (const auto& w : walls) {
           s.counters.wall_energy += w.wall_energy;
           s.counters.removed_energy += w.removed_energy;
@@ -331,11 +331,14 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
                     ts.ke[k], ts.bath_in[k], ts.loss[k]);
       progress.update(static_cast<double>(s.step), extra);
     }
-    // the ranks agree on a stop request and on wall-clock checkpoints (both collective)
-    const bool stop = dec.any(ctx.stop_requested && ctx.stop_requested->load());
+    // the ranks agree on a stop request and on wall-clock checkpoints (one collective)
+    const int raised = dec.any_bits((ctx.stop_requested && ctx.stop_requested->load() ? 1 : 0) |
+                                    (c.checkpoint.every_minutes > 0 &&
+                                             wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes
+                                         ? 2
+                                         : 0));
+    const bool stop = raised & 1, due_wall = raised & 2;
     const bool due_sim = checkpoint_steps > 0 && s.step % checkpoint_steps == 0;
-    const bool due_wall = dec.any(c.checkpoint.every_minutes > 0 &&
-                                  wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes);
     if (!ctx.checkpoint_dir.empty() && (stop || ((due_sim || due_wall) && s.step < c.steps))) {
       checkpoint();
       last_checkpoint_wall = std::chrono::steady_clock::now();
