@@ -6,7 +6,8 @@ pkgs=(cmake g++ make pkg-config ninja-build
       libeigen3-dev libfftw3-dev libhdf5-dev hdf5-tools libgsl-dev
       librandom123-dev libtomlplusplus-dev libcli11-dev libfmt-dev libspdlog-dev
       libgtest-dev libgmock-dev libbenchmark-dev clang libclang-rt-14-dev
-      python3-numpy python3-h5py python3-matplotlib)
+      python3-numpy python3-h5py python3-matplotlib
+      libopenmpi-dev openmpi-bin)  # MPI build and its tests (scripts/test.sh, build-mpi)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

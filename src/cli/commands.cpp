@@ -14,6 +14,7 @@
 #include "core/physics_config.hpp"
 #include "core/run_support.hpp"
 #include "core/summary.hpp"
+#include "dsmc/decomposition.hpp"
 #include "dsmc/dsmc.hpp"
 #include "edmd/edmd.hpp"
 
@@ -136,17 +137,30 @@ int command_run(const RunArgs& a) {
     return report_case_error(e);
   }
   const fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "output" : fs::path(a.out_dir);
+  // MPI (several ranks, not an ensemble replica): one DSMC run split over the ranks; rank 0
+  // writes everything, the others only compute
+  namespace mpi = dsmc::mpi_env;
+  const bool split = !a.alone && mpi::world_size() > 1;
+  const bool writer = !split || mpi::world_rank() == 0;
+  if (split && lc->solver != "dsmc") {
+    if (writer)
+      std::fprintf(stderr, "error: %s: [run] solver = \"%s\" does not run on several MPI ranks (found %d); run it "
+                           "with one rank, or run replicas with `mpirun grainbath sweep CASE --set run.seed=1,2,...`\n",
+                   lc->reader.file().c_str(), lc->solver.c_str(), mpi::world_size());
+    return 2;
+  }
   std::unique_ptr<OutputDirectory> dir;
   try {
-    dir = std::make_unique<OutputDirectory>(out);
+    if (writer) dir = std::make_unique<OutputDirectory>(out);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
+    if (split) mpi::abort(2);
     return 2;
   }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   RunContext ctx;
-  ctx.out_dir = dir->tmp();
+  ctx.out_dir = writer ? dir->tmp() : fs::path();
   ctx.case_dir = a.case_dir;
   ctx.seed = lc->seed;
   ctx.threads = lc->threads;
@@ -156,21 +170,26 @@ int command_run(const RunArgs& a) {
   ctx.stop_requested = &g_stop;
   ctx.checkpoint_dir = checkpoint_directory(out);
   ctx.resume = a.resume;
+  ctx.decompose = !a.alone;
+  ctx.quiet = a.quiet || !writer;
   {
     auto quote = [](const std::string& x) {
       return x.find_first_of(" \t'\"$\\") == std::string::npos ? x : "'" + x + "'";
     };
-    std::string cmd = "grainbath run " + quote(a.case_dir);
+    std::string cmd = (split ? "mpirun -np " + std::to_string(mpi::world_size()) + " " : std::string()) +
+                      "grainbath run " + quote(a.case_dir);
     if (!a.out_dir.empty()) cmd += " --out " + quote(a.out_dir);
     for (const auto& o : a.overrides) cmd += " --set " + quote(o);
     ctx.resume_command = cmd + " --resume";
   }
   Summary summary;
   try {
-    std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu) -> %s\n", GRAINBATH_VERSION,
-                 lc->reader.file().c_str(), lc->solver.c_str(), static_cast<unsigned long long>(lc->seed),
-                 out.string().c_str());
+    if (writer)
+      std::fprintf(stderr, "grainbath %s: running %s (solver %s, seed %llu%s) -> %s\n", GRAINBATH_VERSION,
+                   lc->reader.file().c_str(), lc->solver.c_str(), static_cast<unsigned long long>(lc->seed),
+                   split ? (", " + std::to_string(mpi::world_size()) + " MPI ranks").c_str() : "", out.string().c_str());
     std::visit([&](const auto& cfg) { solver_run(cfg, ctx, summary); }, lc->config);
+    if (!writer) return 0;
     summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
     summary.set("run.version", std::string(GRAINBATH_VERSION));
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
@@ -186,6 +205,7 @@ int command_run(const RunArgs& a) {
     const int code = g_stop.load() ? 130 : 1;
     dir.reset();
     std::fflush(nullptr);
+    if (split) mpi::abort(code);  // the other ranks wait in a collective call
     std::_Exit(code);
   }
   print_table(summary);

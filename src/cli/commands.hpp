@@ -10,6 +10,7 @@ struct RunArgs {
   std::string out_dir;
   bool quiet = false;
   bool resume = false;
+  bool alone = false;  // MPI build: run in this process only (an ensemble replica), not split over the ranks
 };
 
 struct SweepArgs {

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "cli/commands.hpp"
+#include "dsmc/decomposition.hpp"
 
 namespace {
 const char* kUnits = R"(Units (scaled, Bisi & Spiga):
@@ -20,7 +21,8 @@ const char* kUnits = R"(Units (scaled, Bisi & Spiga):
 See docs/CASE_FILE.md for every key, its default and its unit.)";
 }
 
-int main(int argc, char** argv) {
+namespace {
+int cli_main(int argc, char** argv) {
   // A file-size limit (ulimit -f) must surface as a failed write with a clear message,
   // not kill the run and leave its temporary output behind.
   std::signal(SIGXFSZ, SIG_IGN);
@@ -73,4 +75,13 @@ int main(int argc, char** argv) {
   if (*sweep) return grainbath::cli::command_sweep(sweep_args);
   if (*report) return grainbath::cli::command_report(report_dir, argv[0]);
   return 1;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  // MPI build under mpirun: MPI is initialised here (src/dsmc/decomposition.cpp, mpi_env)
+  grainbath::dsmc::mpi_env::init(&argc, &argv);
+  const int code = cli_main(argc, argv);
+  grainbath::dsmc::mpi_env::finalize();
+  return code;
 }

@@ -2,6 +2,8 @@
 // listed values as a separate `grainbath run` (in parallel up to --jobs), then gathers the
 // variants' summary.json into one table (sweep.tsv with every number, sweep.md with the
 // headline columns) and one plot (scripts/plot_sweep.py, if Python with matplotlib is there).
+// MPI build under mpirun: the ranks share the variants (each run alone in its rank's
+// process) and rank 0 gathers; `--set run.seed=...` alone is the MPI ensemble mode.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -19,6 +21,7 @@
 #include "core/case_file.hpp"
 #include "core/run_support.hpp"
 #include "core/summary.hpp"
+#include "dsmc/decomposition.hpp"
 
 namespace grainbath::cli {
 
@@ -184,9 +187,47 @@ int command_sweep(const SweepArgs& a) {
     for (const auto& kv : variants[k]) name += "_" + sanitize(kv.substr(kv.find('.') + 1));
     dirs.push_back(out / name);
   }
-  std::fprintf(stderr, "sweep: %zu variants, %d at a time, into %s\n", variants.size(), jobs, out.string().c_str());
+  namespace mpi = dsmc::mpi_env;
+  if (mpi::world_rank() == 0)
+    std::fprintf(stderr, "sweep: %zu variants, %d at a time, into %s\n", variants.size(),
+                 mpi::active() ? mpi::world_size() : jobs, out.string().c_str());
   std::size_t next = 0, done = 0;
   int running = 0, failed = 0;
+  if (mpi::active()) {
+    // rank r runs variants r, r + size, ... one after the other, in this process (a child
+    // started from an MPI process would inherit its launcher environment)
+    const auto rank = static_cast<std::size_t>(mpi::world_rank()), size = static_cast<std::size_t>(mpi::world_size());
+    const auto start = std::chrono::steady_clock::now();
+    for (std::size_t k = rank; k < variants.size(); k += size) {
+      RunArgs ra;
+      ra.case_dir = a.case_dir;
+      ra.overrides = variants[k];
+      if (size > 1) ra.overrides.push_back("run.threads=1");  // the ranks share the cores
+      ra.out_dir = dirs[k].string();
+      ra.quiet = true;
+      ra.alone = true;
+      std::fflush(nullptr);
+      const int saved_out = dup(STDOUT_FILENO), saved_err = dup(STDERR_FILENO);
+      std::FILE* log = std::fopen((dirs[k].string() + ".log").c_str(), "w");
+      if (log) {
+        dup2(fileno(log), STDOUT_FILENO);
+        dup2(fileno(log), STDERR_FILENO);
+      }
+      const int code = command_run(ra);
+      std::fflush(nullptr);
+      dup2(saved_out, STDOUT_FILENO);
+      dup2(saved_err, STDERR_FILENO);
+      close(saved_out);
+      close(saved_err);
+      if (log) std::fclose(log);
+      if (code != 0) ++failed;
+      std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank, code == 0 ? "done  " : "FAILED",
+                   dirs[k].filename().string().c_str(), wall_seconds_since(start));
+    }
+    failed = static_cast<int>(mpi::sum(failed));
+    if (rank != 0) return failed ? 1 : 0;
+    done = variants.size();  // rank 0 gathers below
+  }
   std::map<pid_t, std::size_t> children;
   const auto start = std::chrono::steady_clock::now();
   while (done < variants.size()) {

@@ -23,6 +23,8 @@ struct RunContext {
   std::filesystem::path checkpoint_dir;  // where checkpoints go (empty: none)
   bool resume = false;                   // continue from the newest valid checkpoint
   std::string resume_command;            // the command line that resumes this run (messages)
+  bool decompose = true;                 // MPI build: split a spatial DSMC run over all ranks
+                                         // (false: this process runs alone, e.g. an ensemble replica)
 };
 
 // Writes the provenance every results.h5 carries: version, seed, case text, resolved

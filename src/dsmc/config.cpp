@@ -175,6 +175,7 @@ Config read_config(CaseReader& r) {
   c.particles = r.integer("dsmc", "particles", 100000, 2, 2'000'000'000);
   c.dt = r.real("dsmc", "dt", 0.01, Bounds::positive(), "time");
   c.t_end = r.real("dsmc", "t_end", 10.0, Bounds::positive(), "time");
+  c.rebalance_every = r.integer("dsmc", "rebalance_every", 50, 0, 1'000'000'000);
   c.sample_every = r.real("sampling", "every", c.dt * 10, Bounds::positive(), "time");
   c.steady_from = r.real("sampling", "steady_from", 0.5 * c.t_end, Bounds::non_negative(), "time");
   c.histogram_bins = static_cast<int>(r.integer("sampling", "histogram_bins", 100, 4, 100000));

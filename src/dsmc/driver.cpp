@@ -20,6 +20,7 @@
 #include "core/run_support.hpp"
 #include "dsmc/checkpoint.hpp"
 #include "dsmc/collide.hpp"
+#include "dsmc/decomposition.hpp"
 #include "dsmc/dsmc.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/output.hpp"
@@ -71,13 +72,13 @@ void initialise(State& s, const Config& c, std::uint64_t seed) {
   s.initial_kinetic_energy = measure_moments(p, 0, n, c.grains.mass).kinetic_energy;
 }
 
-// Background substep for every grain, in fixed blocks (deterministic reduction).
+// Background substep for every grain, in fixed reduction blocks (deterministic reduction at
+// any thread or rank count: src/dsmc/decomposition.hpp).
 void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath, double duration,
-                  std::uint64_t seed, Stream stream) {
-  constexpr std::size_t kBlock = 4096;
+                  std::uint64_t seed, Stream stream, Decomposition& dec, std::vector<std::size_t>& bounds) {
   Particles& p = s.particles;
-  const std::size_t n = p.size();
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  dec.block_bounds(s, c, bounds);
+  const std::size_t blocks = bounds.size() - 1;
   const bool local = c.field.profile != BackgroundProfile::uniform;
   const double m = c.grains.mass;
   const auto step = static_cast<std::uint64_t>(s.step);
@@ -85,7 +86,7 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
 #pragma omp parallel for schedule(dynamic, 4)
   for (std::size_t blk = 0; blk < blocks; ++blk) {
     BackgroundCounters cnt;
-    const std::size_t lo = blk * kBlock, hi = std::min(n, lo + kBlock);
+    const std::size_t lo = bounds[blk], hi = bounds[blk + 1];
     for (std::size_t i = lo; i < hi; ++i) {
       CounterRng rng(seed, stream, p.id[i], step);
       Vec3 v = p.velocity(i);
@@ -100,6 +101,8 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
     }
     partial[blk] = cnt;
   }
+  dec.combine_in_order(partial, true);
+  dec.add_work(partial);  // load-balance weights
   for (const auto& c2 : partial) {
     s.counters.bath_candidates += c2.candidates;
     s.counters.bath_collisions += c2.collisions;
@@ -110,11 +113,13 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
 // Grain-grain collisions in every cell; each cell has its own random stream (cell id, step)
 // and its own counters, summed in cell order afterwards.
 // Counters are summed per fixed block of cells (then blocks in order): the floating-point
-// sum of the inelastic loss is the same at any thread count.
-void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block) {
-  constexpr std::size_t kCellBlock = 256;
+// sum of the inelastic loss is the same at any thread count. MPI: each rank does its own
+// blocks; the partials are combined in block order on every rank.
+void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
+                Decomposition& dec) {
+  const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
   const std::size_t cells = s.cell_start.size() - 1;
-  const std::size_t blocks = (cells + kCellBlock - 1) / kCellBlock;
+  const std::size_t first = dec.first_block(), blocks = dec.end_block() - first;
   per_block.assign(blocks, GrainCounters{});
   const double weight = c.grains.density * (c.spatial() ? c.domain.volume() : 1.0) / static_cast<double>(c.particles);
   const double cell_volume = c.spatial() ? c.domain.cell_volume() : 1.0;
@@ -124,7 +129,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
 #pragma omp parallel for schedule(static)
         for (std::size_t blk = 0; blk < blocks; ++blk) {
           GrainCounters cnt;
-          for (std::size_t k = blk * kCellBlock; k < std::min(cells, (blk + 1) * kCellBlock); ++k) {
+          for (std::size_t k = (first + blk) * kCellBlock; k < std::min(cells, (first + blk + 1) * kCellBlock); ++k) {
             const std::size_t b = s.cell_start[k], e = s.cell_start[k + 1];
             if (e - b < 2) continue;
             // homogeneous: the case density; spatial: the cell's simulated density
@@ -136,11 +141,14 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
         }
       },
       c.restitution);
+  dec.combine_in_order(per_block, true);
+  dec.add_work(per_block);  // load-balance weights
   for (const auto& g : per_block) s.counters.grain.add(g);
 }
 
-void sample(State& s, const Config& c, double t) {
-  const Particles& p = s.particles;
+// `all`: every particle in global (cell, id) order (s.particles in a single process).
+void sample(State& s, const Config& c, double t, const Particles& all) {
+  const Particles& p = all;
   const std::size_t n = p.size();
   Moments mo = measure_moments(p, 0, n, c.grains.mass);
   TimeSeries& ts = s.series;
@@ -179,6 +187,7 @@ void sample(State& s, const Config& c, double t) {
   // per-cell sums for the time-averaged fields
   FieldAccumulator& f = s.fields;
   if (f.cells > 0 && t >= c.steady_from - 1e-12 && f.taken < f.window_samples) {
+    const Particles& p = s.particles;  // this rank's cells
     const int batch = static_cast<int>(f.taken * f.batches / f.window_samples);
     double* base = f.sums.data() + static_cast<std::size_t>(batch) * f.cells * FieldAccumulator::kSums;
 #pragma omp parallel for schedule(dynamic, 256)
@@ -218,16 +227,21 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
 
   // a medium is present if [background] density > 0, or if a file supplies the fields
   const bool bath_on = bg.present() || c.field.profile == BackgroundProfile::file;
+  Decomposition dec(c, ctx.decompose);  // MPI: this rank's share of the cells
+  if (dec.size() > 1 && !c.spatial() && dec.root())
+    std::fprintf(stderr, "note: a homogeneous run is one cell: rank 0 runs it and the other %d rank(s) idle; "
+                         "replicas go on ranks with `mpirun grainbath sweep CASE --set run.seed=1,2,...`\n",
+                 dec.size() - 1);
   State s;
   bool resumed = false;
   if (ctx.resume) {
     std::string warning;
     auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning);
-    if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
+    if (!warning.empty() && dec.root()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
     resumed = true;
-    std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
+    if (dec.root()) std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
   } else {
     initialise(s, c, ctx.seed);
     if (c.spatial() && c.sample_fields) {
@@ -250,31 +264,60 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       s.cell_start = {0, s.particles.size()};
     }
   };
+  dec.distribute(s, c);  // every rank holds the whole population until here
   rebuild_cells();
-  if (!resumed) sample(s, c, 0.0);
+  // the whole population in global (cell, id) order, for the moments of the time series
+  Particles gathered;
+  auto population = [&]() -> const Particles& {
+    if (dec.size() == 1) return s.particles;
+    dec.allgather_particles(s.particles, c.spatial(), gathered);
+    return gathered;
+  };
+  // checkpoints and results are written by rank 0 from the gathered state
+  auto checkpoint = [&] {
+    if (dec.size() == 1) return write_checkpoint(ctx.checkpoint_dir, s, ctx);
+    const State whole = dec.gather_state(s, c);
+    if (dec.root()) write_checkpoint(ctx.checkpoint_dir, whole, ctx);
+  };
+  if (!resumed) sample(s, c, 0.0, population());
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
-  Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet);
+  Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
+  std::vector<std::size_t> bounds;
+  std::vector<StreamCounters> walls;
+  const bool walls_counted = c.spatial() && !fully_periodic(c.domain);
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
   const std::int64_t checkpoint_steps =
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
   for (; s.step < c.steps;) {
-    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half);
+    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds);
     if (c.spatial()) {
-      stream(s, c, ctx.seed, removed);
+      dec.block_bounds(s, c, bounds);
+      stream(s, c, ctx.seed, removed, bounds, walls);
+      if (walls_counted) {
+        dec.combine_in_order(walls, true);
+        for (const auto& w : walls) {
+          s.counters.wall_energy += w.wall_energy;
+          s.counters.removed_energy += w.removed_energy;
+          s.counters.removed += w.removed;
+        }
+      }
+      dec.migrate(s, c, removed);  // MPI: particles that left this rank's cells
       sort_by_cell(s, c, removed);
     }
-    grain_step(s, c, ctx.seed, per_cell);
-    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half);
+    grain_step(s, c, ctx.seed, per_cell, dec);
+    if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half, dec, bounds);
     ++s.step;
     s.particle_steps_run += static_cast<double>(s.particles.size());
+    if (c.rebalance_every > 0 && s.step % c.rebalance_every == 0 && dec.rebalance(s, c)) rebuild_cells();
     if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
       try {
-        sample(s, c, static_cast<double>(s.step) * c.dt);
+        sample(s, c, static_cast<double>(s.step) * c.dt, population());
       } catch (const std::runtime_error& e) {
-        // NaN/Inf in the sampled moments: keep the state for a post-mortem, then stop
-        if (!ctx.checkpoint_dir.empty()) write_checkpoint(ctx.checkpoint_dir, s, ctx);
+        // NaN/Inf in the sampled moments (seen by every rank alike): keep the state for a
+        // post-mortem, then stop
+        if (!ctx.checkpoint_dir.empty()) checkpoint();
         throw std::runtime_error(std::string(e.what()) + "; the state was checkpointed to " +
                                  ctx.checkpoint_dir.string());
       }
@@ -289,12 +332,16 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
                     ts.ke[k], ts.bath_in[k], ts.loss[k]);
       progress.update(static_cast<double>(s.step), extra);
     }
-    const bool stop = ctx.stop_requested && ctx.stop_requested->load();
+    // the ranks agree on a stop request and on wall-clock checkpoints (one collective)
+    const int raised = dec.any_bits((ctx.stop_requested && ctx.stop_requested->load() ? 1 : 0) |
+                                    (c.checkpoint.every_minutes > 0 &&
+                                             wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes
+                                         ? 2
+                                         : 0));
+    const bool stop = raised & 1, due_wall = raised & 2;
     const bool due_sim = checkpoint_steps > 0 && s.step % checkpoint_steps == 0;
-    const bool due_wall = c.checkpoint.every_minutes > 0 &&
-                          wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes;
     if (!ctx.checkpoint_dir.empty() && (stop || ((due_sim || due_wall) && s.step < c.steps))) {
-      write_checkpoint(ctx.checkpoint_dir, s, ctx);
+      checkpoint();
       last_checkpoint_wall = std::chrono::steady_clock::now();
     }
     if (stop) {
@@ -307,7 +354,15 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     }
   }
   progress.finish();
-  write_results(c, ctx, s, wall_seconds_since(wall_start), summary);
+  if (dec.size() == 1) {
+    write_results(c, ctx, s, wall_seconds_since(wall_start), summary);
+  } else {
+    const State whole = dec.gather_state(s, c);
+    if (dec.root()) write_results(c, ctx, whole, wall_seconds_since(wall_start), summary);
+  }
+  summary.set("performance.ranks", static_cast<std::int64_t>(dec.size()));
+  summary.set("performance.rank_load_imbalance", dec.imbalance());
+  summary.set("performance.rank_rebalances", static_cast<std::int64_t>(dec.rebalances()));
 }
 
 }  // namespace grainbath::dsmc

@@ -67,13 +67,19 @@ void stream_periodic(State& s, const Config& c) {
 
 }  // namespace
 
-void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint8_t>& removed) {
+bool fully_periodic(const Domain& d) {
+  bool all_periodic = true;
+  for (int f = 0; f < 2 * d.dimensions; ++f) all_periodic = all_periodic && d.faces[f] == Boundary::periodic;
+  return all_periodic;
+}
+
+void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint8_t>& removed,
+            const std::vector<std::size_t>& bounds, std::vector<StreamCounters>& partial) {
   Particles& p = s.particles;
   const Domain& d = c.domain;
   const std::size_t n = p.size();
-  bool all_periodic = true;
-  for (int f = 0; f < 2 * d.dimensions; ++f) all_periodic = all_periodic && d.faces[f] == Boundary::periodic;
-  if (all_periodic) {
+  partial.clear();
+  if (fully_periodic(d)) {
     removed.clear();
     switch (d.dimensions) {
       case 1: stream_periodic<1>(s, c); return;
@@ -87,13 +93,12 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
   const double sigma_wall = std::sqrt(d.wall_temperature / c.grains.mass);
   const double m = c.grains.mass;
   const std::uint64_t step = static_cast<std::uint64_t>(s.step);
-  constexpr std::size_t kBlock = 4096;
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  std::vector<double> wall_e(blocks, 0.0), removed_e(blocks, 0.0);
-  std::vector<std::uint64_t> removed_n(blocks, 0);
-#pragma omp parallel for schedule(static)
+  const std::size_t blocks = bounds.size() - 1;
+  partial.assign(blocks, StreamCounters{});
+#pragma omp parallel for schedule(dynamic, 4)
   for (std::size_t b = 0; b < blocks; ++b) {
-    const std::size_t lo = b * kBlock, hi = std::min(n, lo + kBlock);
+    const std::size_t lo = bounds[b], hi = bounds[b + 1];
+    StreamCounters& cnt = partial[b];
     for (std::size_t i = lo; i < hi; ++i) {
       double* pos[3] = {&p.x[i], d.dimensions > 1 ? &p.y[i] : nullptr, d.dimensions > 2 ? &p.z[i] : nullptr};
       double* vel[3] = {&p.vx[i], &p.vy[i], &p.vz[i]};
@@ -132,11 +137,11 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
           const double vn = diffuse_normal_speed(rng, sigma_wall);
           *vel[axis_hit] = (face_hit % 2 == 0) ? vn : -vn;
           const double e1 = p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
-          wall_e[i / kBlock] += 0.5 * m * (e1 - e0);
+          cnt.wall_energy += 0.5 * m * (e1 - e0);
         } else {  // open: leave the box
           removed[i] = 1;
-          removed_e[i / kBlock] += 0.5 * m * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
-          removed_n[i / kBlock] += 1;
+          cnt.removed_energy += 0.5 * m * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
+          cnt.removed += 1;
           remaining = 0;
           break;
         }
@@ -144,11 +149,6 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
       // periodic wrap
       for (int a = 0; a < d.dimensions; ++a) *pos[a] = wrap_periodic(*pos[a], d.length[a]);
     }
-  }
-  for (std::size_t b = 0; b < blocks; ++b) {
-    s.counters.wall_energy += wall_e[b];
-    s.counters.removed_energy += removed_e[b];
-    s.counters.removed += removed_n[b];
   }
 }
 

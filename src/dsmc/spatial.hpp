@@ -45,9 +45,20 @@ inline double wrap_periodic(double x, double L) {
   return x;
 }
 
+// Energy and particles exchanged with the walls, per reduction block.
+struct StreamCounters {
+  double wall_energy = 0.0, removed_energy = 0.0;
+  std::uint64_t removed = 0;
+};
+bool fully_periodic(const Domain& d);
+
 // Streams every particle over dt and applies the face boundaries. Particles leaving through
 // open faces are marked (id kept, velocity zeroed) in `removed` and dropped by sort_by_cell.
-void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint8_t>& removed);
+// Wall exchanges are counted per reduction block ([bounds[b], bounds[b+1]) in particle
+// index, src/dsmc/decomposition.hpp) into `partial`, which the caller adds in block order
+// (nothing is counted in a fully periodic box).
+void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint8_t>& removed,
+            const std::vector<std::size_t>& bounds, std::vector<StreamCounters>& partial);
 
 // Orders particles by (cell, id) and fills s.cell_start; drops removed particles.
 void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed);

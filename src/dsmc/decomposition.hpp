@@ -1,0 +1,128 @@
+#pragma once
+// Spatial domain decomposition of the DSMC cell grid over MPI ranks (docs/dsmc.md, "MPI
+// domain decomposition"). In the plain build (GRAINBATH_MPI off), or when a process runs
+// alone, there is one rank and every operation here is the identity: the same driver code
+// runs in both builds.
+//
+// Reproducibility across rank counts rests on three facts:
+//  1. every random number is keyed on (seed, stream; particle id or cell id, step), and a
+//     cell's particles are ordered by id, so what happens in a cell does not depend on which
+//     rank holds it;
+//  2. the cells are cut into fixed reduction blocks of B consecutive cells (linear index,
+//     x fastest; B depends on the case only), rank boundaries fall on block boundaries, and
+//     every floating-point counter is summed per block and the block sums are added in
+//     block order (combine_in_order), the same at any rank and thread count;
+//  3. moments of the whole population are taken on the gathered particles in global
+//     (cell, id) order, i.e. exactly the array a single process holds.
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "dsmc/dsmc.hpp"
+#include "dsmc/state.hpp"
+
+namespace grainbath::dsmc {
+
+// Cells per reduction block: the largest power of two <= 256 holding about 1024 particles
+// (on average) or fewer: enough work per block for the threads, fine enough for the load
+// balance between ranks. A function of the case alone.
+std::size_t reduction_block_cells(const Config& c);
+
+namespace mpi_env {
+// MPI is initialised only when the process was started by mpirun (or another launcher
+// that sets the PMI/PMIx environment); a plain `grainbath run` of an MPI build does not
+// touch MPI at all. In the plain build these report one rank.
+void init(int* argc, char*** argv);
+void finalize();
+bool active();                 // MPI_Init was called
+int world_rank();
+int world_size();
+[[noreturn]] void abort(int code);  // MPI_Abort when several ranks run, else std::_Exit
+void barrier();
+long long sum(long long x);    // over MPI_COMM_WORLD (a barrier too)
+}  // namespace mpi_env
+
+class Decomposition {
+ public:
+  // use_world: split the cells over MPI_COMM_WORLD (false: this process alone).
+  Decomposition(const Config& c, bool use_world);
+
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  bool root() const { return rank_ == 0; }
+  std::size_t block_cells() const { return block_cells_; }
+  std::size_t first_block() const { return first_block_[rank_]; }
+  std::size_t end_block() const { return first_block_[rank_ + 1]; }
+  std::size_t first_cell(int r) const;
+  std::size_t end_cell(int r) const;
+  int owner_of_block(std::size_t b) const;
+
+  // Particle-index bounds of this rank's reduction blocks (needs s.cell_start): spatial
+  // runs, one block per B cells; homogeneous runs (one cell, rank 0), fixed blocks of
+  // 4096 particles as in the single-process code.
+  void block_bounds(const State& s, const Config& c, std::vector<std::size_t>& bounds) const;
+
+  // Every rank gets the concatenation of all ranks' per-block partials in rank order,
+  // i.e. in global block order. T must be trivially copyable. per_block: one entry per
+  // reduction block of this rank (spatial runs), so the sizes are known everywhere and one
+  // collective suffices instead of two.
+  template <class T>
+  void combine_in_order(std::vector<T>& partials, bool per_block = false) const {
+    if (size_ == 1) return;
+    std::vector<unsigned char> mine(partials.size() * sizeof(T));
+    if (!mine.empty()) std::memcpy(mine.data(), partials.data(), mine.size());
+    std::vector<unsigned char> all = allgather_bytes(mine, per_block && spatial_ ? sizeof(T) : 0);
+    partials.resize(all.size() / sizeof(T));
+    if (!all.empty()) std::memcpy(partials.data(), all.data(), all.size());
+  }
+
+  // Start of a run (every rank holds the whole population, from initialise() or a
+  // checkpoint): choose balanced boundaries and keep only this rank's cells. The caller
+  // then sorts (sort_by_cell uses the cells left in s.sort.cell).
+  void distribute(State& s, const Config& c);
+  // After streaming: send particles that left this rank's cells to their owners, receive
+  // those that arrived. Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
+  void migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed);
+  // Measured work: the collision candidates (background and grain-grain) of every
+  // reduction block, from the per-block counters after combine_in_order, hence the same on
+  // every rank; summed until the next rebalance.
+  template <class Counters>
+  void add_work(const std::vector<Counters>& combined) {
+    if (size_ == 1 || !spatial_ || combined.size() != blocks_) return;
+    for (std::size_t b = 0; b < blocks_; ++b) work_[b] += combined[b].candidates;
+  }
+  // Load balance: block weight = particles + collision candidates per step since the last
+  // balance (a candidate costs about as much as a particle-step). Moves particles and
+  // per-cell data (NTC remainders, field sums) of cells that change owner. True if
+  // anything moved (the caller sorts again).
+  bool rebalance(State& s, const Config& c);
+  // All particles in global (cell, id) order on every rank (velocities, and x for spatial runs).
+  void allgather_particles(const Particles& local, bool with_x, Particles& all) const;
+  // The whole state on rank 0 (particles in global order, per-cell data from each cell's
+  // owner); other ranks get an empty State. Collective.
+  State gather_state(const State& s, const Config& c) const;
+
+  bool any(bool flag) const { return any_bits(flag ? 1 : 0) != 0; }  // logical OR over the ranks
+  int any_bits(int bits) const;     // bitwise OR over the ranks (several flags, one collective)
+  double sum(double x) const;       // sum over the ranks (rank order)
+  double imbalance() const { return imbalance_; }  // max/mean particles per rank at the last balance
+  int rebalances() const { return rebalances_; }
+
+ private:
+  std::vector<unsigned char> allgather_bytes(const std::vector<unsigned char>& mine, std::size_t bytes_per_block) const;
+  std::vector<std::size_t> balanced_boundaries(const std::vector<std::uint64_t>& weights);
+  void cells_of_all(State& s, const Config& c, const std::vector<std::uint8_t>* removed) const;
+  void send_to_owners(State& s, const Config& c);  // uses s.sort.cell
+  void move_cell_data(State& s, const std::vector<std::size_t>& old_first);
+
+  int rank_ = 0, size_ = 1;
+  bool world_ = false, spatial_ = false;
+  std::vector<std::uint64_t> work_;       // candidates per block since the last balance
+  std::int64_t balanced_at_step_ = 0;
+  std::size_t cells_ = 1, block_cells_ = 1, blocks_ = 1;
+  std::vector<std::size_t> first_block_;  // [size + 1]
+  double imbalance_ = 1.0;
+  int rebalances_ = 0;
+};
+
+}  // namespace grainbath::dsmc

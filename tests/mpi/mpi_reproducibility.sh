@@ -1,0 +1,114 @@
+#!/usr/bin/env bash
+# Bitwise reproducibility of the MPI domain decomposition (docs/dsmc.md, "MPI domain
+# decomposition"): the same case and seed run
+#   - as a plain process (no launcher: MPI is not initialised),
+#   - under mpirun with 1 rank, with 2 ranks, and with 2 ranks x 2 OpenMP threads,
+#   - and, if PLAIN_GRAINBATH names a non-MPI build, by the plain build,
+# must give results.h5 files whose datasets and attributes are identical (h5diff, exact;
+# /parameters is left out because run.threads differs) and identical summary.json numbers
+# (performance.* left out). Then checkpoint/restart across rank counts: a 2-rank run that
+# keeps its checkpoints, resumed from its mid-run checkpoint with 1 rank, and a plain run's
+# checkpoint resumed with 2 ranks, must both end bitwise where the uninterrupted run ended.
+#
+# usage: mpi_reproducibility.sh GRAINBATH CASE_DIR WORK_DIR CHECK...
+#   CHECK: np1 | np2 | np2t2 | checkpoint (each compared with the plain run)
+#          rebalance (the 2-rank run must have moved its boundary at least once)
+set -euo pipefail
+exe=$1
+case_dir=$2
+work=$3
+shift 3
+checks=("$@")
+plain=${PLAIN_GRAINBATH:-}
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+# a container without a network still has loopback: keep OpenMPI's TCP on it
+export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
+# containers often forbid cross-process memory access (CMA): copy through shared memory
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
+# ranks and threads share two busy cores in CI: idle threads sleep instead of spinning
+export OMP_WAIT_POLICY=PASSIVE
+mpi() { local np=$1; shift; mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"; }
+
+rm -rf "$work"
+mkdir -p "$work"
+fail=0
+same() {  # same REF OTHER LABEL
+  if ! h5diff --exclude-path /parameters "$1/results.h5" "$2/results.h5" > "$work/h5diff.log" 2>&1; then
+    echo "FAIL $3: results.h5 differs from the plain run:"; head -20 "$work/h5diff.log"; fail=1; return
+  fi
+  if ! /usr/bin/env python3 - "$1/summary.json" "$2/summary.json" <<'PY'
+import json, sys
+def flat(d, p=""):
+    out = {}
+    for k, v in d.items():
+        key = p + k
+        if isinstance(v, dict): out.update(flat(v, key + "."))
+        else: out[key] = v
+    return out
+a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
+keys = [k for k in a if not k.startswith("performance.")]
+bad = [k for k in keys if a[k] != b.get(k)]
+bad += [k for k in b if not k.startswith("performance.") and k not in a]
+for k in bad[:10]: print("  ", k, a.get(k), b.get(k))
+sys.exit(1 if bad else 0)
+PY
+  then
+    echo "FAIL $3: summary.json numbers differ"; fail=1; return
+  fi
+  echo "ok   $3: bitwise identical to the plain run"
+}
+
+"$exe" run "$case_dir" --out "$work/plain" -q > /dev/null
+if [ -n "$plain" ] && [ -x "$plain" ]; then
+  "$plain" run "$case_dir" --out "$work/plainbuild" -q > /dev/null
+  same "$work/plain" "$work/plainbuild" "plain (non-MPI) build"
+fi
+checked_2ranks=""
+for check in "${checks[@]}"; do
+  case "$check" in
+    np1)
+      mpi 1 run "$case_dir" --out "$work/np1" -q > /dev/null
+      same "$work/plain" "$work/np1" "1 rank" ;;
+    np2)
+      mpi 2 run "$case_dir" --out "$work/np2" -q > /dev/null
+      same "$work/plain" "$work/np2" "2 ranks"
+      checked_2ranks="$work/np2" ;;
+    np2t2)
+      mpi 2 run "$case_dir" --out "$work/np2t2" -q --set run.threads=2 > /dev/null
+      same "$work/plain" "$work/np2t2" "2 ranks x 2 threads"
+      checked_2ranks="$work/np2t2" ;;
+    checkpoint)
+      # checkpoint/restart across rank counts: checkpoints at mid-run, kept; the 2-rank
+      # run with checkpoints is itself compared with the plain run
+      t_end=$(sed -n 's/^t_end *= *//p' "$case_dir/case.toml")
+      half=$(python3 -c "print($t_end / 2)")
+      ck=(--set checkpoint.every=$half --set checkpoint.keep=true)
+      mpi 2 run "$case_dir" --out "$work/ck2" -q "${ck[@]}" > /dev/null
+      same "$work/plain" "$work/ck2" "2 ranks writing checkpoints"
+      checked_2ranks="$work/ck2"
+      mkdir -p "$work/resume1.checkpoints"
+      cp "$work/ck2.checkpoints"/* "$work/resume1.checkpoints/"
+      mpi 1 run "$case_dir" --out "$work/resume1" -q "${ck[@]}" --resume > /dev/null 2>&1
+      same "$work/plain" "$work/resume1" "2-rank checkpoint resumed with 1 rank"
+      "$exe" run "$case_dir" --out "$work/ck1" -q "${ck[@]}" > /dev/null
+      mkdir -p "$work/resume2.checkpoints"
+      cp "$work/ck1.checkpoints"/* "$work/resume2.checkpoints/"
+      mpi 2 run "$case_dir" --out "$work/resume2" -q "${ck[@]}" --resume > /dev/null 2>&1
+      same "$work/plain" "$work/resume2" "plain checkpoint resumed with 2 ranks" ;;
+    rebalance) ;;
+    *) echo "unknown check $check"; exit 2 ;;
+  esac
+done
+# the test must exercise what it claims: 2 ranks, and (if asked) boundaries that moved
+if [ -n "$checked_2ranks" ]; then
+  need=0
+  [[ " ${checks[*]} " == *" rebalance "* ]] && need=1
+  python3 - "$checked_2ranks/summary.json" $need <<'PY' || fail=1
+import json, sys
+p = json.load(open(sys.argv[1]))["performance"]
+print("     2 ranks: %d rebalances, load imbalance %.3f at the last" % (p["rank_rebalances"], p["rank_load_imbalance"]))
+if p["ranks"] != 2 or p["rank_rebalances"] < int(sys.argv[2]):
+    print("FAIL: expected 2 ranks and at least %s rebalance(s)" % sys.argv[2]); sys.exit(1)
+PY
+fi
+exit $fail
