@@ -848,6 +848,17 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       h5.write("/transport/" + fld.name, fld.mean);
       h5.write("/transport/" + fld.name + "_stderr", fld.stderr_);
     }
+    // raw block sums (layouts in src/edmd/transport.hpp) for offline re-analysis
+    std::vector<double> bt, bs, bp;
+    for (const auto& b : transport.blocks()) {
+      bt.push_back(b.time);
+      bs.insert(bs.end(), b.slab.begin(), b.slab.end());
+      bp.insert(bp.end(), b.plane.begin(), b.plane.end());
+    }
+    const hsize_t nb = bt.size(), S = static_cast<hsize_t>(c.transport_slabs);
+    h5.write("/transport/blocks/time", bt);
+    h5.write("/transport/blocks/slab", bs, {nb, S, static_cast<hsize_t>(SlabTransport::kSlab)});
+    h5.write("/transport/blocks/plane", bp, {nb, S, static_cast<hsize_t>(SlabTransport::kPlane)});
   }
   h5.close();  // a failed write (disk full) surfaces here, before the output is committed
 }

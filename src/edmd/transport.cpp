@@ -438,6 +438,21 @@ std::vector<TransportScalar> transport_scalars(const SlabTransport& t, const Tra
         gmax = std::max(gmax, std::abs(du[k]));
         an_sum += Tc[k] / Tz[k] - 1.0;
       }
+      // the forced mode alone (Fourier projection on k = 2 pi / L): P_cz = -mu du/dz for the
+      // cos component at the planes; filters the noise of the other modes out of the fit
+      const double kw = 2.0 * std::numbers::pi / L, w = t.slab_width();
+      const auto& fd = get("forcing_density");
+      double Pc = 0.0, Gc = 0.0, Us = 0.0, Fs = 0.0;
+      for (int k = 0; k < S; ++k) {
+        Pc += P[k] * std::cos(kw * k * w), Gc += du[k] * std::cos(kw * k * w);
+        Us += uc[k] * std::sin(kw * (k + 0.5) * w), Fs += fd[k] * std::sin(kw * (k + 0.5) * w);
+      }
+      out.emplace_back("mu_mode", -Pc / Gc);
+      out.emplace_back("mu_mode_over_enskog", -Pc / Gc / mu0);
+      out.emplace_back("velocity_amplitude", 2.0 * Us / S);
+      out.emplace_back("force_amplitude", 2.0 * Fs / S);
+      // steady momentum balance of the mode: F = mu k^2 U (storage neglected)
+      out.emplace_back("mu_from_forcing", Fs / (kw * kw * Us));
       out.emplace_back("mach_max", umax / std::sqrt(Tm));
       out.emplace_back("shear_rate_max", gmax);
       out.emplace_back("anisotropy", an_sum / S);  // T_c/T_z - 1, slab mean
