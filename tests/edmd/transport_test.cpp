@@ -11,30 +11,13 @@
 #include "edmd/theory.hpp"
 #include "edmd/transport.hpp"
 #include "operators/random.hpp"
+#include "transport_helpers.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
 
 namespace {
-Config config_from(const std::string& toml) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  return c;
-}
-inline double comp(const Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
-
-struct MeanErr {
-  double mean = 0.0, err = 0.0;
-};
-MeanErr mean_err(const std::vector<double>& x) {
-  double s = 0.0, s2 = 0.0;
-  for (double y : x) s += y, s2 += y * y;
-  const double n = static_cast<double>(x.size());
-  const double m = s / n;
-  return {m, std::sqrt(std::max(0.0, s2 / n - m * m) / (n - 1.0))};
-}
-
+using namespace grainbath::edmd::testing;
 // Monte Carlo estimates of the four Enskog coefficients (docs/edmd.md "Transport
 // coefficients"), with T = n = sigma = chi = 1 and v1, v2 standard Maxwellians, k uniform on
 // the unit sphere; only collisions with g.k > 0 contribute. Returns the per-sample values
@@ -86,46 +69,6 @@ EnskogMC enskog_mc(int d, std::size_t samples) {
   const double rel_q = mean_err(qk).err / std::abs(q);
   r.x_lam.err = std::hypot(r.x_lam.err, std::abs(r.x_lam.mean) * rel_q);
   return r;
-}
-
-// A small air-table run with the transport bookkeeping on; `each` sees the engine at every
-// synchronised sampling time (before the interval is closed).
-struct SmallRun {
-  Config c;
-  SlabTransport tr;
-  std::vector<double> heating_energy, energy_lost;  // engine counters at begin and end
-};
-template <class Each>
-void run_small(SmallRun& run, double equilibrate, int samples, double coll_per_sample, Each each) {
-  const Config& c = run.c;
-  const std::size_t N = static_cast<std::size_t>(c.particles);
-  const InitialState init = make_initial_state(c, 3);
-  Engine eng(make_setup(c, 3), init.positions, init.velocities);
-  const auto law = std::get<BizonRestitution>(c.restitution);
-  eng.advance(law, kInf, static_cast<std::uint64_t>(equilibrate * N));
-  eng.synchronize();
-  const double t_eq = eng.time();
-  const double dt = coll_per_sample * N / (2.0 * eng.counters().collisions / t_eq) * 2.0;
-  const int comp_ = c.heating.profile == ForcingProfile::shear ? c.heating.bias_component : 0;
-  run.tr.init({c.dims, c.box(), c.heating.profile_axis, comp_, 16}, N);
-  std::vector<Vec3> x(N), v(N);
-  for (std::size_t i = 0; i < N; ++i) x[i] = eng.position(i), v[i] = eng.velocity(i);
-  run.tr.begin(x, v);
-  eng.set_move_hook(&SlabTransport::move_hook, &run.tr);
-  eng.set_collision_hook(&SlabTransport::collision_hook, &run.tr);
-  run.heating_energy.push_back(eng.counters().heating_energy);
-  run.energy_lost.push_back(eng.counters().energy_lost);
-  double t_prev = eng.time();
-  for (int s = 0; s < samples; ++s) {
-    eng.advance(law, t_prev + dt, UINT64_MAX);
-    eng.synchronize();
-    for (std::size_t i = 0; i < N; ++i) v[i] = eng.velocity(i);
-    each(eng);
-    run.tr.end_interval(eng.time() - t_prev, v);
-    t_prev = eng.time();
-  }
-  run.heating_energy.push_back(eng.counters().heating_energy);
-  run.energy_lost.push_back(eng.counters().energy_lost);
 }
 
 const char* kTent = R"(
@@ -322,4 +265,31 @@ TEST(TransportBookkeeping, ShearMomentumBalanceAndBodyForce) {
   EXPECT_GT(fd.mean[4], 0.0);
   EXPECT_LT(fd.mean[12], 0.0);
   EXPECT_GE(sig_force, 4);
+}
+
+TEST(TransportBookkeeping, PlaneFluxesAgreeWithTheSlabProfiles) {
+  // two independent code paths for the same fluxes: plane crossings + collisional transfer
+  // through planes (SlabTransport) against snapshot moments + Irving-Kirkwood segments
+  // averaged over each slab (SlabProfiles). The slab average of a plane flux is the mean of
+  // its two faces up to the curvature of the profile (O(w^2) relative, w = L/16 here).
+  SmallRun run;
+  run.c = config_from(kTent);
+  SlabProfiles prof;
+  prof.init({2, run.c.box(), 1, 16, true});
+  run_small(run, 20.0, 300, 0.2, [](const Engine&) {}, &prof);
+  const TransportResult t = transport_result(run.tr);
+  const ProfileResult p = prof.result();
+  const auto& F = t.field("energy_flux");
+  const auto& Pz = t.field("P_zz");
+  const auto& T = t.field("T");
+  for (int k = 0; k < 16; ++k) {
+    const int kp = (k + 1) % 16;
+    const double f = 0.5 * (F.mean[k] + F.mean[kp]);
+    const double ef = std::hypot(0.5 * std::hypot(F.stderr_[k], F.stderr_[kp]), p.field("q_y").stderr_[k]);
+    EXPECT_NEAR(f, p.field("q_y").mean[k], 5.0 * ef + 0.05 * std::abs(f)) << k;
+    const double pz = 0.5 * (Pz.mean[k] + Pz.mean[kp]);
+    EXPECT_NEAR(pz, p.field("P_yy").mean[k], 5.0 * std::hypot(Pz.stderr_[k], p.field("P_yy").stderr_[k]) + 0.01 * pz) << k;
+    // time average (exact, trajectories) vs snapshot average of the temperature
+    EXPECT_NEAR(T.mean[k], p.field("T").mean[k], 5.0 * std::hypot(T.stderr_[k], p.field("T").stderr_[k])) << k;
+  }
 }
