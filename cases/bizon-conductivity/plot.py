@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""Bizon et al. (1999) Sec. V A, Figs. 11-13: profiles, heat flux and kappa/kappa_Enskog.
+
+Reads every nu*/output/{results.h5,summary.json} of this case; writes conductivity.png and
+conductivity.csv (one row per run). Run after run.sh (or by it)."""
+import csv
+import glob
+import json
+import os
+
+import h5py
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+here = os.path.dirname(os.path.abspath(__file__))
+runs = []
+for d in sorted(glob.glob(os.path.join(here, "nu*"))):
+    out = os.path.join(d, "output")
+    if not os.path.exists(os.path.join(out, "summary.json")):
+        continue
+    s = json.load(open(os.path.join(out, "summary.json")))
+    h = h5py.File(os.path.join(out, "results.h5"), "r")["transport"]
+    f = {k: h[k][:] for k in h.keys() if k != "blocks"}
+    runs.append((os.path.basename(d), s, f))
+if not runs:
+    raise SystemExit("no outputs: run run.sh first")
+
+fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
+markers = "osD^v<>p"
+for m, (name, s, f) in zip(markers, runs):
+    L = f["z_slab"][-1] + f["z_slab"][0]
+    ax[0].semilogy(f["z_slab"] / L, f["T"] / s["transport"]["T_max"], m + "-", ms=3, label=name)
+# flux check for the first nu = 0.75 run (or the first run)
+pick = next((r for r in runs if r[0].startswith("nu0.75-a1")), runs[0])
+name, s, f = pick
+L = f["z_slab"][-1] + f["z_slab"][0]
+z = f["z_plane"] / L
+ax[1].errorbar(z, f["energy_flux"], f["energy_flux_stderr"], fmt="ko", ms=4, label="measured: kinetic + collisional")
+ax[1].plot(z, f["energy_flux_kin"], "b.", label="kinetic part")
+ax[1].plot(z, f["energy_flux_col"], "r.", label="collisional part")
+ax[1].plot(z, f["energy_flux_balance"], "g-", label="input - loss - storage, from plane 0")
+ax[1].plot(z, f["energy_flux_bizon"], "m--", label="Bizon: input - loss, zero flux at z = 0")
+ax[1].axhline(0, color="gray", lw=0.5)
+ax[1].set_xlabel("z / L")
+ax[1].set_ylabel("energy flux q_z  [energy / (sigma time)]")
+ax[1].set_title(f"{name}: heat flux through the slab planes")
+ax[1].legend(fontsize=7)
+rows = []
+for m, (name, s, f) in zip(markers, runs):
+    t = s["transport"]
+    L = f["z_slab"][-1] + f["z_slab"][0]
+    d = np.abs(f["z_plane"] - 0.5 * L) / (0.5 * L)
+    sel = (d >= 0.2) & (d <= 0.8)
+    ax[2].errorbar(f["T_plane"][sel], f["kappa_ratio"][sel], f["kappa_ratio_stderr"][sel], fmt=m, ms=4, label=name)
+    rows.append(dict(run=name, packing_mean=t["packing_mean"], a0=name.split("-a")[1], T_fit=t["T_fit"],
+                     T_min=t["T_min"], T_max=t["T_max"], kappa_over_enskog=t["kappa_over_enskog"],
+                     kappa_over_enskog_stderr=t["kappa_over_enskog_stderr"],
+                     flux_over_bizon_integrated=t["flux_over_bizon_integrated"],
+                     energy_balance_residual=t["energy_balance_residual"], mean_e=s["restitution"]["mean_e"],
+                     wall_seconds=s["performance"]["wall_seconds"]))
+ax[0].set_xlabel("z / L")
+ax[0].set_ylabel("T / T_max")
+ax[0].set_title("temperature profiles (forcing peaked at z = L/2)")
+ax[0].legend(fontsize=7)
+ax[2].set_xscale("log")
+ax[2].axhline(1.0, color="k", lw=0.8)
+ax[2].axhline(0.5, color="gray", ls=":", lw=0.8)
+ax[2].set_ylim(0, 3)
+ax[2].set_xlabel("local T  [v0^2]")
+ax[2].set_ylabel("kappa / kappa_Enskog (eq. 17, local nu and T)")
+ax[2].set_title("Bizon Fig. 13: planes at 0.2-0.8 of L/2 from the peak")
+ax[2].legend(fontsize=7)
+fig.tight_layout()
+fig.savefig(os.path.join(here, "conductivity.png"), dpi=110)
+with open(os.path.join(here, "conductivity.csv"), "w", newline="") as fh:
+    w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in r.items()})
+for r in rows:
+    print(r)
