@@ -18,6 +18,16 @@ Config config_from(const std::string& toml) {
 }
 inline double comp(const Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
 
+// 2D disks with Bizon's restitution (eq. 18, e_c = 0.7, v0 = 1) driven by the air table with
+// a Sec. V profile; `profile_keys` are the [heating] lines of the profile.
+inline std::string air_table_case(int particles, double packing, double temperature, double a0,
+                                  const std::string& profile_keys) {
+  return "[edmd]\ndimensions = 2\nparticles = " + std::to_string(particles) + "\npacking_fraction = " +
+         std::to_string(packing) + "\ntemperature = " + std::to_string(temperature) +
+         "\n[restitution]\nlaw = \"bizon\"\ne = 0.7\ncrossover = 1.0\n[heating]\nmodel = \"air_table\"\nrate = 1\n"
+         "acceleration = " + std::to_string(a0) + "\naxis = \"y\"\n" + profile_keys;
+}
+
 struct MeanErr {
   double mean = 0.0, err = 0.0;
 };

@@ -15,23 +15,14 @@ using namespace grainbath::edmd;
 using namespace grainbath::edmd::testing;
 
 namespace {
-std::string toml(const std::string& profile) {
-  return R"(
-[edmd]
-dimensions = 2
-particles = 900
-packing_fraction = 0.4
-temperature = 0.01
-[restitution]
-law = "bizon"
-e = 0.7
-crossover = 1.0
-[heating]
-model = "air_table"
-rate = 1
-acceleration = 0.03
-axis = "y"
-)" + profile;
+std::string toml(const std::string& profile) { return air_table_case(900, 0.4, 0.01, 0.03, profile); }
+std::vector<TransportScalar> measure(const std::string& profile_keys, TransportAnalysis::Kind kind) {
+  SmallRun run;
+  run.c = config_from(toml(profile_keys));
+  run_small(run, 200.0, 400, 1.0, [](const Engine&) {});
+  TransportAnalysis an;
+  an.kind = kind;
+  return transport_scalars(run.tr, an);
 }
 double scalar(const std::vector<TransportScalar>& s, const std::string& name, double* err) {
   for (const auto& x : s)
@@ -44,12 +35,7 @@ double scalar(const std::vector<TransportScalar>& s, const std::string& name, do
 }  // namespace
 
 TEST(TransportLong, ViscosityWithinFifteenPercentOfEnskog) {
-  SmallRun run;
-  run.c = config_from(toml("profile = \"shear\"\ncomponent = \"x\"\nbias = 0.05\n"));
-  run_small(run, 200.0, 400, 1.0, [](const Engine&) {});
-  TransportAnalysis an;
-  an.kind = TransportAnalysis::viscosity;
-  const auto s = transport_scalars(run.tr, an);
+  const auto s = measure("profile = \"shear\"\ncomponent = \"x\"\nbias = 0.05\n", TransportAnalysis::viscosity);
   double err = 0.0;
   const double r = scalar(s, "mu_mode_over_enskog", &err);
   double err_fit = 0.0;
@@ -62,12 +48,7 @@ TEST(TransportLong, ViscosityWithinFifteenPercentOfEnskog) {
 }
 
 TEST(TransportLong, ConductivityBetweenHalfAndEnskog) {
-  SmallRun run;
-  run.c = config_from(toml("profile = \"tent\"\n"));
-  run_small(run, 200.0, 400, 1.0, [](const Engine&) {});
-  TransportAnalysis an;
-  an.kind = TransportAnalysis::conductivity;
-  const auto s = transport_scalars(run.tr, an);
+  const auto s = measure("profile = \"tent\"\n", TransportAnalysis::conductivity);
   double err = 0.0;
   const double r = scalar(s, "kappa_over_enskog", &err);
   std::printf("kappa/kappa_Enskog = %.3f +- %.3f at T = %.4f\n", r, err, scalar(s, "T_fit", nullptr));

@@ -71,42 +71,8 @@ EnskogMC enskog_mc(int d, std::size_t samples) {
   return r;
 }
 
-const char* kTent = R"(
-[edmd]
-dimensions = 2
-particles = 400
-packing_fraction = 0.5
-temperature = 0.05
-[restitution]
-law = "bizon"
-e = 0.7
-crossover = 1.0
-[heating]
-model = "air_table"
-rate = 1
-acceleration = 0.5
-profile = "tent"
-axis = "y"
-)";
-const char* kShear = R"(
-[edmd]
-dimensions = 2
-particles = 400
-packing_fraction = 0.5
-temperature = 0.05
-[restitution]
-law = "bizon"
-e = 0.7
-crossover = 1.0
-[heating]
-model = "air_table"
-rate = 1
-acceleration = 0.5
-profile = "shear"
-axis = "y"
-component = "x"
-bias = 0.5
-)";
+const std::string kTent = air_table_case(400, 0.5, 0.05, 0.5, "profile = \"tent\"\n");
+const std::string kShear = air_table_case(400, 0.5, 0.05, 0.5, "profile = \"shear\"\ncomponent = \"x\"\nbias = 0.5\n");
 }  // namespace
 
 TEST(EnskogTransport, CoefficientsMatchMonteCarloOfTheCollisionIntegrals) {
