@@ -3,12 +3,9 @@
 
 Reads every nu*/output/{results.h5,summary.json} of this case; writes viscosity.png and
 viscosity.csv (one row per run). Bizon's (y, z) are grainbath's (x, y) in 2D."""
-import csv
-import glob
-import json
 import os
+import sys
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
@@ -16,17 +13,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 here = os.path.dirname(os.path.abspath(__file__))
-runs = []
-for d in sorted(glob.glob(os.path.join(here, "nu*"))):
-    out = os.path.join(d, "output")
-    if not os.path.exists(os.path.join(out, "summary.json")):
-        continue
-    s = json.load(open(os.path.join(out, "summary.json")))
-    h = h5py.File(os.path.join(out, "results.h5"), "r")["transport"]
-    f = {k: h[k][:] for k in h.keys() if k != "blocks"}
-    runs.append((os.path.basename(d), s, f))
-if not runs:
-    raise SystemExit("no outputs: run run.sh first")
+sys.path.insert(0, os.path.join(here, "..", "bizon-conductivity"))
+from transport_runs import load_runs, write_csv  # noqa: E402
+
+runs = load_runs(here)
 
 fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
 markers = "osD^v<>p"
@@ -78,10 +68,4 @@ ax[2].set_title("Bizon Fig. 17 (nu = 0.6)")
 ax[2].legend(fontsize=6)
 fig.tight_layout()
 fig.savefig(os.path.join(here, "viscosity.png"), dpi=110)
-with open(os.path.join(here, "viscosity.csv"), "w", newline="") as fh:
-    w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
-    w.writeheader()
-    for r in rows:
-        w.writerow({k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in r.items()})
-for r in rows:
-    print(r)
+write_csv(os.path.join(here, "viscosity.csv"), rows)
