@@ -44,10 +44,18 @@ for m, (name, s, f) in zip(markers, runs):
     L = f["z_slab"][-1] + f["z_slab"][0]
     d = np.abs(f["z_plane"] - 0.5 * L) / (0.5 * L)
     sel = (d >= 0.2) & (d <= 0.8)
-    ax[2].errorbar(f["T_plane"][sel], f["kappa_ratio"][sel], f["kappa_ratio_stderr"][sel], fmt=m, ms=4, label=name)
+    fl = sel & (f["packing_plane"] < 0.70)  # fluid planes: filled; denser (crystallising): open
+    dn = sel & ~fl
+    eb = ax[2].errorbar(f["T_plane"][fl], f["kappa_ratio"][fl], f["kappa_ratio_stderr"][fl], fmt=m, ms=5,
+                        label=f"{name} (nu_local < 0.70)")
+    ax[2].errorbar(f["T_plane"][dn], f["kappa_ratio"][dn], f["kappa_ratio_stderr"][dn], fmt=m, ms=5, mfc="none",
+                   color=eb[0].get_color(), label=f"{name} (nu_local >= 0.70)")
     rows.append(dict(run=name, packing_mean=t["packing_mean"], a0=name.split("-a")[1], T_fit=t["T_fit"],
                      T_min=t["T_min"], T_max=t["T_max"], kappa_over_enskog=t["kappa_over_enskog"],
                      kappa_over_enskog_stderr=t["kappa_over_enskog_stderr"],
+                     kappa_over_enskog_fluid=t.get("kappa_over_enskog_fluid", float("nan")),
+                     kappa_over_enskog_fluid_stderr=t.get("kappa_over_enskog_fluid_stderr", float("nan")),
+                     T_fit_fluid=t.get("T_fit_fluid", float("nan")),
                      flux_over_bizon_integrated=t["flux_over_bizon_integrated"],
                      energy_balance_residual=t["energy_balance_residual"], mean_e=s["restitution"]["mean_e"],
                      wall_seconds=s["performance"]["wall_seconds"]))
@@ -62,7 +70,7 @@ ax[2].set_ylim(0, 3)
 ax[2].set_xlabel("local T  [v0^2]")
 ax[2].set_ylabel("kappa / kappa_Enskog (eq. 17, local nu and T)")
 ax[2].set_title("Bizon Fig. 13: planes at 0.2-0.8 of L/2 from the peak")
-ax[2].legend(fontsize=7)
+ax[2].legend(fontsize=6)
 fig.tight_layout()
 fig.savefig(os.path.join(here, "conductivity.png"), dpi=110)
 write_csv(os.path.join(here, "conductivity.csv"), rows)

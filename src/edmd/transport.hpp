@@ -127,6 +127,10 @@ struct TransportAnalysis {
   // conductivity: planes whose distance from the forcing peak (z = L/2), in units of L/2,
   // lies in [fit_inner, fit_outer] enter the summary kappa/kappa_Enskog
   double fit_inner = 0.2, fit_outer = 0.8;
+  // ... and of those, the planes whose local packing is below the hard-disk fluid limit
+  // (liquid-hexatic coexistence starts at nu = 0.700, Bernard & Krauth 2011) give
+  // kappa_over_enskog_fluid: Enskog is a fluid theory; colder, denser planes crystallise
+  double fluid_packing = 0.70;
 };
 
 // Fields of one (summed) block. Names (slab): density, packing, u_c, u_z, T, T_c, T_z,
