@@ -56,6 +56,8 @@ for m, (name, s, f) in zip(markers, runs):
                      kappa_over_enskog_fluid=t.get("kappa_over_enskog_fluid", float("nan")),
                      kappa_over_enskog_fluid_stderr=t.get("kappa_over_enskog_fluid_stderr", float("nan")),
                      T_fit_fluid=t.get("T_fit_fluid", float("nan")),
+                     kappa_fit_planes=float(np.mean(f["kappa"][sel])),
+                     kappa_enskog_fit_planes=float(np.mean(f["kappa_enskog"][sel])),
                      flux_over_bizon_integrated=t["flux_over_bizon_integrated"],
                      energy_balance_residual=t["energy_balance_residual"], mean_e=s["restitution"]["mean_e"],
                      wall_seconds=s["performance"]["wall_seconds"]))

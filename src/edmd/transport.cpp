@@ -406,11 +406,14 @@ std::vector<TransportScalar> transport_scalars(const SlabTransport& t, const Tra
       const auto& F = get("energy_flux");
       const auto& Fb = get("energy_flux_bizon");
       const auto& pp = get("packing_plane");
+      const auto& ke = get("kappa_enskog");
+      double ske = 0.0;
       double sr = 0.0, sk = 0.0, st = 0.0, sf = 0.0, sfb = 0.0, m = 0.0, srf = 0.0, stf = 0.0, mf = 0.0;
       for (int k = 0; k < S; ++k) {
         const double d = std::abs(k * t.slab_width() - 0.5 * L) / (0.5 * L);
         if (d < an.fit_inner || d > an.fit_outer) continue;
         sr += kr[k], sk += ka[k], st += tp[k], sf += std::abs(F[k]), sfb += std::abs(Fb[k]), m += 1.0;
+        ske += ke[k];
         if (pp[k] < an.fluid_packing) srf += kr[k], stf += tp[k], mf += 1.0;
       }
       out.emplace_back("kappa_over_enskog", sr / m);
@@ -419,6 +422,7 @@ std::vector<TransportScalar> transport_scalars(const SlabTransport& t, const Tra
       out.emplace_back("T_fit_fluid", mf > 0 ? stf / mf : std::nan(""));
       out.emplace_back("fluid_planes", mf);
       out.emplace_back("kappa", sk / m);
+      out.emplace_back("kappa_enskog", ske / m);  // mean over the same planes (local nu, T)
       out.emplace_back("T_fit", st / m);
       out.emplace_back("flux_over_bizon_integrated", sf / sfb);  // measured |flux| / Bizon's integrated balance
     } else {
