@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "edmd/engine.hpp"
+#include "edmd/profile.hpp"
 #include "operators/vec3.hpp"
 
 namespace grainbath::edmd {
@@ -47,10 +48,8 @@ struct TransportBlock {
   std::vector<double> slab, plane;
 };
 
-struct TransportField {
-  std::string name;
-  std::vector<double> mean, stderr_;
-};
+// name, mean, stderr_ per slab or plane (the slab-profile field type)
+using TransportField = ProfileField;
 
 // Derived fields (jackknife over the blocks). Slab fields at the slab centres, plane fields
 // at the planes z = k w.
