@@ -45,7 +45,7 @@ struct SmallRun {
   Config c;
   SlabTransport tr;
   int slabs = 16;
-  std::vector<double> heating_energy, energy_lost;  // engine counters at begin and end
+  std::vector<double> heating_energy, energy_lost, collisions, time;  // engine counters at begin and end
 };
 template <class Each>
 void run_small(SmallRun& run, double equilibrate, int samples, double coll_per_sample, Each each,
@@ -70,6 +70,8 @@ void run_small(SmallRun& run, double equilibrate, int samples, double coll_per_s
   else eng.set_collision_hook(&SlabTransport::collision_hook, &run.tr);
   run.heating_energy.push_back(eng.counters().heating_energy);
   run.energy_lost.push_back(eng.counters().energy_lost);
+  run.collisions.push_back(static_cast<double>(eng.counters().collisions));
+  run.time.push_back(eng.time());
   double t_prev = eng.time();
   for (int s = 0; s < samples; ++s) {
     eng.advance(law, t_prev + dt, UINT64_MAX);
@@ -86,6 +88,8 @@ void run_small(SmallRun& run, double equilibrate, int samples, double coll_per_s
   }
   run.heating_energy.push_back(eng.counters().heating_energy);
   run.energy_lost.push_back(eng.counters().energy_lost);
+  run.collisions.push_back(static_cast<double>(eng.counters().collisions));
+  run.time.push_back(eng.time());
 }
 
 

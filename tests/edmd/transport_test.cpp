@@ -259,3 +259,38 @@ TEST(TransportBookkeeping, PlaneFluxesAgreeWithTheSlabProfiles) {
     EXPECT_NEAR(T.mean[k], p.field("T").mean[k], 5.0 * std::hypot(T.stderr_[k], p.field("T").stderr_[k])) << k;
   }
 }
+
+TEST(TransportForcing, PowerMatchesTheRedrawClosedForm) {
+  // Closed form of the air-table power: a grain's acceleration a is redrawn (direction
+  // independent of its velocity) as a Poisson process of rate lambda per grain, so
+  // E[a.v] = |a|^2 E[age] = |a|^2 / lambda when collisions rarely intervene between redraws
+  // (correction O(omega/lambda), here ~1 %). Sum |a_i|^2 from snapshots; the work from the
+  // slab bookkeeping. Tolerance: 5 sigma of the batch means + 2 % model error.
+  SmallRun run;
+  run.c = config_from(air_table_case(400, 0.1, 0.05, 0.5, "profile = \"tent\"\n"));
+  run.c.heating.rate = 100;
+  std::vector<double> a2;
+  const std::size_t N = static_cast<std::size_t>(run.c.particles);
+  run_small(run, 5.0, 200, 0.1, [&](const Engine& eng) {
+    double s = 0.0;
+    for (std::size_t i = 0; i < N; ++i) s += norm2(eng.acceleration(i));
+    a2.push_back(s);
+  });
+  // power per block of sampling intervals (batch means)
+  std::vector<double> pb;
+  for (const auto& b : run.tr.blocks()) {
+    double w = 0.0;
+    for (int k = 0; k < 16; ++k) w += b.slab[k * SlabTransport::kSlab + 0];
+    pb.push_back(w / b.time);
+  }
+  const MeanErr P = mean_err(pb);
+  // redraws happen at collision instants: a grain is touched at a given instant when one of
+  // the `rate` picks is it or its partner (probability 2/N each), several picks count once
+  const double touched = 1.0 - std::pow(1.0 - 2.0 / N, run.c.heating.rate);
+  const double lambda = touched * (run.collisions[1] - run.collisions[0]) / (run.time[1] - run.time[0]);
+  const MeanErr A2 = mean_err(a2);  // successive snapshots are 0.1 collision apart: nearly independent redraws
+  const double closed = A2.mean / lambda;
+  std::printf("power %.5g +- %.2g, Sum|a|^2/lambda %.5g +- %.2g (lambda %.4g per grain and time)\n", P.mean, P.err, closed,
+              A2.err / lambda, lambda);
+  EXPECT_NEAR(P.mean / closed, 1.0, 0.02 + 5.0 * std::hypot(A2.err / A2.mean, P.err / P.mean));
+}
