@@ -14,6 +14,7 @@
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
+#include "edmd/transport.hpp"
 
 namespace grainbath::edmd {
 
@@ -73,7 +74,16 @@ const std::vector<ModelDescription>& edmd_models() {
        "Bizon Sec. III B, eq. 22: every grain accelerates uniformly between collisions (|a| = `acceleration`), paired grains "
        "have opposite accelerations; at every collision `rate` grains get a new random direction (partner: the opposite)",
        {"rate (1, integer >= 1): accelerations redrawn per collision (r_a)",
-        "acceleration (required, > 0, velocity/time): a0"}},
+        "acceleration (required, > 0, velocity/time): a0",
+        "profile (uniform | tent | shear): Bizon Sec. V; tent = eq. 34, |a| = a0 (1 - |z - L/2|/(L/2)) at the redrawn "
+        "grain; shear = eqs. 35-36, a = a0 (psi + bias sin(2 pi z/L) e_component), psi standard Gaussian",
+        "axis (y, x | y | z): z of eqs. 34-36 (periodic)", "bias (0.01, > 0): eq. 35 amplitude (shear)",
+        "component (x, or y if axis = x): the biased component (shear)"}},
+      {"transport", "slabs",
+       "[transport] slabs = S: Bizon Sec. V bookkeeping through S slab planes along the heating axis: exact per-slab "
+       "energy / momentum balances, kinetic + collisional fluxes, kappa (tent) or mu (shear) vs Enskog",
+       {"slabs (32, integer >= 4)", "fit_inner (0.2), fit_outer (0.8): planes whose distance from z = L/2, in L/2, "
+        "lies between them give the summary kappa/kappa_Enskog (tent)"}},
       {"heating", "boltzmann",
        "Bizon Sec. III C: at every collision `rate` random grains get a new velocity drawn from a Maxwellian at `temperature`",
        {"rate (1, integer >= 1): thermalised grains per collision (r_b)", "temperature (1, > 0, energy): bath temperature"}},
@@ -175,6 +185,24 @@ Config read_config(CaseReader& r) {
     c.heating.kind = HeatingKind::air_table;
     c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
     c.heating.acceleration = r.real_required("heating", "acceleration", Bounds::positive(), "velocity/time");
+    // Bizon Sec. V: position-dependent accelerations (docs/edmd.md "Transport coefficients")
+    const std::string prof = r.choice("heating", "profile", "uniform", {"uniform", "tent", "shear"});
+    if (prof != "uniform") {
+      c.heating.profile = prof == "tent" ? ForcingProfile::tent : ForcingProfile::shear;
+      const std::string ax = r.choice("heating", "axis", "y", {"x", "y", "z"});
+      c.heating.profile_axis = ax == "x" ? 0 : ax == "y" ? 1 : 2;
+      if (c.heating.profile_axis >= c.dims) r.problem("heating", "axis", "axis " + ax + " is not a direction of a 2D box");
+      if (c.walls[c.heating.profile_axis])
+        r.problem("heating", "axis", "the forcing profile needs a periodic axis, found walls in " + ax);
+    }
+    if (prof == "shear") {
+      c.heating.bias = r.real("heating", "bias", 0.01, Bounds::positive(), "fraction of a0 (eq. 35)");
+      const std::string cm = r.choice("heating", "component", c.heating.profile_axis == 0 ? "y" : "x", {"x", "y", "z"});
+      c.heating.bias_component = cm == "x" ? 0 : cm == "y" ? 1 : 2;
+      if (c.heating.bias_component >= c.dims || c.heating.bias_component == c.heating.profile_axis)
+        r.problem("heating", "component",
+                  "the biased component must be a box direction other than the axis, found " + cm);
+    }
   } else if (model == "boltzmann") {
     c.heating.kind = HeatingKind::boltzmann;
     c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
@@ -206,6 +234,20 @@ Config read_config(CaseReader& r) {
     c.tail_bins = static_cast<int>(r.integer("profiles", "velocity_bins", 400, 2, 100000));
     c.tail_range = r.real("profiles", "velocity_range", 12.0, Bounds::positive(), "sqrt(T)");
     if (c.free_cooling) r.problem("profiles", "slabs", "profiles need a steady state (not free_cooling)");
+  }
+  // transport bookkeeping (Bizon Sec. V)
+  c.transport = r.has_section("transport");
+  if (c.transport) {
+    c.transport_slabs = static_cast<int>(r.integer("transport", "slabs", 32, 4, 100000));
+    c.transport_fit_inner = r.real("transport", "fit_inner", 0.2, Bounds::closed(0.0, 1.0), "fraction of L/2");
+    c.transport_fit_outer = r.real("transport", "fit_outer", 0.8, Bounds::closed(0.0, 1.0), "fraction of L/2");
+    if (c.transport_fit_outer <= c.transport_fit_inner)
+      r.problem("transport", "fit_outer", "must exceed fit_inner");
+    if (c.heating.kind != HeatingKind::air_table || c.heating.profile == ForcingProfile::uniform)
+      r.problem("transport", "slabs",
+                "[transport] needs [heating] model = \"air_table\" with profile = \"tent\" (conductivity) or \"shear\" "
+                "(viscosity)");
+    if (c.background.present()) r.problem("transport", "slabs", "[transport] does not book a background medium");
   }
   c.checkpoint = read_checkpoint_settings(r, "collisions per particle");
   return c;
@@ -359,6 +401,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     rs.profiles.init({D, box, c.profile_axis, c.profile_slabs, !c.walls[c.profile_axis]});
     rs.tails.init(D, c.profile_slabs, c.tail_bins, 1.0);
   }
+  if (ctx.resume && c.transport)
+    throw std::runtime_error("--resume: the [transport] sums are not checkpointed; rerun the case from the start");
   if (ctx.resume) {
     std::string warning;
     const bool ok = read_newest_checkpoint(ctx.checkpoint_dir, ctx, eng, rs, warning);
@@ -478,6 +522,27 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     eng.set_collision_hook(&SlabProfiles::collision_hook, &profiles);
     v_raw.resize(N);
   }
+  // transport bookkeeping (Bizon Sec. V): free-flight and collision hooks from here on
+  SlabTransport transport;
+  CollisionHookPair both_hooks;
+  if (c.transport) {
+    transport.init({D, box, c.heating.profile_axis, c.heating.profile == ForcingProfile::shear ? c.heating.bias_component
+                                                                                                  : (c.heating.profile_axis == 0 ? 1 : 0),
+                    c.transport_slabs},
+                   N);
+    eng.synchronize();
+    std::vector<Vec3> xr(N), vr(N);
+    for (std::size_t i = 0; i < N; ++i) xr[i] = eng.position(i), vr[i] = eng.velocity(i);
+    transport.begin(xr, vr);
+    eng.set_move_hook(&SlabTransport::move_hook, &transport);
+    if (c.profiles) {
+      both_hooks = {&SlabProfiles::collision_hook, &profiles, &SlabTransport::collision_hook, &transport};
+      eng.set_collision_hook(&CollisionHookPair::call, &both_hooks);
+    } else {
+      eng.set_collision_hook(&SlabTransport::collision_hook, &transport);
+    }
+    if (v_raw.empty()) v_raw.resize(N);
+  }
   const Counters& c_eq = rs.c_eq;
   const double t0 = rs.t0, T0 = rs.T0, e_initial = rs.e_initial;
   const Vec3 p_initial = rs.p_initial;
@@ -533,6 +598,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
         wall_in_series.push_back((cur.wall_energy[0] + cur.wall_energy[1] - prev.wall_energy[0] - prev.wall_energy[1]) / dt);
         loss_series.push_back((cur.energy_lost - prev.energy_lost) / dt);
       }
+    }
+    if (c.transport) {
+      for (std::size_t i = 0; i < N; ++i) v_raw[i] = eng.velocity(i);
+      transport.end_interval(dt, v_raw);
     }
     if (c.profiles) {
       for (std::size_t i = 0; i < N; ++i) v_raw[i] = eng.velocity(i);  // lab frame (snapshot() removed the mean)
@@ -702,6 +771,24 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     summary.set("walls.temperature_over_balance", T_mean / T_bal);
   }
 
+  TransportResult tr;
+  if (c.transport) {
+    eng.set_move_hook(nullptr, nullptr);
+    eng.set_collision_hook(nullptr, nullptr);
+    const bool cond = c.heating.profile == ForcingProfile::tent;
+    TransportAnalysis an;
+    an.kind = cond ? TransportAnalysis::conductivity : TransportAnalysis::viscosity;
+    an.fit_inner = c.transport_fit_inner;
+    an.fit_outer = c.transport_fit_outer;
+    summary.set("transport.experiment", std::string(cond ? "conductivity" : "viscosity"));
+    for (const auto& sc : transport_scalars(transport, an)) {
+      summary.set("transport." + sc.name, sc.value);
+      if (sc.stderr_ > 0.0) summary.set("transport." + sc.name + "_stderr", sc.stderr_);
+    }
+    summary.set("transport.blocks", static_cast<std::int64_t>(transport.blocks().size()));
+    tr = transport_result(transport);
+  }
+
   // ---- results.h5 ----------------------------------------------------------------------
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
   write_provenance(h5, ctx, "edmd");
@@ -767,6 +854,27 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     h5.write("/profiles/velocity_histogram/counts", tails.counts,
              {static_cast<hsize_t>(c.profile_slabs), static_cast<hsize_t>(D), static_cast<hsize_t>(tails.bins)});
     h5.write("/profiles/velocity_histogram/samples_per_slab", tails.samples);
+  }
+  if (c.transport) {
+    h5.write("/transport/z_slab", tr.z_slab);
+    h5.write("/transport/z_plane", tr.z_plane);
+    h5.attribute("/transport", "axis", std::string(1, "xyz"[c.heating.profile_axis]));
+    h5.attribute("/transport", "blocks", static_cast<double>(tr.blocks));
+    for (const auto& fld : tr.fields) {
+      h5.write("/transport/" + fld.name, fld.mean);
+      h5.write("/transport/" + fld.name + "_stderr", fld.stderr_);
+    }
+    // raw block sums (layouts in src/edmd/transport.hpp) for offline re-analysis
+    std::vector<double> bt, bs, bp;
+    for (const auto& b : transport.blocks()) {
+      bt.push_back(b.time);
+      bs.insert(bs.end(), b.slab.begin(), b.slab.end());
+      bp.insert(bp.end(), b.plane.begin(), b.plane.end());
+    }
+    const hsize_t nb = bt.size(), S = static_cast<hsize_t>(c.transport_slabs);
+    h5.write("/transport/blocks/time", bt);
+    h5.write("/transport/blocks/slab", bs, {nb, S, static_cast<hsize_t>(SlabTransport::kSlab)});
+    h5.write("/transport/blocks/plane", bp, {nb, S, static_cast<hsize_t>(SlabTransport::kPlane)});
   }
   h5.close();  // a failed write (disk full) surfaces here, before the output is committed
 }

@@ -53,6 +53,11 @@ struct Config {
   int profile_slabs = 20;
   int tail_bins = 400;             // velocity histograms per slab: bins over [-range, range]
   double tail_range = 12.0;        // in units of sqrt(T) at the start of the measurement
+  // [transport] (docs/edmd.md "Transport coefficients"): Bizon Sec. V bookkeeping; the
+  // experiment follows [heating] profile (tent: conductivity, shear: viscosity)
+  bool transport = false;
+  int transport_slabs = 32;
+  double transport_fit_inner = 0.2, transport_fit_outer = 0.8;
   // [checkpoint]: `every` in collisions per particle (checkpoints at the next scheduled
   // rebuild, every 10 collisions per particle; docs/edmd.md)
   CheckpointSettings checkpoint;

@@ -171,14 +171,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   if (accelerated_) {
     for (std::size_t i = 0; i + 1 < n_; i += 2) {
       CounterRng rng(seed_, Stream::edmd_heating, i, 0);
-      Vec3 u;
-      if (dims_ == 2) {
-        const double phi = 2.0 * std::numbers::pi * rng.uniform();
-        u = {std::cos(phi), std::sin(phi), 0.0};
-      } else {
-        u = rng.unit_vector();
-      }
-      a_[i] = heating_.acceleration * u;
+      a_[i] = draw_acceleration(rng, k_[i].r);
       a_[i + 1] = -a_[i];
     }
   }
@@ -249,6 +242,7 @@ void Engine::move_to(std::uint32_t i, double t) {
   Kin& k = k_[i];
   const double dt = t - k.t;
   if (dt == 0.0) return;
+  const Vec3 r0 = k.r, v0 = k.v;  // for the free-flight hook
   if (accelerated_) {
     const double e0 = norm2(k.v);
     k.r += dt * k.v + (0.5 * dt * dt) * a_[i];
@@ -258,6 +252,7 @@ void Engine::move_to(std::uint32_t i, double t) {
     k.r += dt * k.v;
   }
   k.t = t;
+  if (move_hook_) move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {
@@ -716,10 +711,9 @@ void Engine::apply_heating() {
         const std::uint32_t p = pick();
         const std::uint32_t q = slot_of_[pair_[id_[p]]];
         if (q == p) break;
-        const Vec3 u = direction();
         move_to(p, now_);
         move_to(q, now_);
-        a_[p] = heating_.acceleration * u;
+        a_[p] = draw_acceleration(rng, k_[p].r);
         a_[q] = -a_[p];
         trajectory_changed(p);
         trajectory_changed(q);
@@ -741,6 +735,34 @@ void Engine::apply_heating() {
       case HeatingKind::none: break;
     }
   }
+}
+
+Vec3 Engine::draw_acceleration(CounterRng& rng, const Vec3& r) {
+  const double a0 = heating_.acceleration;
+  const int ax = heating_.profile_axis;
+  const double L = comp(L_, ax);
+  double z = comp(r, ax);  // wrapped position along the profile axis
+  z -= L * std::floor(z / L);
+  switch (heating_.profile) {
+    case ForcingProfile::shear: {  // Bizon eqs. 35-36: Gaussian components, sinusoidal bias
+      Vec3 a{a0 * rng.normal(), a0 * rng.normal(), dims_ == 3 ? a0 * rng.normal() : 0.0};
+      comp(a, heating_.bias_component) += a0 * heating_.bias * std::sin(2.0 * std::numbers::pi * z / L);
+      return a;
+    }
+    case ForcingProfile::tent:  // Bizon eq. 34: peak a0 at z = L/2, zero at the periodic face
+    case ForcingProfile::uniform: {
+      Vec3 u;
+      if (dims_ == 2) {
+        const double phi = 2.0 * std::numbers::pi * rng.uniform();
+        u = {std::cos(phi), std::sin(phi), 0.0};
+      } else {
+        u = rng.unit_vector();
+      }
+      const double mag = heating_.profile == ForcingProfile::tent ? a0 * (1.0 - std::abs(z - 0.5 * L) / (0.5 * L)) : a0;
+      return mag * u;
+    }
+  }
+  return {};
 }
 
 void Engine::synchronize() {

@@ -45,6 +45,12 @@ inline constexpr double kInf = std::numeric_limits<double>::infinity();
 inline constexpr std::uint64_t kSystemEntity = std::uint64_t{1} << 62;
 
 enum class HeatingKind { none, white_noise, air_table, boltzmann };
+// Spatial profile of the air-table accelerations (Bizon Sec. V, docs/edmd.md "Transport
+// coefficients"): uniform (eq. 22), tent = magnitude a0 (1 - |z - L/2|/(L/2)) set by the
+// redrawn grain's position (eq. 34), shear = Gaussian components a0 psi plus the bias
+// a0 * bias * sin(2 pi z / L) on one component (eqs. 35-36). The partner always receives
+// the opposite acceleration, wherever it is (momentum conserved).
+enum class ForcingProfile { uniform, tent, shear };
 
 // One grain-grain collision as a measurement hook sees it (slab profiles, docs/edmd.md
 // "Slab profiles"). Masses are 1, so momenta are velocities.
@@ -54,10 +60,17 @@ struct CollisionRecord {
   Vec3 impulse;       // momentum given to j (grain i receives -impulse)
   double dEi = 0.0;   // kinetic energy change of i (lab frame)
   double dEj = 0.0;   // kinetic energy change of j
+  std::uint32_t id_i = 0, id_j = 0;  // stable particle ids
 };
 // Called once per processed collision when set (Engine::set_collision_hook); the
 // non-measuring path pays one predictable branch.
 using CollisionHook = void (*)(void* context, const CollisionRecord& record);
+// Called at every free-flight piece when set (Engine::set_move_hook): particle `id` moved
+// from r0 (velocity v0) to r1 (velocity v1) in time dt under the constant acceleration a
+// (zero unless air table). Position wraps at periodic faces happen outside the pieces.
+// Used by the transport bookkeeping (src/edmd/transport.hpp) to find slab-plane crossings.
+using MoveHook = void (*)(void* context, std::uint32_t id, const Vec3& r0, const Vec3& v0, const Vec3& r1,
+                          const Vec3& v1, const Vec3& a, double dt);
 
 // Bizon Sec. III. All three act at grain-grain collisions, "rate" pairs/particles per collision.
 struct Heating {
@@ -66,6 +79,10 @@ struct Heating {
   double kick = 0.0;         // white noise: |dv| of each kick (eqs. 20-21)
   double acceleration = 0.0; // air table: a0 (eq. 22)
   double temperature = 1.0;  // Boltzmann bath temperature
+  ForcingProfile profile = ForcingProfile::uniform;  // air table only
+  int profile_axis = 1;      // z of eqs. 34-36 (index 0, 1, 2)
+  int bias_component = 0;    // y of eq. 35: the biased acceleration component
+  double bias = 0.01;        // eq. 35: relative amplitude of the sinusoidal bias
 };
 
 struct EngineSetup {
@@ -171,6 +188,13 @@ class Engine {
     hook_ = hook;
     hook_context_ = context;
   }
+  // Free-flight hook (transport bookkeeping, nullptr: off).
+  void set_move_hook(MoveHook hook, void* context) {
+    move_hook_ = hook;
+    move_hook_context_ = context;
+  }
+  // Air-table acceleration of a particle by id (zero for other heatings).
+  Vec3 acceleration(std::size_t id) const { return a_[slot_of_[id]]; }
 
   // Checkpoint support (issue #8). Automatic rebuilds happen when the never-reset collision
   // total reaches the next multiple of rebuild_interval * N; advance(max_collisions =
@@ -224,6 +248,7 @@ class Engine {
   template <class Law>
   void process_collision(const Law& law, std::uint32_t i, std::uint32_t j);
   void apply_heating();
+  Vec3 draw_acceleration(CounterRng& rng, const Vec3& r);  // air table: eq. 22 or the Sec. V profiles
   void grow_cells();
   void fill_cells();
   void sort_by_cell();
@@ -239,6 +264,8 @@ class Engine {
   bool driving_walls_ = false;
   CollisionHook hook_ = nullptr;
   void* hook_context_ = nullptr;
+  MoveHook move_hook_ = nullptr;
+  void* move_hook_context_ = nullptr;
   double tc_ = 0.0;
   Heating heating_;
   std::optional<BackgroundState> bg_;
@@ -338,6 +365,8 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
     rec.impulse = b.v - vb0;
     rec.dEi = 0.5 * (norm2(a.v) - norm2(va0));
     rec.dEj = 0.5 * (norm2(b.v) - norm2(vb0));
+    rec.id_i = id_[i];
+    rec.id_j = id_[j];
     hook_(hook_context_, rec);
   }
   c_.virial += 0.5 * (1.0 + e) * gn;                             // sigma k.dv, Bizon eq. 24

@@ -227,4 +227,51 @@ double wall_balance_temperature(const Law& law, int dims, double packing, const 
   return std::sqrt(lo * hi);
 }
 
+// ---- Enskog transport coefficients of elastic hard disks / spheres (Bizon eqs. 16-17) ----
+// Bizon: to the order kinetic theory is taken, the inelastic mu and kappa equal the elastic
+// Enskog values (Sec. II). First Sonine approximation in D dimensions (Garzo & Dufty 1999,
+// elastic limit), m = sigma = k_B = 1, chi = g(sigma), phi = packing fraction:
+//   eta_0 = (D+2)/8 Gamma(D/2) pi^{-(D-1)/2} sqrt(T)            (2D: sqrt(T/pi)/2)
+//   eta   = eta_0 [ (1 + 2^D/(D+2) phi chi)^2 / chi + D/(D+2) 2^{2D+2}/(pi (D+2)) phi^2 chi ]
+//   2D:     eta_0 [ (1 + G)^2 / chi + (8/pi) nu G ],  G = nu chi (Bizon's G(nu))
+//   lam_0 = D (D+2) / (2 (D-1)) eta_0                            (2D: 2 sqrt(T/pi))
+//   lam   = lam_0 [ (1 + 3 2^{D-1}/(D+2) phi chi)^2 / chi + 2^{2D+2} (D-1)/((D+2)^2 pi) phi^2 chi ]
+//   2D:     lam_0 [ (1 + 3G/2)^2 / chi + (4/pi) nu G ]
+// For D = 3 these are Chapman-Cowling's first-Sonine coefficients (1/chi + 3.2 phi +
+// (4/25)(1 + 12/pi) 16 phi^2 chi for eta), checked in tests/edmd/transport_test.cpp.
+inline double dilute_viscosity(int dims, double temperature) {
+  const double D = dims;
+  return (D + 2.0) / 8.0 * std::tgamma(0.5 * D) * std::pow(std::numbers::pi, -(D - 1.0) / 2.0) * std::sqrt(temperature);
+}
+inline double dilute_conductivity(int dims, double temperature) {
+  const double D = dims;
+  return D * (D + 2.0) / (2.0 * (D - 1.0)) * dilute_viscosity(dims, temperature);
+}
+// eta = eta_0 [(1 + x phi chi)^2 / chi + c phi^2 chi]: x = the collisional transfer of the
+// first-order (Sonine) perturbation relative to the kinetic flux, c = the collisional
+// transfer of the local Maxwellian (both checked by Monte Carlo of the collision integrals in
+// tests/edmd/transport_test.cpp).
+struct EnskogCoefficients {
+  double x = 0.0, c = 0.0;
+};
+inline EnskogCoefficients enskog_viscosity_coefficients(int dims) {
+  const double D = dims;
+  return {std::pow(2.0, D) / (D + 2.0), D / (D + 2.0) * std::pow(2.0, 2.0 * D + 2.0) / (std::numbers::pi * (D + 2.0))};
+}
+inline EnskogCoefficients enskog_conductivity_coefficients(int dims) {
+  const double D = dims;
+  return {3.0 * std::pow(2.0, D - 1.0) / (D + 2.0),
+          std::pow(2.0, 2.0 * D + 2.0) * (D - 1.0) / ((D + 2.0) * (D + 2.0) * std::numbers::pi)};
+}
+inline double enskog_viscosity(int dims, double packing, double g, double temperature) {
+  const EnskogCoefficients k = enskog_viscosity_coefficients(dims);
+  const double a = 1.0 + k.x * packing * g;
+  return dilute_viscosity(dims, temperature) * (a * a / g + k.c * packing * packing * g);
+}
+inline double enskog_conductivity(int dims, double packing, double g, double temperature) {
+  const EnskogCoefficients k = enskog_conductivity_coefficients(dims);
+  const double a = 1.0 + k.x * packing * g;
+  return dilute_conductivity(dims, temperature) * (a * a / g + k.c * packing * packing * g);
+}
+
 }  // namespace grainbath::edmd::theory
