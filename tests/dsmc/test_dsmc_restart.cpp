@@ -85,6 +85,36 @@ every = 0.25
 keep = true
 )";
 
+// A fully periodic 3D box with a medium: the fused stream-sort-collide step
+// (src/dsmc/fused.cpp) and the carried bath residual (particles/bath_hazard).
+const char* kPeriodic = R"(
+[domain]
+dimensions = 3
+length = [2.0, 2.0, 2.0]
+cells = [6, 6, 6]
+[grains]
+temperature = 1.2
+[background]
+mass_ratio = 0.4
+density = 1.0
+temperature = 1.0
+knudsen = 0.3
+[restitution]
+law = "constant"
+e = 0.85
+[dsmc]
+particles = 10000
+dt = 0.01
+t_end = 1.0
+[sampling]
+every = 0.05
+steady_from = 0.3
+field_batches = 4
+[checkpoint]
+every = 0.25
+keep = true
+)";
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -105,6 +135,7 @@ void check_exact_continuation(const char* toml, const std::string& tag) {
 
 TEST(DsmcRestart, HomogeneousContinuesBitwise) { check_exact_continuation(kHomogeneous, "hom"); }
 TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(kSpatial, "spa"); }
+TEST(DsmcRestart, PeriodicBoxWithBathContinuesBitwise) { check_exact_continuation(kPeriodic, "per"); }
 
 TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-corrupt-" + std::to_string(::getpid()));
