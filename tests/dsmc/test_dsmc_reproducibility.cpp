@@ -31,6 +31,34 @@ every = 0.1
 steady_from = 0.5
 )";
 
+// spatial cases: a periodic 3D box (the fused step) or another domain, with a bath and
+// inelastic grains
+const char* kPeriodicBox3d = R"(
+[domain]
+dimensions = 3
+length = [2.0, 2.0, 2.0]
+cells = [8, 8, 8]
+)";
+const char* kSpatialRest = R"(
+[grains]
+temperature = 1.3
+[background]
+mass_ratio = 0.4
+density = 1.0
+temperature = 1.0
+knudsen = 0.5
+[restitution]
+law = "constant"
+e = 0.8
+[dsmc]
+particles = 20000
+dt = 0.02
+t_end = 0.6
+[sampling]
+every = 0.1
+steady_from = 0.3
+)";
+
 std::vector<std::string> physics_keys(const grainbath::Summary& s) {
   std::vector<std::string> keys;
   for (const auto& [k, v] : s.entries())
@@ -58,12 +86,7 @@ TEST(DsmcReproducibility, SameSeedSameNumbersAcrossThreadCounts) {
 // must not show it. A periodic 3D box (streaming and cell index fused) and a 2D box with
 // diffuse and open faces (the general wall path), with a bath and inelastic grains.
 TEST(DsmcReproducibility, SpatialSameNumbersAcrossThreadCounts) {
-  for (const char* domain : {R"(
-[domain]
-dimensions = 3
-length = [2.0, 2.0, 2.0]
-cells = [8, 8, 8]
-)",
+  for (const char* domain : {kPeriodicBox3d,
                              R"(
 [domain]
 dimensions = 2
@@ -72,25 +95,7 @@ cells = [10, 5]
 boundaries = ["open", "diffuse"]
 wall_temperature = 1.5
 )"}) {
-    const std::string toml = std::string(domain) + R"(
-[grains]
-temperature = 1.3
-[background]
-mass_ratio = 0.4
-density = 1.0
-temperature = 1.0
-knudsen = 0.5
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.02
-t_end = 0.6
-[sampling]
-every = 0.1
-steady_from = 0.3
-)";
+    const std::string toml = std::string(domain) + kSpatialRest;
     const auto one = run_dsmc(toml, 5, 1, "srepro1");
     const auto two = run_dsmc(toml, 5, 2, "srepro2");
     for (const auto& k : physics_keys(one.summary)) {
@@ -108,29 +113,7 @@ steady_from = 0.3
 // collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads; with a bath (the
 // residual is gathered with the particles) and inelastic grains.
 TEST(DsmcReproducibility, FusedPeriodicStepEqualsSeparatePasses) {
-  const char* toml = R"(
-[domain]
-dimensions = 3
-length = [2.0, 2.0, 2.0]
-cells = [8, 8, 8]
-[grains]
-temperature = 1.3
-[background]
-mass_ratio = 0.4
-density = 1.0
-temperature = 1.0
-knudsen = 0.5
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.02
-t_end = 0.4
-[sampling]
-every = 0.1
-steady_from = 0.2
-)";
+  const std::string toml = std::string(kPeriodicBox3d) + kSpatialRest;
   const auto fused1 = run_dsmc(toml, 5, 1, "fused1");
   const auto fused2 = run_dsmc(toml, 5, 2, "fused2");
   ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
