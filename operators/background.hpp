@@ -121,9 +121,8 @@ template <class Rng>
 inline bool background_test(Vec3& v, Vec3& c, double& cmod, const BackgroundState& b, double grain_mass, Rng& rng,
                             double& energy_gain) {
   const bool maxwellian = rng.uniform() * (cmod + b.mean_speed) < cmod;
-  const auto words = rng.block4();  // the four normals from one whole Philox block
-  const double z1 = rng.normal_ziggurat(words.v[0]), z2 = rng.normal_ziggurat(words.v[1]);
-  const double z3 = rng.normal_ziggurat(words.v[2]), z4 = rng.normal_ziggurat(words.v[3]);
+  const double z1 = rng.normal_ziggurat(), z2 = rng.normal_ziggurat(), z3 = rng.normal_ziggurat();
+  const double z4 = rng.normal_ziggurat();
   const double s3 = z1 * z1 + z2 * z2 + z3 * z3, s4 = s3 + z4 * z4;
   const double a3 = std::sqrt(s3), a4 = std::sqrt(s4);
   const double scale = maxwellian ? b.sigma : b.sigma * (a4 / a3);

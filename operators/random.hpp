@@ -122,11 +122,8 @@ class CounterRng {
 
   // Standard normal by the ziggurat (ZigguratTable): one Philox word per draw on the fast
   // path (~99%), no logarithm or square root. Exact. Used by the DSMC kernels.
-  double normal_ziggurat() { return normal_ziggurat(bits64()); }
-
-  // The same from a given word w (e.g. one of block4()); the slow path (~1%) draws further
-  // words from this generator's main sequence.
-  double normal_ziggurat(std::uint64_t w) {
+  double normal_ziggurat() {
+    const std::uint64_t w = bits64();
     const unsigned i = w & 0xffu;
     const double u = static_cast<double>(w >> 11) * 0x1.0p-53;  // [0, 1)
     const double x = u * kNormalZiggurat.x[i];
@@ -219,16 +216,6 @@ class CounterRng {
     return static_cast<std::uint32_t>(m >> 32);
   }
 
-  // One whole Philox block from a second sequence of the same key and entity (counter word
-  // 3 = 1, its own block index): for kernels that take four draws at a time without the
-  // per-word bookkeeping (and its unpredictable refill branch) of the main sequence.
-  Philox::ctr_type block4() {
-    Philox::ctr_type c = ctr_;
-    c.v[2] = side_blocks_++;
-    c.v[3] = 1;
-    return Philox{}(c, key_);
-  }
-
   // How many 4-word blocks this generator has consumed (for diagnostics/tests).
   std::uint64_t blocks_used() const { return ctr_.v[2]; }
 
@@ -265,7 +252,6 @@ class CounterRng {
   Philox::key_type key_;
   Philox::ctr_type ctr_;
   Philox::ctr_type block_{};
-  std::uint64_t side_blocks_ = 0;
   int used_ = 4;
   bool have_spare_ = false;
   bool have_half_ = false;

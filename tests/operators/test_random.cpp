@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -258,39 +257,4 @@ TEST(CounterRng, BelowIsUniformOnTheIntegers) {
   const int n = 300'000;
   for (int k = 0; k < n; ++k) low += r.below(big) < (1u << 30);
   EXPECT_NEAR(low / n, 1.0 / 3.0, 5 * std::sqrt(2.0 / 9.0 / n));
-}
-
-// block4(): a second sequence of the same (key, entity, step), one whole block per call.
-// It must not repeat the main sequence's words nor its own (the counter advances), must be
-// the same function of the key as the main sequence (reproducible), and its words must be
-// uniform bits: the mean of the top 53 bits as a uniform and the bit balance.
-TEST(CounterRng, Block4IsAnIndependentSequence) {
-  CounterRng a(5, Stream::background_first_half, 17, 3), b(5, Stream::background_first_half, 17, 3);
-  std::vector<std::uint64_t> main_words, side_words;
-  for (int k = 0; k < 64; ++k) main_words.push_back(a.bits64());
-  for (int k = 0; k < 16; ++k) {
-    const auto w = a.block4();
-    const auto w2 = b.block4();
-    for (int j = 0; j < 4; ++j) {
-      EXPECT_EQ(w.v[j], w2.v[j]);
-      side_words.push_back(w.v[j]);
-    }
-  }
-  for (std::uint64_t s : side_words) EXPECT_EQ(std::count(main_words.begin(), main_words.end(), s), 0);
-  std::sort(side_words.begin(), side_words.end());
-  EXPECT_EQ(std::adjacent_find(side_words.begin(), side_words.end()), side_words.end());
-  // uniformity over many blocks
-  CounterRng c(6, Stream::grain_collisions, 0, 0);
-  const int blocks = 250'000;
-  double sum = 0, ones = 0;
-  for (int k = 0; k < blocks; ++k) {
-    const auto w = c.block4();
-    for (int j = 0; j < 4; ++j) {
-      sum += static_cast<double>(w.v[j] >> 11) * 0x1.0p-53;
-      ones += std::popcount(w.v[j]);
-    }
-  }
-  const double n = 4.0 * blocks;
-  EXPECT_NEAR(sum / n, 0.5, 5 * std::sqrt(1.0 / 12 / n));
-  EXPECT_NEAR(ones / (64 * n), 0.5, 5 * std::sqrt(0.25 / (64 * n)));
 }
