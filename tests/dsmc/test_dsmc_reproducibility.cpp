@@ -110,26 +110,40 @@ wall_temperature = 1.5
 
 // A fully periodic box takes the fused stream-sort-collide step (src/dsmc/fused.cpp); it
 // must give bitwise the results of the separate passes (stream, sort_by_cell, per-cell
-// collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads; with a bath (the
-// residual is gathered with the particles) and inelastic grains.
+// collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads, in 3, 2 and 1
+// dimensions; with a bath (the residual is gathered with the particles) and inelastic grains.
 TEST(DsmcReproducibility, FusedPeriodicStepEqualsSeparatePasses) {
-  const std::string toml = std::string(kPeriodicBox3d) + kSpatialRest;
-  const auto fused1 = run_dsmc(toml, 5, 1, "fused1");
-  const auto fused2 = run_dsmc(toml, 5, 2, "fused2");
-  ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
-  const auto separate = run_dsmc(toml, 5, 1, "separate");
-  ::unsetenv("GRAINBATH_DSMC_UNFUSED");
-  for (const auto& k : physics_keys(separate.summary)) {
-    ASSERT_NE(fused1.summary.get(k), nullptr) << k;
-    EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
-    EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
+  for (const char* domain : {kPeriodicBox3d, R"(
+[domain]
+dimensions = 2
+length = [2.0, 1.0]
+cells = [10, 5]
+)",
+                             R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [16]
+)"}) {
+    SCOPED_TRACE(domain);
+    const std::string toml = std::string(domain) + kSpatialRest;
+    const auto fused1 = run_dsmc(toml, 5, 1, "fused1");
+    const auto fused2 = run_dsmc(toml, 5, 2, "fused2");
+    ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
+    const auto separate = run_dsmc(toml, 5, 1, "separate");
+    ::unsetenv("GRAINBATH_DSMC_UNFUSED");
+    for (const auto& k : physics_keys(separate.summary)) {
+      ASSERT_NE(fused1.summary.get(k), nullptr) << k;
+      EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
+      EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
+    }
+    for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
+      EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
+      EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
+    }
+    EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
+    EXPECT_GT(separate.summary.number("counters.bath_collisions"), 0.0);
   }
-  for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
-    EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
-    EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
-  }
-  EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
-  EXPECT_GT(separate.summary.number("counters.bath_collisions"), 0.0);
 }
 
 TEST(DsmcReproducibility, DifferentSeedDifferentNumbers) {
