@@ -5,7 +5,7 @@
 //   DSMC-2  homogeneous bath, alpha = 0.5, eps = 0.01, delta = 0.2, 1e6 grains.
 //   DSMC-1L the same box at 86^3 cells x 16 = 10,176,896 particles (the N = 1e7 figure), 50 steps.
 // Counters: ns per particle-step (wall and CPU), collisions per second, background-collision
-// tests per second and ns per test, bytes per particle of the storage layout, and the peak
+// tests per second and ns per test (wall and CPU), bytes per particle of the storage layout, and the peak
 // RSS of the process (getrusage; run one benchmark per process for its own peak).
 // Run: build/bench/bench_dsmc --benchmark_filter=DSMC1_SpartaBox/1 (see docs/PERFORMANCE.md)
 #include <benchmark/benchmark.h>
@@ -101,12 +101,13 @@ steady_from = 0.0
 relaxation_theory = false
 )";
 
-void report(benchmark::State& state, const grainbath::Summary& s, double particle_steps, double particles, int dims) {
+void report(benchmark::State& state, const grainbath::Summary& s, double particle_steps, double particles, int dims,
+            bool bath = false) {
   const double wall = s.number("performance.wall_seconds");
   state.SetIterationTime(wall);
   state.counters["ns_per_particle_step"] = 1e9 * wall / particle_steps;
   state.counters["cpu_ns_per_particle_step"] = 1e9 * g_cpu_seconds / particle_steps;
-  state.counters["state_bytes_per_particle"] = static_cast<double>(grainbath::dsmc::Particles::bytes_per_particle(dims));
+  state.counters["state_bytes_per_particle"] = static_cast<double>(grainbath::dsmc::Particles::bytes_per_particle(dims, bath));
   if (dims > 0)
     state.counters["sort_scratch_bytes_per_particle"] = static_cast<double>(grainbath::dsmc::SortScratch::bytes_per_particle);
   state.counters["peak_rss_MiB"] = peak_rss_bytes() / (1024.0 * 1024.0);
@@ -114,7 +115,10 @@ void report(benchmark::State& state, const grainbath::Summary& s, double particl
   state.counters["collisions_per_s"] = s.number("counters.grain_collisions") / wall;
   state.counters["bath_tests_per_s"] = s.number("counters.bath_candidates") / wall;
   const double tests = s.number("counters.bath_candidates");
-  if (tests > 0) state.counters["ns_per_bath_test"] = 1e9 * wall / tests;
+  if (tests > 0) {
+    state.counters["ns_per_bath_test"] = 1e9 * wall / tests;
+    state.counters["cpu_ns_per_bath_test"] = 1e9 * g_cpu_seconds / tests;
+  }
   state.counters["collisions_per_particle_step"] = s.number("counters.grain_collisions") / particle_steps;
 }
 
@@ -153,7 +157,7 @@ void BM_DSMC1_SpartaBox_1e7(benchmark::State& state) {
 BENCHMARK(BM_DSMC1_SpartaBox_1e7)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
 
 void BM_DSMC2_HomogeneousBath(benchmark::State& state) {
-  for (auto _ : state) report(state, run_case(kDsmc2, static_cast<int>(state.range(0))), 1e6 * 20, 1e6, 0);
+  for (auto _ : state) report(state, run_case(kDsmc2, static_cast<int>(state.range(0))), 1e6 * 20, 1e6, 0, true);
 }
 BENCHMARK(BM_DSMC2_HomogeneousBath)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
 

@@ -37,6 +37,7 @@ enum class Stream : std::uint64_t {
   edmd_collisions = 8,
   edmd_background = 9,
   wall_collisions = 10,
+  background_clock = 11,       // initial unit-exponential residual of each grain's bath candidate process
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

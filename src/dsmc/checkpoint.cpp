@@ -62,6 +62,7 @@ CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& bat
                  {"particles/x", &p.x},
                  {"particles/y", &p.y},
                  {"particles/z", &p.z},
+                 {"particles/bath_hazard", &p.bath_hazard},
                  {"cells/remainder", &s.remainder},
                  {"series/t", &t.t},
                  {"series/T", &t.T},

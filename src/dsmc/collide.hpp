@@ -81,14 +81,18 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
     if (j >= i) ++j;
     Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
     const Vec3 g = v - w;
-    const double gmod = norm(g);
+    const double g2 = norm2(g);
     ++counters.candidates;
-    if (gmod > g_max) {  // bound exceeded: accept, and raise the bound for the rest of the step
+    if (g2 > g_max * g_max) {  // bound exceeded: accept, and raise the bound for the rest of the step
       ++counters.bound_exceeded;
-      g_max = gmod;
-    } else if (rng.uniform() * g_max >= gmod) {
-      continue;
+      g_max = std::sqrt(g2);
+    } else {
+      // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
+      // the rejected candidates
+      const double u = rng.uniform() * g_max;
+      if (u * u >= g2) continue;
     }
+    const double gmod = std::sqrt(g2);
     const Vec3 n = apse_direction((1.0 / gmod) * g, rng.unit_vector());
     const RestitutionOutcome r = restitution(law, dot(g, n));
     counters.clamped += r.clamped;

@@ -271,7 +271,8 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
 #ifdef GRAINBATH_MPI
   Particles& p = s.particles;
   const int dims = c.domain.dimensions;
-  const std::size_t width = 4 + static_cast<std::size_t>(dims);  // id, v (3), position (dims)
+  const bool hazard = !p.bath_hazard.empty();  // runs with a medium carry the bath residual
+  const std::size_t width = 4 + static_cast<std::size_t>(dims) + (hazard ? 1 : 0);  // id, v (3), position (dims), residual
   std::vector<std::vector<double>> out(size_);
   std::vector<std::uint32_t>& cell = s.sort.cell;
   const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
@@ -285,6 +286,7 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
     o.insert(o.end(), {id, p.vx[i], p.vy[i], p.vz[i], p.x[i]});
     if (dims > 1) o.push_back(p.y[i]);
     if (dims > 2) o.push_back(p.z[i]);
+    if (hazard) o.push_back(p.bath_hazard[i]);
     cell[i] = kRemoved;  // dropped here by the next sort
   }
   const std::vector<double> in = exchange_doubles(out, size_);
@@ -293,6 +295,7 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
   p.x.resize(n + arrived);
   if (dims > 1) p.y.resize(n + arrived);
   if (dims > 2) p.z.resize(n + arrived);
+  if (hazard) p.bath_hazard.resize(n + arrived);
   cell.resize(n + arrived);
   const CellGrid grid(c.domain);
   for (std::size_t j = 0; j < arrived; ++j) {
@@ -305,6 +308,7 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
     p.x[i] = r[4];
     if (dims > 1) p.y[i] = r[5];
     if (dims > 2) p.z[i] = r[6];
+    if (hazard) p.bath_hazard[i] = r[4 + dims];
     cell[i] = grid(p.x[i], dims > 1 ? p.y[i] : 0.0, dims > 2 ? p.z[i] : 0.0);
   }
 #else
@@ -432,6 +436,7 @@ State Decomposition::gather_state(const State& s, const Config& c) const {
   if (c.spatial()) gather(p.x, q.x);
   if (c.domain.dimensions > 1) gather(p.y, q.y);
   if (c.domain.dimensions > 2) gather(p.z, q.z);
+  if (!p.bath_hazard.empty()) gather(p.bath_hazard, q.bath_hazard);
   if (root()) q.id.resize(total);
   MPI_Gatherv(p.id.data(), n, MPI_UINT64_T, q.id.data(), counts.data(), d.data(), MPI_UINT64_T, root_rank, MPI_COMM_WORLD);
   // per-cell data: each rank's own cell range, in rank order = cell order

@@ -22,6 +22,7 @@
 #include "dsmc/collide.hpp"
 #include "dsmc/decomposition.hpp"
 #include "dsmc/dsmc.hpp"
+#include "dsmc/fused.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/output.hpp"
 #include "dsmc/spatial.hpp"
@@ -34,11 +35,12 @@ namespace {
 // Initial state: positions from the density profile and Maxwellian velocities, each grain
 // from its own counter-based stream; then velocities are shifted and scaled so that the
 // sample mean and temperature are exactly the requested ones (no O(N^-1/2) noise at t = 0).
-void initialise(State& s, const Config& c, std::uint64_t seed) {
+void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on) {
   Particles& p = s.particles;
   const std::size_t n = static_cast<std::size_t>(c.particles);
   const Domain& d = c.domain;
   p.resize(n, false);
+  if (bath_on) p.bath_hazard.resize(n);
   if (c.spatial()) {
     p.x.resize(n);
     if (d.dimensions > 1) p.y.resize(n);
@@ -52,6 +54,7 @@ void initialise(State& s, const Config& c, std::uint64_t seed) {
     p.id[i] = i;
     CounterRng rng(seed, Stream::initial_velocities, i, 0);
     p.set_velocity(i, sig * rng.normal3());
+    if (bath_on) p.bath_hazard[i] = CounterRng(seed, Stream::background_clock, i, 0).exponential_ziggurat();
     if (c.spatial()) {
       CounterRng pr(seed, Stream::initial_positions, i, 0);
       // n0 (1 + A cos kx) by rejection
@@ -93,9 +96,9 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
       if (local) {
         const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
         const BackgroundState b = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
-        evolve_in_background(v, b, m, duration, rng, cnt);
+        evolve_in_background(v, p.bath_hazard[i], b, m, duration, rng, cnt);
       } else {
-        evolve_in_background(v, uniform_bath, m, duration, rng, cnt);
+        evolve_in_background(v, p.bath_hazard[i], uniform_bath, m, duration, rng, cnt);
       }
       p.set_velocity(i, v);
     }
@@ -241,9 +244,12 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
     resumed = true;
+    if (bath_on && s.particles.bath_hazard.size() != s.particles.size())
+      throw std::runtime_error("--resume: the checkpoint has no particles/bath_hazard for its " +
+                               std::to_string(s.particles.size()) + " grains (written before the carried bath residual)");
     if (dec.root()) std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
   } else {
-    initialise(s, c, ctx.seed);
+    initialise(s, c, ctx.seed, bath_on);
     if (c.spatial() && c.sample_fields) {
       FieldAccumulator& f = s.fields;
       f.cells = c.domain.cell_count();
@@ -283,6 +289,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
+  const bool fused = fused_step_applies(c) && dec.size() == 1;  // one process: stream, sort, collide in one region
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
   std::vector<std::size_t> bounds;
   std::vector<StreamCounters> walls;
@@ -292,21 +299,27 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
   for (; s.step < c.steps;) {
     if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds);
-    if (c.spatial()) {
-      dec.block_bounds(s, c, bounds);
-      stream(s, c, ctx.seed, removed, bounds, walls);
-      if (walls_counted) {
-        dec.combine_in_order(walls, true);
-        for (const auto& w : walls) {
-          s.counters.wall_energy += w.wall_energy;
-          s.counters.removed_energy += w.removed_energy;
-          s.counters.removed += w.removed;
+    if (fused) {
+      // stream, sort and collide in one parallel region; counters per block of
+      // dec.block_cells() cells, as grain_step sums them (bitwise the same at any rank count)
+      fused_periodic_step(s, c, ctx.seed, per_cell, dec.block_cells());
+    } else {
+      if (c.spatial()) {
+        dec.block_bounds(s, c, bounds);
+        stream(s, c, ctx.seed, removed, bounds, walls);
+        if (walls_counted) {
+          dec.combine_in_order(walls, true);
+          for (const auto& w : walls) {
+            s.counters.wall_energy += w.wall_energy;
+            s.counters.removed_energy += w.removed_energy;
+            s.counters.removed += w.removed;
+          }
         }
+        dec.migrate(s, c, removed);  // MPI: particles that left this rank's cells
+        sort_by_cell(s, c, removed);
       }
-      dec.migrate(s, c, removed);  // MPI: particles that left this rank's cells
-      sort_by_cell(s, c, removed);
+      grain_step(s, c, ctx.seed, per_cell, dec);
     }
-    grain_step(s, c, ctx.seed, per_cell, dec);
     if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half, dec, bounds);
     ++s.step;
     s.particle_steps_run += static_cast<double>(s.particles.size());

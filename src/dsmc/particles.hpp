@@ -13,12 +13,15 @@ struct Particles {
   std::vector<double> vx, vy, vz;
   std::vector<double> x, y, z;  // empty for homogeneous runs
   std::vector<std::uint64_t> id;
+  // runs with a medium: the unit-exponential residual of each grain's background candidate
+  // process, carried from one bath substep to the next (operators/background.hpp)
+  std::vector<double> bath_hazard;
 
   std::size_t size() const { return id.size(); }
   // Stored state per particle: velocities (3 doubles), positions (one per dimension; none
-  // for homogeneous runs), the id. 56 bytes in 3D.
-  static constexpr std::size_t bytes_per_particle(int dimensions) {
-    return (3 + static_cast<std::size_t>(dimensions)) * sizeof(double) + sizeof(std::uint64_t);
+  // for homogeneous runs), the id, and with a medium the bath residual. 56 bytes in 3D.
+  static constexpr std::size_t bytes_per_particle(int dimensions, bool bath = false) {
+    return (3 + static_cast<std::size_t>(dimensions) + (bath ? 1 : 0)) * sizeof(double) + sizeof(std::uint64_t);
   }
   Vec3 velocity(std::size_t i) const { return {vx[i], vy[i], vz[i]}; }
   void set_velocity(std::size_t i, const Vec3& v) {

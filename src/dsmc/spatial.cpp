@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 
+#include "dsmc/cell_order.hpp"
 #include "operators/random.hpp"
 
 namespace grainbath::dsmc {
@@ -23,10 +24,6 @@ double diffuse_normal_speed(CounterRng& rng, double sigma) { return sigma * std:
 }  // namespace
 
 namespace {
-
-// two-lane vectors (GCC/Clang vector extensions; SSE2 on x86-64) for the in-cell ranking
-using Double2 = double __attribute__((vector_size(16)));
-using Long2 = long long __attribute__((vector_size(16)));
 
 // Fully periodic box: no wall can be hit, so streaming is x += v dt with a wrap, and the
 // new cell index is computed in the same pass while the position is in a register (the
@@ -197,19 +194,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
       if (cell[i] != kRemoved) ++cnt[cell[i]];
 #pragma omp barrier
 #pragma omp single
-    {
-      std::uint32_t offset = 0;
-      for (std::size_t k = 0; k < cells; ++k) {
-        start[k] = offset;
-        for (int u = 0; u < threads; ++u) {
-          std::uint32_t& row = w.counts[static_cast<std::size_t>(u) * cells + k];
-          const std::uint32_t here = row;
-          row = offset;
-          offset += here;
-        }
-      }
-      start[cells] = offset;
-    }
+    counting_sort_offsets(w.counts.data(), threads, cells, start);
     // the id travels with the index, so the in-cell sort reads contiguous keys
     for (std::size_t i = lo; i < hi; ++i)
       if (cell[i] != kRemoved) {
@@ -219,45 +204,8 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
       }
 #pragma omp barrier
     // within a cell, order by global id (reproducibility at any thread or rank count)
-    // Small cells (the usual 10-30 particles) are sorted by ranking: the rank of each id is
-    // the count of smaller ids, a branch-free O(m^2) loop in two-lane vectors (ids, < 2^32 here, are
-    // compared as doubles, exact below 2^53). Larger cells use an insertion sort.
-    constexpr std::size_t kLocal = 64;
-    alignas(64) double keys[kLocal + 2];
-    std::uint32_t slots[kLocal];
 #pragma omp for schedule(static)
-    for (std::size_t k = 0; k < cells; ++k) {
-      const std::size_t b0 = start[k], b1 = start[k + 1], m = b1 - b0;
-      if (m <= kLocal) {
-        for (std::size_t a = 0; a < m; ++a) {
-          slots[a] = perm[b0 + a];
-          keys[a] = static_cast<double>(id_out[b0 + a]);
-        }
-        const std::size_t pairs = (m + 1) / 2;
-        keys[m] = std::numeric_limits<double>::infinity();  // pad: never smaller than a key
-        const auto* kv = reinterpret_cast<const Double2*>(keys);
-        for (std::size_t a = 0; a < m; ++a) {
-          const Double2 key = {keys[a], keys[a]};
-          Long2 below = {0, 0};
-          for (std::size_t b = 0; b < pairs; ++b) below -= (kv[b] < key);  // true is -1
-          const auto rank = static_cast<std::size_t>(below[0] + below[1]);
-          perm[b0 + rank] = slots[a];
-          id_out[b0 + rank] = static_cast<std::uint64_t>(keys[a]);
-        }
-        continue;
-      }
-      for (std::size_t a = b0 + 1; a < b1; ++a) {
-        const std::uint32_t v = perm[a];
-        const std::uint64_t key = id[v];
-        std::size_t b = a;
-        while (b > b0 && id[perm[b - 1]] > key) {
-          perm[b] = perm[b - 1];
-          --b;
-        }
-        perm[b] = v;
-      }
-      for (std::size_t a = b0; a < b1; ++a) id_out[a] = id[perm[a]];
-    }
+    for (std::size_t k = 0; k < cells; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
   }
   const std::size_t kept = start[cells];
   w.gather.resize(n);
@@ -278,6 +226,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   apply(p.x);
   apply(p.y);
   apply(p.z);
+  apply(p.bath_hazard);
   // the ids were written in order by the in-cell sort
   p.id.swap(w.id);
   p.id.resize(kept);

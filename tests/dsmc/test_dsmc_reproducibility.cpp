@@ -2,6 +2,8 @@
 // whatever the thread count; another seed gives different numbers.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include "support.hpp"
 
 using grainbath::testing::run_dsmc;
@@ -27,6 +29,34 @@ t_end = 1.0
 [sampling]
 every = 0.1
 steady_from = 0.5
+)";
+
+// spatial cases: a periodic 3D box (the fused step) or another domain, with a bath and
+// inelastic grains
+const char* kPeriodicBox3d = R"(
+[domain]
+dimensions = 3
+length = [2.0, 2.0, 2.0]
+cells = [8, 8, 8]
+)";
+const char* kSpatialRest = R"(
+[grains]
+temperature = 1.3
+[background]
+mass_ratio = 0.4
+density = 1.0
+temperature = 1.0
+knudsen = 0.5
+[restitution]
+law = "constant"
+e = 0.8
+[dsmc]
+particles = 20000
+dt = 0.02
+t_end = 0.6
+[sampling]
+every = 0.1
+steady_from = 0.3
 )";
 
 std::vector<std::string> physics_keys(const grainbath::Summary& s) {
@@ -56,12 +86,7 @@ TEST(DsmcReproducibility, SameSeedSameNumbersAcrossThreadCounts) {
 // must not show it. A periodic 3D box (streaming and cell index fused) and a 2D box with
 // diffuse and open faces (the general wall path), with a bath and inelastic grains.
 TEST(DsmcReproducibility, SpatialSameNumbersAcrossThreadCounts) {
-  for (const char* domain : {R"(
-[domain]
-dimensions = 3
-length = [2.0, 2.0, 2.0]
-cells = [8, 8, 8]
-)",
+  for (const char* domain : {kPeriodicBox3d,
                              R"(
 [domain]
 dimensions = 2
@@ -70,25 +95,7 @@ cells = [10, 5]
 boundaries = ["open", "diffuse"]
 wall_temperature = 1.5
 )"}) {
-    const std::string toml = std::string(domain) + R"(
-[grains]
-temperature = 1.3
-[background]
-mass_ratio = 0.4
-density = 1.0
-temperature = 1.0
-knudsen = 0.5
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.02
-t_end = 0.6
-[sampling]
-every = 0.1
-steady_from = 0.3
-)";
+    const std::string toml = std::string(domain) + kSpatialRest;
     const auto one = run_dsmc(toml, 5, 1, "srepro1");
     const auto two = run_dsmc(toml, 5, 2, "srepro2");
     for (const auto& k : physics_keys(one.summary)) {
@@ -98,6 +105,44 @@ steady_from = 0.3
     for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/particles"})
       EXPECT_EQ(one.series(name), two.series(name)) << name;
     EXPECT_GT(one.summary.number("counters.grain_collisions"), 0.0);
+  }
+}
+
+// A fully periodic box takes the fused stream-sort-collide step (src/dsmc/fused.cpp); it
+// must give bitwise the results of the separate passes (stream, sort_by_cell, per-cell
+// collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads, in 3, 2 and 1
+// dimensions; with a bath (the residual is gathered with the particles) and inelastic grains.
+TEST(DsmcReproducibility, FusedPeriodicStepEqualsSeparatePasses) {
+  for (const char* domain : {kPeriodicBox3d, R"(
+[domain]
+dimensions = 2
+length = [2.0, 1.0]
+cells = [10, 5]
+)",
+                             R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [16]
+)"}) {
+    SCOPED_TRACE(domain);
+    const std::string toml = std::string(domain) + kSpatialRest;
+    const auto fused1 = run_dsmc(toml, 5, 1, "fused1");
+    const auto fused2 = run_dsmc(toml, 5, 2, "fused2");
+    ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
+    const auto separate = run_dsmc(toml, 5, 1, "separate");
+    ::unsetenv("GRAINBATH_DSMC_UNFUSED");
+    for (const auto& k : physics_keys(separate.summary)) {
+      ASSERT_NE(fused1.summary.get(k), nullptr) << k;
+      EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
+      EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
+    }
+    for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
+      EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
+      EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
+    }
+    EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
+    EXPECT_GT(separate.summary.number("counters.bath_collisions"), 0.0);
   }
 }
 

@@ -52,7 +52,7 @@ every = 0.25
 keep = true
 )";
 
-const char* kSpatial = R"(
+const char* kSpatialHead = R"(
 [domain]
 dimensions = 2
 length = [2.0, 1.0]
@@ -72,6 +72,9 @@ amplitude = 0.2
 [restitution]
 law = "constant"
 e = 0.9
+)";
+// run length, sampling and checkpoints shared by the spatial restart cases
+const char* kSpatialRun = R"(
 [dsmc]
 particles = 20000
 dt = 0.01
@@ -85,7 +88,26 @@ every = 0.25
 keep = true
 )";
 
-void check_exact_continuation(const char* toml, const std::string& tag) {
+// A fully periodic 3D box with a medium: the fused stream-sort-collide step
+// (src/dsmc/fused.cpp) and the carried bath residual (particles/bath_hazard).
+const char* kPeriodicHead = R"(
+[domain]
+dimensions = 3
+length = [2.0, 2.0, 2.0]
+cells = [6, 6, 6]
+[grains]
+temperature = 1.2
+[background]
+mass_ratio = 0.4
+density = 1.0
+temperature = 1.0
+knudsen = 0.3
+[restitution]
+law = "constant"
+e = 0.85
+)";
+
+void check_exact_continuation(const std::string& toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
   const auto full = run_dsmc(toml, 21, 0, tag + "-full", ck);
@@ -104,7 +126,8 @@ void check_exact_continuation(const char* toml, const std::string& tag) {
 }  // namespace
 
 TEST(DsmcRestart, HomogeneousContinuesBitwise) { check_exact_continuation(kHomogeneous, "hom"); }
-TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(kSpatial, "spa"); }
+TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(std::string(kSpatialHead) + kSpatialRun, "spa"); }
+TEST(DsmcRestart, PeriodicBoxWithBathContinuesBitwise) { check_exact_continuation(std::string(kPeriodicHead) + kSpatialRun, "per"); }
 
 TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-corrupt-" + std::to_string(::getpid()));

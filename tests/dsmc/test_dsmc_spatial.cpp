@@ -145,7 +145,11 @@ fields = false
   std::printf("mode decay: DSMC %.5f +- %.5f (4 replicas), kinetic D k^2 = %.5f, paper %.5f\n", mean, err, D * k * k,
               Dp * k * k);
   EXPECT_GT(err, 0.0);
-  EXPECT_LT(err, 0.04 * mean);
+  // power guard, not the physics check: the replica standard error must be small enough for
+  // the 4-sigma comparison below to mean something. With 4 replicas the sample SD is a chi
+  // variable with 3 degrees of freedom (99.5th percentile 2.07 sigma); the standard error
+  // measured with two different draws was 2.6 % and 4.1 % of the rate, so the guard sits at 6.5 %.
+  EXPECT_LT(err, 0.065 * mean);
   EXPECT_NEAR(mean, D * k * k, 4 * err);
 }
 

@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <vector>
 #include <numbers>
 
 #include "operators/background.hpp"
@@ -55,14 +57,26 @@ TEST_P(BackgroundIntegral, RateMomentumAndEnergyExchange) {
   const double K = k.nB / k.eps;
   const int trials = 2'000'000;
 
-  // operator: repeated thinning attempts from the same grain velocity
+  // operator: repeated thinning attempts from the same grain velocity, by the general
+  // attempt (EDMD) and by the DSMC bath kernel's test (background_test), each checked
+  // against the same independent references
+  for (const bool dsmc_kernel : {false, true}) {
+  SCOPED_TRACE(dsmc_kernel ? "background_test (DSMC kernel)" : "attempt_background_collision");
   CounterRng rng(99, Stream::background_first_half, 0, 0);
   const double majorant = background_majorant_rate(k.v, b);
   double acc = 0, dvx = 0, dvy = 0, dvz = 0, de = 0, de2 = 0, dvx2 = 0;
   for (int t = 0; t < trials; ++t) {
     Vec3 v = k.v;
     double gain = 0;
-    if (attempt_background_collision(v, b, k.m, rng, gain)) {
+    Vec3 c = k.v - k.uB;
+    double cmod = norm(c);
+    const bool hit = dsmc_kernel ? background_test(v, c, cmod, b, k.m, rng, gain)
+                                 : attempt_background_collision(v, b, k.m, rng, gain);
+    if (dsmc_kernel && hit) {
+      EXPECT_EQ(c.x, v.x - k.uB.x);  // the kernel keeps c = v - uB and |c| current
+      EXPECT_DOUBLE_EQ(cmod, norm(v - k.uB));
+    }
+    if (hit) {
       acc += 1;
       const Vec3 d = v - k.v;
       dvx += d.x;
@@ -107,6 +121,7 @@ TEST_P(BackgroundIntegral, RateMomentumAndEnergyExchange) {
   (void)mz;
   (void)dvy;
   (void)dvz;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -141,4 +156,49 @@ TEST(BackgroundEvolution, RelaxesToBackgroundMaxwellian) {
   EXPECT_NEAR(s4 / grains / (15 * th * th), 1.0, 5 * std::sqrt(945.0 / 225 - 1) / std::sqrt(grains));
   EXPECT_GT(counters.collisions, 20u * grains);
   EXPECT_LE(counters.collisions, counters.candidates);
+}
+
+// The carried residual (evolve_in_background with a per-grain hazard): grains drawn from
+// the stationary Maxwellian at (uB, TB) and evolved through many short substeps, the
+// unit-exponential residual carried from one to the next, must see candidates at the mean
+// majorant rate K (<|c|> + <|c_w|>) and collisions at the mean true rate K <|g|>, with
+// <|c|> = sqrt(8 TB / (pi m)), <|c_w|> = sqrt(8 TB / (pi mB)) and <|g|> = sqrt(8 TB (1/m +
+// 1/mB) / pi) for two Maxwellians at TB (textbook mean speeds, not the code's majorant), and
+// stay at TB. A residual that is not reduced by the hazard of an event-free substep, or
+// is reset to a non-exponential value, shifts the candidate count.
+TEST(BackgroundEvolution, CarriedResidualKeepsTheRatesAcrossSubsteps) {
+  const double alpha = 0.4, TB = 1.3, m = 1.0, K = 5.0;
+  const BackgroundState b = BackgroundState::make(K, 1.0, {0.2, 0.0, 0.0}, TB, alpha, m);
+  const double mB = background_mass(alpha, m);
+  const int grains = 100'000, substeps = 16;
+  const double T = 0.8, dt = T / substeps;
+  BackgroundCounters counters;
+  double s2 = 0;
+  std::vector<double> cand(grains);
+  for (int i = 0; i < grains; ++i) {
+    CounterRng init(3, Stream::initial_velocities, i, 0);
+    Vec3 v = b.velocity + std::sqrt(TB / m) * init.normal3();
+    double hazard = init.exponential();
+    const std::uint64_t before = counters.candidates;
+    for (int s = 0; s < substeps; ++s) {
+      CounterRng rng(3, s % 2 ? Stream::background_second_half : Stream::background_first_half, i, s / 2);
+      evolve_in_background(v, hazard, b, m, dt, rng, counters);
+    }
+    cand[i] = static_cast<double>(counters.candidates - before);
+    s2 += norm2(v - b.velocity);
+  }
+  const double mean_c = std::sqrt(8 * TB / (std::numbers::pi * m)), mean_w = std::sqrt(8 * TB / (std::numbers::pi * mB));
+  const double mean_g = std::sqrt(8 * TB * (1 / m + 1 / mB) / std::numbers::pi);
+  double cm = 0, cv = 0;
+  for (double x : cand) cm += x;
+  cm /= grains;
+  for (double x : cand) cv += (x - cm) * (x - cm);
+  cv /= grains - 1;
+  std::printf("carried residual: candidates per grain %.5f +- %.5f (expected %.5f), collisions %.5f (expected %.5f)\n", cm,
+              std::sqrt(cv / grains), K * (mean_c + mean_w) * T, static_cast<double>(counters.collisions) / grains,
+              K * mean_g * T);
+  EXPECT_NEAR(cm, K * (mean_c + mean_w) * T, 5 * std::sqrt(cv / grains));
+  // collisions: a Poisson count per grain at most as variable as the candidates
+  EXPECT_NEAR(static_cast<double>(counters.collisions) / grains, K * mean_g * T, 5 * std::sqrt(cv / grains));
+  EXPECT_NEAR(m * s2 / grains / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / grains));
 }

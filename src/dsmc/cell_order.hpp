@@ -1,0 +1,72 @@
+#pragma once
+// Ordering the particles of one cell by global id, shared by the cell sort
+// (src/dsmc/spatial.cpp) and the fused periodic step (src/dsmc/fused.cpp).
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+namespace grainbath::dsmc {
+
+// Orders the slots [b0, b1) of `perm` (old particle indices) and `id_out` (their ids, in
+// the same order) by id. Small cells (the usual 10-30 particles) are sorted by ranking: the
+// rank of each id is the count of smaller ids, a branch-free O(m^2) loop in two-lane vectors
+// (ids, < 2^32 here, are compared as doubles, exact below 2^53). Larger cells use an
+// insertion sort through `id` (the ids in the old order).
+inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
+                             const std::uint64_t* __restrict id, std::size_t b0, std::size_t b1) {
+  using Double2 = double __attribute__((vector_size(16)));  // GCC/Clang vector extensions; SSE2 on x86-64
+  using Long2 = long long __attribute__((vector_size(16)));
+  constexpr std::size_t kLocal = 64;
+  const std::size_t m = b1 - b0;
+  if (m <= kLocal) {
+    alignas(64) double keys[kLocal + 2];
+    std::uint32_t slots[kLocal];
+    for (std::size_t a = 0; a < m; ++a) {
+      slots[a] = perm[b0 + a];
+      keys[a] = static_cast<double>(id_out[b0 + a]);
+    }
+    const std::size_t pairs = (m + 1) / 2;
+    keys[m] = std::numeric_limits<double>::infinity();  // pad: never smaller than a key
+    const auto* kv = reinterpret_cast<const Double2*>(keys);
+    for (std::size_t a = 0; a < m; ++a) {
+      const Double2 key = {keys[a], keys[a]};
+      Long2 below = {0, 0};
+      for (std::size_t b = 0; b < pairs; ++b) below -= (kv[b] < key);  // true is -1
+      const auto rank = static_cast<std::size_t>(below[0] + below[1]);
+      perm[b0 + rank] = slots[a];
+      id_out[b0 + rank] = static_cast<std::uint64_t>(keys[a]);
+    }
+    return;
+  }
+  for (std::size_t a = b0 + 1; a < b1; ++a) {
+    const std::uint32_t v = perm[a];
+    const std::uint64_t key = id[v];
+    std::size_t b = a;
+    while (b > b0 && id[perm[b - 1]] > key) {
+      perm[b] = perm[b - 1];
+      --b;
+    }
+    perm[b] = v;
+  }
+  for (std::size_t a = b0; a < b1; ++a) id_out[a] = id[perm[a]];
+}
+
+// Counting-sort offsets: `counts` holds [thread][cell] counts on entry and the first slot
+// of each (cell, thread) run on exit, in (cell, thread) order, so the sort is stable and its
+// result does not depend on the thread count; start[k] is the first slot of cell k and
+// start[cells] the total.
+inline void counting_sort_offsets(std::uint32_t* counts, int threads, std::size_t cells, std::size_t* start) {
+  std::uint32_t offset = 0;
+  for (std::size_t k = 0; k < cells; ++k) {
+    start[k] = offset;
+    for (int u = 0; u < threads; ++u) {
+      std::uint32_t& row = counts[static_cast<std::size_t>(u) * cells + k];
+      const std::uint32_t here = row;
+      row = offset;
+      offset += here;
+    }
+  }
+  start[cells] = offset;
+}
+
+}  // namespace grainbath::dsmc
