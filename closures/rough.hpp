@@ -33,10 +33,14 @@ struct Parameters {
   double q = 0.5;       // I / (m a^2)
   double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d/3d
   double H = 0.0;       // driving: dTtr/dt from the noise
+  // driving keyed on collisions (EDMD white noise, kicks at every collision): adds
+  // H_per_collision * nu to dTtr/dt, i.e. a fixed temperature gain per collision per particle
+  double H_per_collision = 0.0;
   int dim = 2;          // 2: planar translation + spin along z; 3: three of each
 };
 
-// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0,
+// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0
+// or H_per_collision < 0,
 // dim not 2 or 3.
 void validate(const Parameters&);
 
@@ -77,7 +81,7 @@ double steady_ratio(Model, const Parameters&);
 struct SteadyState {
   double Ttr, Trot, R;
 };
-// Steady temperatures for H > 0 (R12).
+// Steady temperatures for H > 0 or H_per_collision > 0 (R12: G F Ttr^{3/2} = H + H_nu G Ttr^{1/2}).
 SteadyState steady_state(Model, const Parameters&);
 
 // Linearisation about the steady state (thesis sec. 10.5: "an eigenvalue problem with two

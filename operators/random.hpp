@@ -37,6 +37,7 @@ enum class Stream : std::uint64_t {
   edmd_collisions = 8,
   edmd_background = 9,
   wall_collisions = 10,
+  initial_angular_velocities = 11,  // rough grains (EDMD [edmd] rotational_temperature)
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

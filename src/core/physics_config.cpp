@@ -12,6 +12,12 @@ const std::vector<ModelDescription>& restitution_models() {
       {"restitution", "bizon",
        "Bizon et al. eq. 18: e = 1 - (1 - e_c)(v_n/v0)^(3/4) below v0, e_c above",
        {"e (0.7, (0, 1]): restitution above the crossover", "crossover (1, > 0, velocity): v0"}},
+      {"restitution", "walton",
+       "Rough grains with spin (EDMD only; docs/rough.md W1-W5): normal restitution e, tangential beta0 when sticking, "
+       "Coulomb friction mu when sliding; [edmd] rotational_temperature sets the initial Trot (0)",
+       {"e (required, [0, 1]): normal restitution", "beta0 (required, [-1, 1]): tangential restitution (-1 smooth, 1 perfectly rough)",
+        "mu (inf, >= 0): Coulomb friction coefficient (very large: never sliding)",
+        "q (1/2 in 2D, 2/5 in 3D, > 0): moment of inertia I = q m a^2, a = sigma/2 (2D default: disks)"}},
   };
   return models;
 }
@@ -31,6 +37,8 @@ RestitutionLaw read_restitution(CaseReader& r) {
       r.problem("restitution", "beta", "with delta = 0 the power law gives e = 1 - 2 beta < 0; expected beta <= 0.5");
     return p;
   }
+  if (law == "walton")
+    r.problem("restitution", "law", "law \"walton\" (rough grains) needs [run] solver = \"edmd\"; this solver has no spin");
   if (law == "bizon") {
     BizonRestitution b;
     b.e_c = r.real("restitution", "e", 0.7, Bounds::half_open(0.0, 1.0));

@@ -14,6 +14,7 @@
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
+#include "closures/rough.hpp"
 
 namespace grainbath::edmd {
 
@@ -96,6 +97,21 @@ const std::vector<ModelDescription>& edmd_models() {
   return models;
 }
 
+namespace {
+// [restitution] law = "walton" (docs/rough.md): e, beta0 required; mu defaults to no sliding;
+// q defaults to the grains the engine moves (2D disks 1/2, 3D spheres 2/5).
+Config::Rough read_rough(CaseReader& r, int dims) {
+  Config::Rough g;
+  g.law.e = r.real_required("restitution", "e", Bounds::closed(0.0, 1.0), "normal restitution");
+  g.law.beta0 = r.real_required("restitution", "beta0", Bounds::closed(-1.0, 1.0), "tangential restitution");
+  g.law.mu = r.has("restitution", "mu") ? r.real("restitution", "mu", 0.0, Bounds::non_negative(), "Coulomb friction")
+                                        : std::numeric_limits<double>::infinity();
+  g.q = r.real("restitution", "q", dims == 2 ? 0.5 : 0.4, Bounds::positive(), "I / (m a^2)");
+  g.rotational_temperature = r.real("edmd", "rotational_temperature", 0.0, Bounds::non_negative(), "energy");
+  return g;
+}
+}  // namespace
+
 Config read_config(CaseReader& r) {
   Config c;
   c.dims = static_cast<int>(r.integer("edmd", "dimensions", 3, 2, 3));
@@ -109,9 +125,15 @@ Config read_config(CaseReader& r) {
     const auto asp = r.reals("edmd", "aspect", std::vector<double>(c.dims, 1.0), c.dims, c.dims, Bounds::positive());
     if (asp.size() == static_cast<std::size_t>(c.dims)) c.aspect = {asp[0], asp[1], c.dims == 3 ? asp[2] : 1.0};
   }
-  c.restitution = read_restitution(r);
+  if (r.has("restitution", "law") && r.text("restitution", "law", "elastic") == "walton") {
+    c.rough = read_rough(r, c.dims);
+  } else {
+    c.restitution = read_restitution(r);
+    if (r.has("edmd", "rotational_temperature"))
+      r.problem("edmd", "rotational_temperature", "only rough grains spin: needs [restitution] law = \"walton\"");
+  }
   const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
-                                  std::holds_alternative<PowerLawRestitution>(c.restitution);
+                                  std::holds_alternative<PowerLawRestitution>(c.restitution) || c.rough.has_value();
   c.contact_time = r.real("edmd", "contact_time", inelastic_constant ? 1e-6 : 0.0, Bounds::non_negative(), "time");
   const double cp = theory::close_packing(c.dims);
   if (c.packing_fraction >= cp) {
@@ -220,6 +242,7 @@ EngineSetup make_setup(const Config& c, std::uint64_t seed) {
   s.wall_driving = c.wall_driving;
   s.wall_restitution_side = c.wall_restitution_side;
   s.contact_time = c.contact_time;
+  if (c.rough) s.inertia_q = c.rough->q;
   s.heating = c.heating;
   s.seed = seed;
   if (c.background.present()) {
@@ -260,8 +283,55 @@ InitialState make_initial_state(const Config& c, std::uint64_t seed) {
   for (auto& v : st.velocities) v -= p, ke += norm2(v);
   const double s = std::sqrt(c.temperature * c.dims * n / ke);
   for (auto& v : st.velocities) v *= s;
+  if (c.rough) {
+    // Gaussian spins at exactly Trot = I <|omega|^2> / d_rot (2D: omega_z only, d_rot = 1)
+    st.omega.assign(n, Vec3{});
+    const double Trot = c.rough->rotational_temperature;
+    if (Trot > 0.0) {
+      const int d_rot = c.dims == 2 ? 1 : 3;
+      double w2 = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        CounterRng rng(seed, Stream::initial_angular_velocities, i, 0);
+        Vec3 w = rng.normal3();
+        if (c.dims == 2) w.x = w.y = 0.0;
+        st.omega[i] = w;
+        w2 += norm2(w);
+      }
+      const double I = 0.25 * c.rough->q;
+      const double sw = std::sqrt(Trot * d_rot * n / (I * w2));
+      for (auto& w : st.omega) w *= sw;
+    }
+  }
   return st;
 }
+
+namespace {
+using rough_model = closures::rough::Model;
+// the run's restitution law, rough or not, to a generic lambda (resolved once, outside the loop)
+template <class F>
+decltype(auto) visit_law(const Config& c, F&& f) {
+  if (c.rough) return f(c.rough->law);
+  return std::visit(f, c.restitution);
+}
+// closures/rough parameters of the case (docs/rough.md R1, R15): Enskog collision prefactor
+// G (Henderson chi in 2D, Carnahan-Starling in 3D) in engine units, and the collision-keyed
+// white noise as H_per_collision: each collision adds rate * kick^2 to the kinetic energy on
+// average (two opposite kicks of size kick in a random direction), i.e. per particle
+// dTtr/dt = nu rate kick^2 / D.
+closures::rough::Parameters rough_parameters(const Config& c) {
+  closures::rough::Parameters p;
+  p.e = c.rough->law.e;
+  p.beta0 = c.rough->law.beta0;
+  p.mu = std::isfinite(c.rough->law.mu) ? c.rough->law.mu : 1e300;
+  p.q = c.rough->q;
+  p.dim = c.dims;
+  p.G = c.dims == 2 ? closures::rough::collision_prefactor_2d(c.packing_fraction)
+                    : closures::rough::collision_prefactor_3d(c.packing_fraction);
+  p.H = 0.0;
+  if (c.heating.kind == HeatingKind::white_noise) p.H_per_collision = c.heating.rate * c.heating.kick * c.heating.kick / c.dims;
+  return p;
+}
+}  // namespace
 
 std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   std::vector<std::pair<std::string, double>> out;
@@ -282,16 +352,15 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   const double g = theory::g_contact_reference(D, nu);
   out.emplace_back("edmd.g_contact", g);
   out.emplace_back("edmd.enskog_frequency", theory::enskog_frequency(D, nu, g, c.temperature));
-  const double e = std::visit([&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; },
-                              c.restitution);
+  const double e = visit_law(c, [&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; });
   out.emplace_back("edmd.gamma0", theory::gamma0(D, nu, g, e, c.temperature));
   out.emplace_back("edmd.gamma_e",
-                   std::visit([&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }, c.restitution));
+                   visit_law(c, [&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }));
   if (c.background.present()) {
     const double K = c.background.density / c.background.knudsen;
-    out.emplace_back("edmd.medium_steady_temperature", std::visit([&](const auto& law) {
+    out.emplace_back("edmd.medium_steady_temperature", visit_law(c, [&](const auto& law) {
       return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
-    }, c.restitution));
+    }));
     // DSMC of the same physics: grain-grain cross-section 1 in DSMC units corresponds to
     // pi sigma^2 g(sigma) (3D) or 2 sigma g(sigma) (2D) here, so [grains] density =
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
@@ -302,12 +371,19 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     const Vec3 b = c.box();
     const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
                                     c.wall_restitution_side[1], wd == 0 ? b.x : wd == 1 ? b.y : b.z};
-    std::visit([&](const auto& law) {
+    visit_law(c, [&](const auto& law) {
       out.emplace_back("edmd.wall_balance_temperature", theory::wall_balance_temperature(law, D, nu, drive, true));
       out.emplace_back("edmd.wall_balance_temperature_dilute", theory::wall_balance_temperature(law, D, nu, drive, false));
       out.emplace_back("edmd.wall_balance_temperature_thesis_reading",
                        theory::wall_balance_temperature(law, D, nu, drive, false, true));
-    }, c.restitution);
+    });
+  }
+  if (c.rough) {
+    // mean-field models A-E (closures/rough, docs/rough.md R11): steady Trot/Ttr
+    const auto p = rough_parameters(c);
+    for (auto m : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E})
+      out.emplace_back(std::string("edmd.rough.model_") + closures::rough::to_string(m) + ".R",
+                       closures::rough::steady_ratio(m, p));
   }
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
@@ -326,6 +402,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const std::size_t N = static_cast<std::size_t>(c.particles);
   const InitialState init = make_initial_state(c, seed);
   Engine eng(make_setup(c, seed), init.positions, init.velocities);
+  // rough grains (docs/rough.md): spins, Trot = I <|omega|^2> / d_rot, energies incl. rotation
+  constexpr bool rough = std::is_same_v<Law, WaltonRestitution>;
+  if (!init.omega.empty()) eng.set_angular_velocities(init.omega);
+  auto rotational_temperature = [&]() {
+    double w2 = 0.0;
+    for (std::size_t i = 0; i < N; ++i) w2 += norm2(eng.angular_velocity(i));
+    return eng.moment_of_inertia() * w2 / ((D == 2 ? 1.0 : 3.0) * N);
+  };
+  auto total_energy = [&]() { return eng.kinetic_energy() + (rough ? eng.rotational_energy() : 0.0); };
   const Vec3 box = c.box();
   const double volume = D == 3 ? box.x * box.y * box.z : box.x * box.y;
   const double n = N / volume;
@@ -458,10 +543,11 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     rs.t0 = eng.time();
     rs.T0 = T;
     T = snapshot();
-    rs.e_initial = eng.kinetic_energy();
+    rs.e_initial = total_energy();
     rs.p_initial = eng.momentum();
     s.time.push_back(0.0);
     s.temperature.push_back(T);
+    if (rough) s.rotational_temperature.push_back(rotational_temperature());
     prev = eng.counters();
     t_prev = rs.t0;
     T_prev = T;
@@ -509,6 +595,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       s.z.push_back(1.0 + (cur.virial - prev.virial) / (D * dt * N * Tm));
       s.time.push_back(eng.time() - t0);
       s.temperature.push_back(T);
+      if (rough) s.rotational_temperature.push_back(rotational_temperature());
       s.energy_lost.push_back((cur.energy_lost - prev.energy_lost) / (volume * dt));
       s.heating.push_back((cur.heating_energy - prev.heating_energy) / (volume * dt));
       s.background.push_back((cur.background_energy - prev.background_energy) / (volume * dt));
@@ -614,9 +701,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   // conservation
   summary.set("conservation.energy_change",
-              (eng.kinetic_energy() - e_initial) -
+              (total_energy() - e_initial) -
                   (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost));
-  summary.set("conservation.relative_energy_change_elastic", (eng.kinetic_energy() - e_initial) / e_initial);
+  summary.set("conservation.relative_energy_change_elastic", (total_energy() - e_initial) / e_initial);
   summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
   summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
   summary.set("energy.background_rate", t_run > 0 ? f.background_energy / (volume * t_run) : 0.0);
@@ -671,7 +758,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     std::vector<double> diff(wall_in_series.size());
     for (std::size_t k = 0; k < diff.size(); ++k) diff[k] = wall_in_series[k] - loss_series[k];
     summary.set("walls.balance_stderr", block_average(diff).stderr_ / loss);
-    summary.set("walls.energy_change_per_time", (eng.kinetic_energy() - e_initial) / t_run);
+    summary.set("walls.energy_change_per_time", (total_energy() - e_initial) / t_run);
     const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
     const double Lw = wd == 0 ? box.x : wd == 1 ? box.y : box.z;
     const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
@@ -686,6 +773,40 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     summary.set("walls.temperature_over_balance", T_mean / T_bal);
   }
 
+  // rough grains: steady R = Trot/Ttr over the second half of the samples (blocked standard
+  // error of the per-sample ratio), the models' R and their Ttr(t), Trot(t) from the
+  // measured start (docs/rough.md R2-R12; the models use the Enskog collision frequency)
+  std::vector<std::pair<std::string, std::vector<closures::rough::Sample>>> model_curves;
+  if constexpr (rough) {
+    const std::size_t m = s.temperature.size();
+    std::vector<double> ratio, ttr, trot;
+    for (std::size_t k = m / 2; k < m; ++k) {
+      if (k == 0) continue;  // the start is not a steady sample
+      ratio.push_back(s.rotational_temperature[k] / s.temperature[k]);
+      ttr.push_back(s.temperature[k]);
+      trot.push_back(s.rotational_temperature[k]);
+    }
+    const MeanError Rm = block_average(ratio), Ttm = block_average(ttr), Trm = block_average(trot);
+    summary.set("rotation.R", Rm.mean);
+    summary.set("rotation.R_stderr", Rm.stderr_);
+    summary.set("rotation.window_start_time", s.time[m / 2 > 0 ? m / 2 : 1]);
+    summary.set("rotation.Ttr_mean", Ttm.mean);
+    summary.set("rotation.Ttr_stderr", Ttm.stderr_);
+    summary.set("rotation.Trot_mean", Trm.mean);
+    summary.set("rotation.Trot_stderr", Trm.stderr_);
+    summary.set("rotation.Trot_initial", s.rotational_temperature.front());
+    summary.set("rotation.moment_of_inertia_q", c.rough->q);
+    const auto p = rough_parameters(c);
+    for (auto model : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E}) {
+      const std::string key = std::string("theory.model_") + closures::rough::to_string(model);
+      summary.set(key + ".R", closures::rough::steady_ratio(model, p));
+      if (p.H_per_collision > 0.0) summary.set(key + ".Ttr", closures::rough::steady_state(model, p).Ttr);
+      if (s.temperature.front() > 0.0)
+        model_curves.emplace_back(closures::rough::to_string(model),
+                                  closures::rough::integrate(model, p, s.temperature.front(), s.rotational_temperature.front(), s.time));
+    }
+  }
+
   // ---- results.h5 ----------------------------------------------------------------------
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
   write_provenance(h5, ctx, "edmd");
@@ -697,6 +818,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   h5.write("/series/heating_rate", s.heating);
   h5.write("/series/background_rate", s.background);
   h5.write("/series/collision_frequency", s.collisions);
+  if (rough) {
+    h5.write("/series/rotational_temperature", s.rotational_temperature);
+    for (const auto& [name, curve] : model_curves) {
+      std::vector<double> a, b;
+      for (const auto& x : curve) a.push_back(x.Ttr), b.push_back(x.Trot);
+      h5.write("/theory/rough_model_" + name + "/Ttr", a);  // at /series/time
+      h5.write("/theory/rough_model_" + name + "/Trot", b);
+    }
+  }
   if (!c.free_cooling) {
     h5.write("/observables/gr/r", pairs.gr_radii());
     h5.write("/observables/gr/g", pairs.gr());
@@ -758,7 +888,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
 }  // namespace
 
 void run(const Config& c, const RunContext& ctx, Summary& summary) {
-  std::visit([&](const auto& law) { run_with(law, c, ctx, summary); }, c.restitution);
+  visit_law(c, [&](const auto& law) { run_with(law, c, ctx, summary); });
 }
 
 }  // namespace grainbath::edmd

@@ -16,6 +16,7 @@
 #include "core/summary.hpp"
 #include "edmd/engine.hpp"
 #include "operators/restitution.hpp"
+#include "operators/walton.hpp"
 
 namespace grainbath::edmd {
 
@@ -37,6 +38,14 @@ struct Config {
                                       wall_restitution_side[0] != wall_restitution || wall_restitution_side[1] != wall_restitution; }
   Vec3 aspect{1.0, 1.0, 1.0};      // relative edge lengths of the box (volume fixed by N and packing)
   RestitutionLaw restitution = ElasticRestitution{};
+  // [restitution] law = "walton": rough grains with spin (docs/rough.md); replaces
+  // `restitution` (which then stays elastic and unused)
+  struct Rough {
+    WaltonRestitution law;
+    double q = 0.5;                      // I / (m a^2): 1/2 disks (2D default), 2/5 spheres (3D default)
+    double rotational_temperature = 0.0; // initial Trot = I <omega^2> / d_rot (energy)
+  };
+  std::optional<Rough> rough;
   BackgroundParameters background;
   Heating heating;
   // [sampling]
@@ -71,6 +80,7 @@ const std::vector<ModelDescription>& edmd_models();
 // velocities at `temperature` with zero total momentum, rescaled to exactly that temperature.
 struct InitialState {
   std::vector<Vec3> positions, velocities;
+  std::vector<Vec3> omega;  // rough grains only (empty otherwise)
 };
 InitialState make_initial_state(const Config& config, std::uint64_t seed);
 EngineSetup make_setup(const Config& config, std::uint64_t seed);
