@@ -382,8 +382,11 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     // mean-field models A-E (closures/rough, docs/rough.md R11): steady Trot/Ttr
     const auto p = rough_parameters(c);
     for (auto m : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E})
-      out.emplace_back(std::string("edmd.rough.model_") + closures::rough::to_string(m) + ".R",
-                       closures::rough::steady_ratio(m, p));
+    {
+      const std::string key = std::string("edmd.rough.model_") + closures::rough::to_string(m);
+      out.emplace_back(key + ".R", closures::rough::steady_ratio(m, p));
+      if (p.H_per_collision > 0.0) out.emplace_back(key + ".Ttr", closures::rough::steady_state(m, p).Ttr);
+    }
   }
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
