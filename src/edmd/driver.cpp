@@ -97,21 +97,6 @@ const std::vector<ModelDescription>& edmd_models() {
   return models;
 }
 
-namespace {
-// [restitution] law = "walton" (docs/rough.md): e, beta0 required; mu defaults to no sliding;
-// q defaults to the grains the engine moves (2D disks 1/2, 3D spheres 2/5).
-Config::Rough read_rough(CaseReader& r, int dims) {
-  Config::Rough g;
-  g.law.e = r.real_required("restitution", "e", Bounds::closed(0.0, 1.0), "normal restitution");
-  g.law.beta0 = r.real_required("restitution", "beta0", Bounds::closed(-1.0, 1.0), "tangential restitution");
-  g.law.mu = r.has("restitution", "mu") ? r.real("restitution", "mu", 0.0, Bounds::non_negative(), "Coulomb friction")
-                                        : std::numeric_limits<double>::infinity();
-  g.q = r.real("restitution", "q", dims == 2 ? 0.5 : 0.4, Bounds::positive(), "I / (m a^2)");
-  g.rotational_temperature = r.real("edmd", "rotational_temperature", 0.0, Bounds::non_negative(), "energy");
-  return g;
-}
-}  // namespace
-
 Config read_config(CaseReader& r) {
   Config c;
   c.dims = static_cast<int>(r.integer("edmd", "dimensions", 3, 2, 3));
@@ -125,8 +110,8 @@ Config read_config(CaseReader& r) {
     const auto asp = r.reals("edmd", "aspect", std::vector<double>(c.dims, 1.0), c.dims, c.dims, Bounds::positive());
     if (asp.size() == static_cast<std::size_t>(c.dims)) c.aspect = {asp[0], asp[1], c.dims == 3 ? asp[2] : 1.0};
   }
-  if (r.has("restitution", "law") && r.text("restitution", "law", "elastic") == "walton") {
-    c.rough = read_rough(r, c.dims);
+  if (names_walton(r)) {
+    c.rough = read_rough(r, c.dims == 2 ? 0.5 : 0.4, "edmd");  // default q: the grain the engine moves
   } else {
     c.restitution = read_restitution(r);
     if (r.has("edmd", "rotational_temperature"))

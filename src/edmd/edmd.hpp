@@ -40,11 +40,8 @@ struct Config {
   RestitutionLaw restitution = ElasticRestitution{};
   // [restitution] law = "walton": rough grains with spin (docs/rough.md); replaces
   // `restitution` (which then stays elastic and unused)
-  struct Rough {
-    WaltonRestitution law;
-    double q = 0.5;                      // I / (m a^2): 1/2 disks (2D default), 2/5 spheres (3D default)
-    double rotational_temperature = 0.0; // initial Trot = I <omega^2> / d_rot (energy)
-  };
+  // (q default: 1/2 disks in 2D, 2/5 spheres in 3D)
+  using Rough = RoughParameters;
   std::optional<Rough> rough;
   BackgroundParameters background;
   Heating heating;
