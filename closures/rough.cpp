@@ -35,6 +35,16 @@ Model model_from_string(const std::string& s) {
   throw ClosureError("rough: unknown model '" + s + "' (expected A, B, C, D or E)");
 }
 
+Parameters parameters_of(const WaltonRestitution& law, double q, int dim) {
+  Parameters p;
+  p.e = law.e;
+  p.beta0 = law.beta0;
+  p.mu = std::isfinite(law.mu) ? law.mu : 1e300;
+  p.q = q;
+  p.dim = dim;
+  return p;
+}
+
 void validate(const Parameters& p) {
   if (!(p.e >= 0.0 && p.e <= 1.0)) throw ClosureError("rough: restitution.e must be in [0, 1]");
   if (!(p.beta0 >= -1.0 && p.beta0 <= 1.0))

@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "operators/walton.hpp"
+
 namespace grainbath::closures::rough {
 
 enum class Model { A, B, C, D, E };
@@ -33,11 +35,16 @@ struct Parameters {
   double q = 0.5;       // I / (m a^2)
   double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d/3d
   double H = 0.0;       // driving: dTtr/dt from the noise
+  int dim = 2;          // 2: planar translation + spin along z; 3: three of each
   // driving keyed on collisions (EDMD white noise, kicks at every collision): adds
   // H_per_collision * nu to dTtr/dt, i.e. a fixed temperature gain per collision per particle
+  // (last member: positional initialisers of the members above stay valid)
   double H_per_collision = 0.0;
-  int dim = 2;          // 2: planar translation + spin along z; 3: three of each
 };
+
+// The material part of Parameters (e, beta0, mu, q, dim) from a Walton law
+// (operators/walton.hpp; mu = inf becomes 1e300); G, H, H_per_collision keep their defaults.
+Parameters parameters_of(const WaltonRestitution& law, double q, int dim);
 
 // Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0
 // or H_per_collision < 0,

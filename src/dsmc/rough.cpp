@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "closures/closures.hpp"
 #include "closures/rough.hpp"
 #include "dsmc/collide.hpp"
 #include "operators/walton.hpp"
@@ -82,14 +83,8 @@ void rough_grain_step(State& s, const Config& c, std::uint64_t seed) {
 }
 
 closures::rough::Parameters rough_parameters(const Config& c) {
-  closures::rough::Parameters p;
-  p.e = c.rough->law.e;
-  p.beta0 = c.rough->law.beta0;
-  p.mu = std::isfinite(c.rough->law.mu) ? c.rough->law.mu : 1e300;
-  p.q = c.rough->q;
-  p.dim = 3;
+  closures::rough::Parameters p = closures::rough::parameters_of(c.rough->law, c.rough->q, 3);
   p.G = 4.0 * c.grains.density / std::sqrt(std::numbers::pi * c.grains.mass);  // nu = n <|g|> (R1 with cross-section 1)
-  p.H = 0.0;
   return p;
 }
 
@@ -99,7 +94,12 @@ std::vector<std::pair<std::string, std::vector<double>>> rough_model_series(cons
   const closures::rough::Parameters p = rough_parameters(c);
   for (auto m : {closures::rough::Model::A, closures::rough::Model::B, closures::rough::Model::C,
                  closures::rough::Model::D, closures::rough::Model::E}) {
-    const auto samples = closures::rough::integrate(m, p, Ttr0, Trot0, t);
+    std::vector<closures::rough::Sample> samples;
+    try {
+      samples = closures::rough::integrate(m, p, Ttr0, Trot0, t);
+    } catch (const closures::ClosureError&) {
+      continue;  // e.g. a state the model cannot start from: no curve rather than a failed run
+    }
     std::vector<double> a, b;
     for (const auto& x : samples) a.push_back(x.Ttr), b.push_back(x.Trot);
     const std::string name = std::string("rough_model_") + closures::rough::to_string(m);

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "closures/closures.hpp"
+#include "closures/rough.hpp"
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
 #include "edmd/checkpoint.hpp"
@@ -14,7 +16,6 @@
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
-#include "closures/rough.hpp"
 
 namespace grainbath::edmd {
 
@@ -304,17 +305,27 @@ decltype(auto) visit_law(const Config& c, F&& f) {
 // average (two opposite kicks of size kick in a random direction), i.e. per particle
 // dTtr/dt = nu rate kick^2 / D.
 closures::rough::Parameters rough_parameters(const Config& c) {
-  closures::rough::Parameters p;
-  p.e = c.rough->law.e;
-  p.beta0 = c.rough->law.beta0;
-  p.mu = std::isfinite(c.rough->law.mu) ? c.rough->law.mu : 1e300;
-  p.q = c.rough->q;
-  p.dim = c.dims;
+  closures::rough::Parameters p = closures::rough::parameters_of(c.rough->law, c.rough->q, c.dims);
   p.G = c.dims == 2 ? closures::rough::collision_prefactor_2d(c.packing_fraction)
                     : closures::rough::collision_prefactor_3d(c.packing_fraction);
-  p.H = 0.0;
   if (c.heating.kind == HeatingKind::white_noise) p.H_per_collision = c.heating.rate * c.heating.kick * c.heating.kick / c.dims;
   return p;
+}
+// Steady R (R11) and, with a driving, Ttr (R12) of models A-E as "model_X.R", "model_X.Ttr".
+// A model without a steady state (smooth grains: beta0 = -1 or mu = 0; no dissipation) is
+// left out rather than failing the run.
+std::vector<std::pair<std::string, double>> rough_steady_theory(const Config& c) {
+  std::vector<std::pair<std::string, double>> out;
+  const auto p = rough_parameters(c);
+  for (auto m : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E}) {
+    const std::string key = std::string("model_") + closures::rough::to_string(m);
+    try {
+      out.emplace_back(key + ".R", closures::rough::steady_ratio(m, p));
+      if (p.H_per_collision > 0.0) out.emplace_back(key + ".Ttr", closures::rough::steady_state(m, p).Ttr);
+    } catch (const closures::ClosureError&) {
+    }
+  }
+  return out;
 }
 }  // namespace
 
@@ -363,16 +374,8 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
                        theory::wall_balance_temperature(law, D, nu, drive, false, true));
     });
   }
-  if (c.rough) {
-    // mean-field models A-E (closures/rough, docs/rough.md R11): steady Trot/Ttr
-    const auto p = rough_parameters(c);
-    for (auto m : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E})
-    {
-      const std::string key = std::string("edmd.rough.model_") + closures::rough::to_string(m);
-      out.emplace_back(key + ".R", closures::rough::steady_ratio(m, p));
-      if (p.H_per_collision > 0.0) out.emplace_back(key + ".Ttr", closures::rough::steady_state(m, p).Ttr);
-    }
-  }
+  if (c.rough)
+    for (const auto& [k, v] : rough_steady_theory(c)) out.emplace_back("edmd.rough." + k, v);
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
     out.emplace_back("edmd.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, ec));
@@ -784,14 +787,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     summary.set("rotation.Trot_stderr", Trm.stderr_);
     summary.set("rotation.Trot_initial", s.rotational_temperature.front());
     summary.set("rotation.moment_of_inertia_q", c.rough->q);
+    for (const auto& [k, v] : rough_steady_theory(c)) summary.set("theory." + k, v);
     const auto p = rough_parameters(c);
     for (auto model : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E}) {
-      const std::string key = std::string("theory.model_") + closures::rough::to_string(model);
-      summary.set(key + ".R", closures::rough::steady_ratio(model, p));
-      if (p.H_per_collision > 0.0) summary.set(key + ".Ttr", closures::rough::steady_state(model, p).Ttr);
-      if (s.temperature.front() > 0.0)
+      try {
         model_curves.emplace_back(closures::rough::to_string(model),
                                   closures::rough::integrate(model, p, s.temperature.front(), s.rotational_temperature.front(), s.time));
+      } catch (const closures::ClosureError& err) {
+        std::fprintf(stderr, "warning: rough model %s not integrated: %s\n", closures::rough::to_string(model), err.what());
+      }
     }
   }
 
