@@ -269,3 +269,52 @@ TEST_P(RoughEdmdSteady, RatioMatchesEventFreeMonteCarlo) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Mu, RoughEdmdSteady, ::testing::Values(0.5, kInf));
+
+// beta0 = -1 (no tangential impulse) with spinless grains is the smooth rule: the rough
+// instantiation of the event loop must then follow the constant-e run bitwise.
+TEST(RoughEdmd, SmoothLimitFollowsTheConstantRestitutionRunBitwise) {
+  edmd::Config c;
+  c.dims = 3;
+  c.particles = 512;
+  c.packing_fraction = 0.2;
+  const edmd::InitialState init = edmd::make_initial_state(c, 9);
+  edmd::Engine smooth(edmd::make_setup(c, 9), init.positions, init.velocities);
+  edmd::Engine rough(edmd::make_setup(c, 9), init.positions, init.velocities);
+  smooth.advance(ConstantRestitution{0.8}, kInf, 20000);
+  rough.advance(WaltonRestitution{0.8, -1.0, 0.5}, kInf, 20000);
+  smooth.synchronize();
+  rough.synchronize();
+  ASSERT_EQ(smooth.counters().collisions, rough.counters().collisions);
+  EXPECT_EQ(smooth.time(), rough.time());
+  EXPECT_EQ(smooth.counters().energy_lost, rough.counters().energy_lost);
+  for (std::size_t i = 0; i < smooth.size(); ++i) {
+    ASSERT_EQ(norm2(smooth.velocity(i) - rough.velocity(i)), 0.0) << i;
+    ASSERT_EQ(norm2(smooth.position(i) - rough.position(i)), 0.0) << i;
+    ASSERT_EQ(norm2(rough.angular_velocity(i)), 0.0) << i;
+  }
+}
+
+// Case-file errors name the key: a Walton law without beta0, spins without a rough law.
+TEST(RoughEdmd, CaseErrorsNameTheKey) {
+  auto problems = [](const char* toml) {
+    CaseReader reader(toml, "/tmp/rough_bad.toml");
+    std::string all;
+    try {
+      edmd::read_config(reader);
+      reader.finish();
+    } catch (const CaseError& e) {
+      for (const auto& p : e.problems()) all += p.to_string() + "\n";
+    }
+    return all;
+  };
+  const std::string a = problems("[edmd]\ndimensions = 2\npacking_fraction = 0.1\n[restitution]\nlaw = \"walton\"\ne = 0.9\n");
+  EXPECT_NE(a.find("restitution.beta0"), std::string::npos) << a;
+  const std::string b = problems(
+      "[edmd]\ndimensions = 2\npacking_fraction = 0.1\nrotational_temperature = 1.0\n[restitution]\nlaw = \"constant\"\ne = 0.9\n");
+  EXPECT_NE(b.find("edmd.rotational_temperature"), std::string::npos) << b;
+  EXPECT_NE(b.find("walton"), std::string::npos) << b;
+  const std::string c = problems(
+      "[edmd]\ndimensions = 2\npacking_fraction = 0.1\n[restitution]\nlaw = \"walton\"\ne = 0.9\nbeta0 = 2.0\nq = -1\n");
+  EXPECT_NE(c.find("restitution.beta0"), std::string::npos) << c;
+  EXPECT_NE(c.find("restitution.q"), std::string::npos) << c;
+}
