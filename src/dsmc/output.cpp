@@ -200,8 +200,6 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
     summary.set("rotation.Trot_final", ts.Trot.back());
     summary.set("rotation.R_final", ts.Trot.back() / ts.T.back());
     summary.set("rotation.moment_of_inertia_q", c.rough->q);
-    for (const auto& [name, values] : theory_series)
-      summary.set("theory." + name.substr(0, name.find('/')) + "." + name.substr(name.find('/') + 1) + "_final", values.back());
   }
 
   // ---- spatial: density mode decay

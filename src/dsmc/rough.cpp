@@ -88,6 +88,17 @@ closures::rough::Parameters rough_parameters(const Config& c) {
   return p;
 }
 
+std::vector<std::pair<std::string, double>> rough_theory_values(const Config& c) {
+  std::vector<std::pair<std::string, double>> out;
+  if (c.background.present()) return out;
+  const auto series = rough_model_series(c, {0.0, c.t_end}, c.grains.temperature, c.rough->rotational_temperature);
+  for (const auto& [name, values] : series) {
+    const std::size_t slash = name.find('/');
+    out.emplace_back("rough." + name.substr(0, slash) + "." + name.substr(slash + 1) + "_at_t_end", values.back());
+  }
+  return out;
+}
+
 std::vector<std::pair<std::string, std::vector<double>>> rough_model_series(const Config& c, const std::vector<double>& t,
                                                                             double Ttr0, double Trot0) {
   std::vector<std::pair<std::string, std::vector<double>>> out;

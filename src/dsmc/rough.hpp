@@ -35,6 +35,10 @@ double rotational_temperature(const State& s, const Config& c);
 // Closures beside the run (free cooling or driven by nothing but the collisions: H = 0):
 // parameters with nu = G sqrt(Ttr), G = 4 n / sqrt(pi m) (cross-section 1: nu = n <|g|>), 3D.
 closures::rough::Parameters rough_parameters(const Config& c);
+// `grainbath theory` / the summary's theory block for rough grains: without a medium, models
+// A-E integrated from the case's initial (Ttr, Trot) to t_end ("rough.model_X.Ttr_at_t_end",
+// "...Trot_at_t_end"); with a medium none (the models have no bath term).
+std::vector<std::pair<std::string, double>> rough_theory_values(const Config& c);
 // Models A-E integrated from the first sample (Ttr, Trot) at times t: names
 // "rough_model_X/Ttr", "rough_model_X/Trot".
 std::vector<std::pair<std::string, std::vector<double>>> rough_model_series(const Config& c, const std::vector<double>& t,
