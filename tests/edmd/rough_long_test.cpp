@@ -6,61 +6,20 @@
 // docs/validation/rough.md). Models B, C, D are printed: in 3D the allowance does not
 // separate them all from E (measured: C is 4 % above the EDMD at mu = 0.5, D 2 % below at 0.1).
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 
-#include "core/case_file.hpp"
-#include "core/run_context.hpp"
-#include "core/summary.hpp"
-#include "edmd/edmd.hpp"
+#include "tests/edmd/rough_support.hpp"
 
-namespace fs = std::filesystem;
 using namespace grainbath;
 
 class RoughEdmd3D : public ::testing::TestWithParam<double> {};
 
 TEST_P(RoughEdmd3D, SteadyRatioMatchesModelE) {
   const double mu = GetParam();
-  char toml[768];
-  std::snprintf(toml, sizeof toml, R"(
-[edmd]
-dimensions = 3
-particles = 4096
-packing_fraction = 0.05
-temperature = 0.35
-rotational_temperature = 0.2
-equilibrate = 40
-collisions = 300
-[restitution]
-law = "walton"
-e = 0.95
-beta0 = 1.0
-mu = %g
-q = 0.4
-[heating]
-model = "white_noise"
-kick = 0.185
-[sampling]
-interval = 0.5
-)",
-                mu);
-  CaseReader reader(toml, "/tmp/rough3d.toml");
-  edmd::Config cfg = edmd::read_config(reader);
-  reader.finish();
-  RunContext ctx;
-  ctx.out_dir = fs::temp_directory_path() / ("grainbath-edmd-rough3d-" + std::to_string(::getpid()));
-  fs::remove_all(ctx.out_dir);
-  fs::create_directories(ctx.out_dir);
-  ctx.seed = 5;
-  ctx.quiet = true;
-  ctx.case_text = toml;
-  ctx.resolved = reader.resolved();
-  Summary s;
-  edmd::run(cfg, ctx, s);
-  fs::remove_all(ctx.out_dir);
+  const std::string toml = rough_test::driven_rough_case(3, 4096, 0.05, 0.35, 0.2, 40, 300, mu);
+  const Summary s = rough_test::run_edmd_summary(toml, 5, "rough3d");
   auto get = [&](const std::string& k) { return std::get<double>(*s.get(k)); };
   const double R = get("rotation.R"), se = get("rotation.R_stderr"), RE = get("theory.model_E.R");
   std::printf("[measure] 3D mu=%g: R_EDMD = %.4f +- %.4f, model E %.4f (%+.2f%%), B %.4f, C %.4f, D %.4f; Ttr %.4f "

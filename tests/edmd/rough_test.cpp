@@ -11,11 +11,9 @@
 //    Monte Carlo of tests/rough/driven_mc.hpp at the same e, beta0, mu, q (tight), with model E
 //    (closures/rough) printed as the reference.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <vector>
 
@@ -24,9 +22,9 @@
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
 #include "edmd/edmd.hpp"
+#include "tests/edmd/rough_support.hpp"
 #include "tests/rough/driven_mc.hpp"
 
-namespace fs = std::filesystem;
 using namespace grainbath;
 
 namespace {
@@ -177,42 +175,8 @@ struct Steady {
 // The EDMD through the driver (summary.json keys), white-noise driving as in
 // cases/rough-driven (kick 0.185 per collision), Trot = 0.6 Ttr at the start.
 Steady edmd_steady(double mu, double collisions) {
-  char toml[1024];
-  std::snprintf(toml, sizeof toml, R"(
-[edmd]
-dimensions = 2
-particles = 2025
-packing_fraction = 0.05
-rotational_temperature = 0.6
-equilibrate = 30
-collisions = %g
-[restitution]
-law = "walton"
-e = 0.95
-beta0 = 1.0
-mu = %g
-q = 0.4
-[heating]
-model = "white_noise"
-kick = 0.185
-[sampling]
-interval = 0.5
-)",
-                collisions, std::isfinite(mu) ? mu : 1e12);
-  CaseReader reader(toml, "/tmp/rough_test.toml");
-  edmd::Config cfg = edmd::read_config(reader);
-  reader.finish();
-  RunContext ctx;
-  ctx.out_dir = fs::temp_directory_path() / ("grainbath-edmd-rough-" + std::to_string(::getpid()));
-  fs::remove_all(ctx.out_dir);
-  fs::create_directories(ctx.out_dir);
-  ctx.seed = 11;
-  ctx.quiet = true;
-  ctx.case_text = toml;
-  ctx.resolved = reader.resolved();
-  Summary s;
-  edmd::run(cfg, ctx, s);
-  fs::remove_all(ctx.out_dir);
+  const std::string toml = rough_test::driven_rough_case(2, 2025, 0.05, 1.0, 0.6, 30, collisions, mu);
+  const Summary s = rough_test::run_edmd_summary(toml, 11, "rough");
   auto get = [&](const char* k) { return std::get<double>(*s.get(k)); };
   return {get("rotation.R"), get("rotation.R_stderr"), get("rotation.Ttr_mean"), get("theory.model_E.R")};
 }
