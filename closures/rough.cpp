@@ -35,6 +35,16 @@ Model model_from_string(const std::string& s) {
   throw ClosureError("rough: unknown model '" + s + "' (expected A, B, C, D or E)");
 }
 
+Parameters parameters_of(const WaltonRestitution& law, double q, int dim) {
+  Parameters p;
+  p.e = law.e;
+  p.beta0 = law.beta0;
+  p.mu = std::isfinite(law.mu) ? law.mu : 1e300;
+  p.q = q;
+  p.dim = dim;
+  return p;
+}
+
 void validate(const Parameters& p) {
   if (!(p.e >= 0.0 && p.e <= 1.0)) throw ClosureError("rough: restitution.e must be in [0, 1]");
   if (!(p.beta0 >= -1.0 && p.beta0 <= 1.0))
@@ -43,6 +53,7 @@ void validate(const Parameters& p) {
   if (!(p.q > 0.0)) throw ClosureError("rough: moment of inertia factor q must be > 0");
   if (!(p.G > 0.0)) throw ClosureError("rough: collision prefactor G must be > 0");
   if (!(p.H >= 0.0)) throw ClosureError("rough: driving power H must be >= 0");
+  if (!(p.H_per_collision >= 0.0)) throw ClosureError("rough: driving per collision must be >= 0");
   if (p.dim != 2 && p.dim != 3) throw ClosureError("rough: dimension must be 2 or 3");
 }
 
@@ -71,6 +82,7 @@ Parameters unit_rates(const Parameters& p) {  // G = 1, H = 0: the collision par
   Parameters u = p;
   u.G = 1.0;
   u.H = 0.0;
+  u.H_per_collision = 0.0;
   return u;
 }
 double eta0_of(const Parameters& p) { return p.q * (1.0 + p.beta0) / (2.0 * (1.0 + p.q)); }
@@ -140,12 +152,12 @@ Rates rhs(Model m, const Parameters& p, double Ttr, double Trot) {
     const double R = Ttr > 0.0 ? Trot / Ttr : 0.0;
     const ImpactAverages a = impact_averages(p, k_of(p, R));
     const double tang = Ttr + Trot / p.q;  // proportional to <g_t^2>, eq. R6
-    return {p.H + f.c_tr * nu * (-f.n0 * Ttr - a.E1 * Ttr + a.E2 * tang),
+    return {p.H + p.H_per_collision * nu + f.c_tr * nu * (-f.n0 * Ttr - a.E1 * Ttr + a.E2 * tang),
             f.c_rot * nu / p.q * (-a.E1 * Trot + a.E2 * tang)};
   }
   const LinearCoefficients c =
       linear_coefficients(m, p, Ttr > 0.0 ? Trot / Ttr : 0.0);  // eq. R3
-  return {p.H + f.c_tr * nu * (-c.A * Ttr + c.B * Trot),
+  return {p.H + p.H_per_collision * nu + f.c_tr * nu * (-c.A * Ttr + c.B * Trot),
           f.c_rot * nu * (c.Bp * Ttr - c.C * Trot)};
 }
 
@@ -176,12 +188,27 @@ double steady_ratio(Model m, const Parameters& p) {
 
 SteadyState steady_state(Model m, const Parameters& p) {
   validate(p);
-  if (!(p.H > 0.0)) throw ClosureError("rough: steady state needs driving H > 0");
+  if (!(p.H > 0.0) && !(p.H_per_collision > 0.0))
+    throw ClosureError("rough: steady state needs driving H > 0 or H_per_collision > 0");
   const double R = steady_ratio(m, p);
-  // dTtr/dt = H - G Ttr^{3/2} F(R) = 0 (eq. R12); F from the rhs at Ttr = 1, H = 0, G = 1.
+  // dTtr/dt = H + H_nu G Ttr^{1/2} - G Ttr^{3/2} F(R) = 0 (eq. R12); F from the rhs at
+  // Ttr = 1, H = H_nu = 0, G = 1. With s = Ttr^{1/2}: F s^3 - H_nu s - H/G = 0, one positive
+  // root (one sign change); H_nu = 0 gives (H/(G F))^{2/3}, H = 0 gives H_nu / F.
   const double F = -rhs(m, unit_rates(p), 1.0, R).dTtr;
   if (!(F > 0.0)) throw ClosureError("rough: no dissipation, no steady state");
-  const double Ttr = std::pow(p.H / (p.G * F), 2.0 / 3.0);
+  const double hn = p.H_per_collision, h = p.H / p.G;
+  double Ttr;
+  if (hn == 0.0) {
+    Ttr = std::pow(h / F, 2.0 / 3.0);
+  } else if (h == 0.0) {
+    Ttr = hn / F;
+  } else {
+    auto cubic = [&](double s) { return F * s * s * s - hn * s - h; };
+    double hi = 1.0;
+    while (cubic(hi) < 0.0) hi *= 2.0;
+    const double s = brent_root(cubic, 0.0, hi, 1e-14, "rough steady temperature");
+    Ttr = s * s;
+  }
   return {Ttr, R * Ttr, R};
 }
 

@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "operators/walton.hpp"
+
 namespace grainbath::closures::rough {
 
 enum class Model { A, B, C, D, E };
@@ -34,9 +36,18 @@ struct Parameters {
   double G = 1.0;       // nu = G sqrt(Ttr) (R1); see collision_prefactor_2d/3d
   double H = 0.0;       // driving: dTtr/dt from the noise
   int dim = 2;          // 2: planar translation + spin along z; 3: three of each
+  // driving keyed on collisions (EDMD white noise, kicks at every collision): adds
+  // H_per_collision * nu to dTtr/dt, i.e. a fixed temperature gain per collision per particle
+  // (last member: positional initialisers of the members above stay valid)
+  double H_per_collision = 0.0;
 };
 
-// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0,
+// The material part of Parameters (e, beta0, mu, q, dim) from a Walton law
+// (operators/walton.hpp; mu = inf becomes 1e300); G, H, H_per_collision keep their defaults.
+Parameters parameters_of(const WaltonRestitution& law, double q, int dim);
+
+// Throws ClosureError for e not in [0,1], beta0 not in [-1,1], mu < 0, q <= 0, G <= 0, H < 0
+// or H_per_collision < 0,
 // dim not 2 or 3.
 void validate(const Parameters&);
 
@@ -77,7 +88,7 @@ double steady_ratio(Model, const Parameters&);
 struct SteadyState {
   double Ttr, Trot, R;
 };
-// Steady temperatures for H > 0 (R12).
+// Steady temperatures for H > 0 or H_per_collision > 0 (R12: G F Ttr^{3/2} = H + H_nu G Ttr^{1/2}).
 SteadyState steady_state(Model, const Parameters&);
 
 // Linearisation about the steady state (thesis sec. 10.5: "an eigenvalue problem with two

@@ -38,6 +38,7 @@ enum class Stream : std::uint64_t {
   edmd_background = 9,
   wall_collisions = 10,
   background_clock = 11,       // initial unit-exponential residual of each grain's bath candidate process
+  initial_angular_velocities = 12,  // rough grains (EDMD [edmd] / DSMC [grains] rotational_temperature)
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

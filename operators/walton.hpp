@@ -43,6 +43,9 @@ struct WaltonRestitution {
   double e = 1.0;      // normal restitution, [0, 1]
   double beta0 = -1.0; // maximal tangential restitution, [-1, 1]
   double mu = std::numeric_limits<double>::infinity();  // Coulomb friction, >= 0
+  // The normal part as a restitution law (operators/restitution.hpp interface), so engines
+  // and theory code written for e(g_n) see the constant normal restitution.
+  double raw(double) const { return e; }
 };
 
 struct WaltonOutcome {

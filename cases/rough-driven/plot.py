@@ -1,71 +1,74 @@
 #!/usr/bin/python3
 """Thesis Fig. 10.9 setting: Ttr(t), Trot(t) of the driven rough gas (mu = inf and 0.5) from the
-event-free Monte Carlo beside mean-field models A-E, and the steady R = Trot/Ttr vs mu.
-    /usr/bin/python3 cases/rough-driven/plot.py [DIR]   -> DIR/rough_driven.png
-DIR (default: this folder) holds theory_curves.csv, mc_curves.csv, r_vs_mu.csv, written by
-    GRAINBATH_ROUGH_CURVES_DIR=DIR build-rough/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*'
-and, once the EDMD engine supports law = "walton", optionally mu-inf/output and
-mu-0.5/output (summary.json: rotation.R, rotation.R_stderr, theory.model_E.R)."""
+EDMD beside mean-field models A-E, and the steady R = Trot/Ttr vs mu (EDMD, event-free MC, models).
+    /usr/bin/python3 cases/rough-driven/plot.py      -> rough_driven.png (this folder)
+Inputs (this folder): edmd_curves.csv, edmd_r_vs_mu.csv (collect.py, from the EDMD runs of
+run.sh) and r_vs_mu.csv (models and the event-free MC, written by
+    GRAINBATH_ROUGH_CURVES_DIR=DIR build/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*')."""
 import csv
-import json
-import math
 import os
-import sys
 
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 here = os.path.dirname(os.path.abspath(__file__))
-d = sys.argv[1] if len(sys.argv) > 1 else here
 
 
 def rows(name):
-    with open(os.path.join(d, name)) as f:
+    with open(os.path.join(here, name)) as f:
         return list(csv.DictReader(f))
 
 
-theory, mc, rmu = rows("theory_curves.csv"), rows("mc_curves.csv"), rows("r_vs_mu.csv")
+curves, edmd_r, rmu = rows("edmd_curves.csv"), rows("edmd_r_vs_mu.csv"), rows("r_vs_mu.csv")
 colors = {"A": "tab:gray", "B": "tab:orange", "C": "tab:green", "D": "tab:purple", "E": "k"}
-fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
-for ax, mu, tag in [(axes[0], "inf", "(a) μ = ∞"), (axes[1], "0.5", "(b) μ = 0.5")]:
-    sim = [r for r in mc if r["mu"] == mu and float(r["t"]) > 0]
-    t = [float(r["t"]) for r in sim]
-    ax.plot(t, [float(r["Ttr"]) for r in sim], "o", ms=3, color="tab:blue", label="MC Ttr")
-    ax.plot(t, [float(r["Trot"]) for r in sim], "s", ms=3, color="tab:red", label="MC Trot")
+fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
+for ax, mu, tag in [(axes[0, 0], "inf", "(a) μ = ∞"), (axes[0, 1], "0.5", "(b) μ = 0.5")]:
+    sim = [r for r in curves if r["mu"] == mu and float(r["t_nu0"]) > 0]
+    t = [float(r["t_nu0"]) for r in sim]
+    ax.plot(t, [float(r["Ttr"]) for r in sim], "o", ms=3, color="tab:blue", label="EDMD Ttr")
+    ax.plot(t, [float(r["Trot"]) for r in sim], "s", ms=3, color="tab:red", label="EDMD Trot")
     for m in "ABCDE":
-        th = [r for r in theory if r["mu"] == mu and r["model"] == m and float(r["t"]) > 0]
-        tt = [float(r["t"]) for r in th]
         lw = 2.0 if m == "E" else 1.0
-        ax.plot(tt, [float(r["Ttr"]) for r in th], "-", lw=lw, color=colors[m], label=f"model {m} Ttr")
-        ax.plot(tt, [float(r["Trot"]) for r in th], "--", lw=lw, color=colors[m], label=f"model {m} Trot")
+        ax.plot(t, [float(r["Ttr_" + m]) for r in sim], "-", lw=lw, color=colors[m], label=f"model {m} Ttr")
+        ax.plot(t, [float(r["Trot_" + m]) for r in sim], "--", lw=lw, color=colors[m], label=f"model {m} Trot")
     ax.set_xscale("log"), ax.set_yscale("log")
-    ax.set_ylim(0.01, 1.5)
-    ax.set_xlabel("t  [ν(0)⁻¹ = 1/(G √Ttr(0))]"), ax.set_ylabel("T / Ttr(0)")
-    ax.set_title(f"{tag}: α = 0.95, β0 = 1, q = 2/5, N = 11025")
-axes[0].legend(fontsize=6, ncol=2, loc="lower left")
+    ax.set_ylim(0.02, 1.5)
+    ax.set_xlabel("t  [1/ν(0), ν(0) = G √Ttr(0), Enskog]"), ax.set_ylabel("T / Ttr(0)")
+    ax.set_title(f"{tag}: α = 0.95, β0 = 1, q = 2/5, N = 11025, φ = 0.0866", fontsize=10)
+axes[0, 0].legend(fontsize=6, ncol=2, loc="lower left")
 
-ax = axes[2]
+ax = axes[1, 0]
 mus = [float(r["mu"]) for r in rmu]
 for m in "ABCDE":
-    ax.plot(mus, [float(r["R_" + m]) for r in rmu], "-", lw=2.0 if m == "E" else 1.0,
-            color=colors[m], label=f"model {m}")
+    ax.plot(mus, [float(r["R_" + m]) for r in rmu], "-", lw=2.0 if m == "E" else 1.0, color=colors[m], label=f"model {m}")
 ax.errorbar(mus, [float(r["R_MC"]) for r in rmu], yerr=[float(r["R_MC_stderr"]) for r in rmu],
-            fmt="o", ms=4, color="tab:blue", label="MC (N = 2000)")
+            fmt="o", ms=4, mfc="none", color="tab:blue", label="event-free MC (N = 2000, φ → 0)")
+fin = [r for r in edmd_r if float(r["mu"]) < 1e6]
+ax.errorbar([float(r["mu"]) for r in fin], [float(r["R"]) for r in fin], yerr=[float(r["R_stderr"]) for r in fin],
+            fmt="D", ms=4, color="tab:red", label="EDMD (N = 11025, φ = 0.0866)")
 small = [m for m in mus if m <= 0.2]
 ax.plot(small, [(1 + 0.95) * m for m in small], ":", color="tab:red", label="(1 + e) μ")
-for sub in ("mu-inf", "mu-0.5"):  # EDMD points, once the engine can run the case
-    p = os.path.join(here, sub, "output", "summary.json")
-    if os.path.exists(p):
-        s = json.load(open(p))
-        mu = math.inf if sub == "mu-inf" else 0.5
-        ax.errorbar([min(mu, max(mus))], [s["rotation"]["R"]], yerr=[s["rotation"]["R_stderr"]],
-                    fmt="D", color="tab:green", label=f"EDMD {sub}")
 ax.set_xscale("log"), ax.set_yscale("log")
 ax.set_xlabel("μ"), ax.set_ylabel("R = Trot / Ttr (steady)")
-ax.set_title("steady R vs μ (α = 0.95, β0 = 1); slope 1 = linear")
+ax.set_title("(c) steady R vs μ; slope 1 = linear (μ = ∞: R = 1 for all models)", fontsize=10)
+ax.legend(fontsize=7)
+
+ax = axes[1, 1]
+ax.axhline(0, color="k", lw=2, label="model E")
+for m in "BCD":
+    ax.plot([float(r["mu"]) for r in fin], [100 * (float(r["R_" + m]) / float(r["R_E"]) - 1) for r in fin], "-",
+            color=colors[m], label=f"model {m}")
+ax.errorbar(mus, [100 * (float(r["R_MC"]) / float(r["R_E"]) - 1) for r in rmu],
+            yerr=[100 * float(r["R_MC_stderr"]) / float(r["R_E"]) for r in rmu], fmt="o", mfc="none",
+            color="tab:blue", label="event-free MC")
+ax.errorbar([float(r["mu"]) for r in fin], [100 * (float(r["R"]) / float(r["R_E"]) - 1) for r in fin],
+            yerr=[100 * float(r["R_stderr"]) / float(r["R_E"]) for r in fin], fmt="D", color="tab:red", label="EDMD")
+ax.set_xscale("log"), ax.set_ylim(-15, 15)
+ax.set_xlabel("μ"), ax.set_ylabel("R / R_E − 1  [%]")
+ax.set_title("(d) deviation from model E (B, C, D leave the frame at small μ)", fontsize=10)
 ax.legend(fontsize=7)
 fig.tight_layout()
-out = os.path.join(d, "rough_driven.png")
-fig.savefig(out, dpi=110)
+out = os.path.join(here, "rough_driven.png")
+fig.savefig(out, dpi=100)
 print("wrote", out)

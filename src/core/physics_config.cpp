@@ -1,5 +1,7 @@
 #include "core/physics_config.hpp"
 
+#include <limits>
+
 namespace grainbath {
 
 const std::vector<ModelDescription>& restitution_models() {
@@ -12,6 +14,12 @@ const std::vector<ModelDescription>& restitution_models() {
       {"restitution", "bizon",
        "Bizon et al. eq. 18: e = 1 - (1 - e_c)(v_n/v0)^(3/4) below v0, e_c above",
        {"e (0.7, (0, 1]): restitution above the crossover", "crossover (1, > 0, velocity): v0"}},
+      {"restitution", "walton",
+       "Rough grains with spin (EDMD, homogeneous DSMC; docs/rough.md W1-W5): normal restitution e, tangential beta0 when sticking, "
+       "Coulomb friction mu when sliding; [edmd] / [grains] rotational_temperature sets the initial Trot (0)",
+       {"e (required, [0, 1]): normal restitution", "beta0 (required, [-1, 1]): tangential restitution (-1 smooth, 1 perfectly rough)",
+        "mu (inf, >= 0): Coulomb friction coefficient (very large: never sliding)",
+        "q (1/2 in 2D, 2/5 in 3D, > 0): moment of inertia I = q m a^2, a = sigma/2 (2D default: disks)"}},
   };
   return models;
 }
@@ -31,6 +39,8 @@ RestitutionLaw read_restitution(CaseReader& r) {
       r.problem("restitution", "beta", "with delta = 0 the power law gives e = 1 - 2 beta < 0; expected beta <= 0.5");
     return p;
   }
+  if (law == "walton")
+    r.problem("restitution", "law", "law \"walton\" (rough grains) is read by the solvers that carry spins (EDMD, homogeneous DSMC), not here");
   if (law == "bizon") {
     BizonRestitution b;
     b.e_c = r.real("restitution", "e", 0.7, Bounds::half_open(0.0, 1.0));
@@ -38,6 +48,21 @@ RestitutionLaw read_restitution(CaseReader& r) {
     return b;
   }
   return ElasticRestitution{};
+}
+
+bool names_walton(CaseReader& r) {
+  return r.has("restitution", "law") && r.text("restitution", "law", "elastic") == "walton";
+}
+
+RoughParameters read_rough(CaseReader& r, double default_q, std::string_view trot_section) {
+  RoughParameters g;
+  g.law.e = r.real_required("restitution", "e", Bounds::closed(0.0, 1.0), "normal restitution");
+  g.law.beta0 = r.real_required("restitution", "beta0", Bounds::closed(-1.0, 1.0), "tangential restitution");
+  g.law.mu = r.has("restitution", "mu") ? r.real("restitution", "mu", 0.0, Bounds::non_negative(), "Coulomb friction")
+                                        : std::numeric_limits<double>::infinity();
+  g.q = r.real("restitution", "q", default_q, Bounds::positive(), "I / (m a^2)");
+  g.rotational_temperature = r.real(trot_section, "rotational_temperature", 0.0, Bounds::non_negative(), "energy");
+  return g;
 }
 
 BackgroundParameters read_background(CaseReader& r) {

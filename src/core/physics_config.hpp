@@ -3,10 +3,12 @@
 // Units (scaled, Bisi-Spiga): lengths in grain-grain mean free paths (DSMC) or grain
 // diameters (EDMD), grain mass m, temperatures in energy units (k_B = 1).
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/case_file.hpp"
 #include "operators/restitution.hpp"
+#include "operators/walton.hpp"
 
 namespace grainbath {
 
@@ -22,6 +24,19 @@ const std::vector<ModelDescription>& restitution_models();
 // [restitution] law = "elastic" | "constant" | "power" | "bizon"; only the chosen law's keys
 // are valid (a key of another law is reported as unknown).
 RestitutionLaw read_restitution(CaseReader& reader);
+
+// [restitution] law = "walton": rough grains with spin (docs/rough.md; the solvers that carry
+// spins read it instead of read_restitution, which rejects the law).
+struct RoughParameters {
+  WaltonRestitution law;
+  double q = 0.5;                       // I / (m a^2)
+  double rotational_temperature = 0.0;  // initial Trot = I <|omega|^2> / d_rot (energy)
+};
+// true if the case names law = "walton" (records the key as read)
+bool names_walton(CaseReader& reader);
+// e, beta0 (required), mu (default: never sliding), q (default `default_q`) from
+// [restitution], and the initial Trot from [`trot_section`] rotational_temperature (default 0).
+RoughParameters read_rough(CaseReader& reader, double default_q, std::string_view trot_section);
 
 struct BackgroundParameters {
   double mass_ratio = 0.5;   // alpha = mB / (m + mB), in (0, 1)

@@ -78,6 +78,10 @@ CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& bat
                  {"series/mode_amplitude", &t.mode_amplitude},
                  {"series/count", &t.count},
                  {"fields/sums", &s.fields.sums},
+                 {"spins/wx", &s.wx},
+                 {"spins/wy", &s.wy},
+                 {"spins/wz", &s.wz},
+                 {"series/Trot", &t.Trot},
                  {"scalars/real", &k.d}};
   a.integer = {{"particles/id", &p.id},
                {"series/bath_collisions", &t.bath_collisions},

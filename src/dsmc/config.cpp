@@ -171,7 +171,13 @@ Config read_config(CaseReader& r) {
     c.grains.wavenumber_index = static_cast<int>(r.integer("grains", "wavenumber_index", 1, 1, 1 << 20));
     if (!c.spatial()) r.problem("grains", "profile", "profile \"mode\" needs a spatial run: add a [domain] section");
   }
-  c.restitution = read_restitution(r);
+  if (names_walton(r)) {
+    c.rough = read_rough(r, 0.4, "grains");  // DSMC grains are spheres: q = 2/5
+    if (c.spatial())
+      r.problem("restitution", "law", "law \"walton\" (rough grains) is implemented for homogeneous runs only (no [domain])");
+  } else {
+    c.restitution = read_restitution(r);
+  }
   c.particles = r.integer("dsmc", "particles", 100000, 2, 2'000'000'000);
   c.dt = r.real("dsmc", "dt", 0.01, Bounds::positive(), "time");
   c.t_end = r.real("dsmc", "t_end", 10.0, Bounds::positive(), "time");

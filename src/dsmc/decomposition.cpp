@@ -474,6 +474,10 @@ State Decomposition::gather_state(const State& s, const Config& c) const {
     g.initial_kinetic_energy = s.initial_kinetic_energy;
     g.particle_steps_run = steps_run;
     g.collisions_before_run = s.collisions_before_run;
+    // rough grains (homogeneous runs only: rank 0 holds every grain and its spin)
+    g.wx = s.wx;
+    g.wy = s.wy;
+    g.wz = s.wz;
   }
 #else
   (void)s;

@@ -25,6 +25,7 @@
 #include "dsmc/fused.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/output.hpp"
+#include "dsmc/rough.hpp"
 #include "dsmc/spatial.hpp"
 #include "dsmc/theory.hpp"
 
@@ -73,6 +74,7 @@ void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on) {
     p.set_velocity(i, scale * (p.velocity(i) - m.mean_velocity) + c.grains.drift);
   s.remainder.assign(c.spatial() ? d.cell_count() : 1, 0.0);
   s.initial_kinetic_energy = measure_moments(p, 0, n, c.grains.mass).kinetic_energy;
+  if (c.rough) initialise_spins(s, c, seed);
 }
 
 // Background substep for every grain, in fixed reduction blocks (deterministic reduction at
@@ -121,6 +123,7 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
 void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                 Decomposition& dec) {
   const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
+  if (c.rough) return rough_grain_step(s, c, seed);  // homogeneous rough grains (src/dsmc/rough.hpp; one cell, rank 0)
   const std::size_t cells = s.cell_start.size() - 1;
   const std::size_t first = dec.first_block(), blocks = dec.end_block() - first;
   per_block.assign(blocks, GrainCounters{});
@@ -172,6 +175,7 @@ void sample(State& s, const Config& c, double t, const Particles& all) {
   ts.wall_in.push_back(s.counters.wall_energy * per);
   ts.removed_out.push_back(s.counters.removed_energy * per);
   ts.count.push_back(static_cast<double>(n));
+  if (c.rough) ts.Trot.push_back(rotational_temperature(s, c));
   ts.bath_collisions.push_back(s.counters.bath_collisions);
   ts.grain_collisions.push_back(s.counters.grain.collisions);
   if (c.spatial() && c.grains.profile == GrainProfile::mode) {

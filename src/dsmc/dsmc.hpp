@@ -7,6 +7,7 @@
 // spatial runs have 1-3 dimensional boxes of cells (velocities always 3D).
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -65,6 +66,9 @@ struct Config {
   BackgroundField field;
   Domain domain;
   RestitutionLaw restitution;
+  // [restitution] law = "walton": rough grains with spin, homogeneous runs only (replaces
+  // `restitution`; src/dsmc/rough.hpp, docs/rough.md sec. 7)
+  std::optional<RoughParameters> rough;
   CheckpointSettings checkpoint;
   std::int64_t particles = 100000;  // simulated grains
   double dt = 0.01;

@@ -10,6 +10,7 @@
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
 #include "dsmc/moments.hpp"
+#include "dsmc/rough.hpp"
 #include "dsmc/spatial.hpp"
 #include "dsmc/theory.hpp"
 
@@ -136,7 +137,8 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
 
   // ---- energy budget: KE(t) - KE(0) = bath + walls - inelastic loss - carried out
   const RunCounters& rc = s.counters;
-  const double budget_residual = (fin.kinetic_energy - s.initial_kinetic_energy) -
+  const double rot_energy = c.rough ? rotational_energy(s, c) : 0.0;  // rough grains: spins (rough.hpp)
+  const double budget_residual = (fin.kinetic_energy + rot_energy - s.initial_kinetic_energy) -
                                  (rc.bath_energy + rc.wall_energy - rc.grain.energy_loss - rc.removed_energy);
   const double budget_scale = std::max({std::abs(s.initial_kinetic_energy), std::abs(rc.bath_energy),
                                         std::abs(rc.grain.energy_loss), std::abs(rc.wall_energy), 1e-300});
@@ -144,7 +146,11 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   // ---- theory
   const auto theory = theory_values(c);
   std::vector<std::pair<std::string, std::vector<double>>> theory_series;
-  if (c.relaxation_theory && !c.spatial()) theory_series = relaxation_series(c, ts.t);
+  if (c.relaxation_theory && !c.spatial() && !c.rough) theory_series = relaxation_series(c, ts.t);
+  // rough grains: models A-E (closures/rough) from the first sample, no driving (none of the
+  // models has the background medium: only without one)
+  if (c.rough && c.relaxation_theory && !c.background.present() && ts.T.front() > 0.0)
+    theory_series = rough_model_series(c, ts.t, ts.T.front(), ts.Trot.front());
 
   H5File f((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
   write_provenance(f, ctx, "dsmc");
@@ -162,6 +168,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   f.write("/timeseries/particles", ts.count);
   f.write("/timeseries/bath_collisions", ts.bath_collisions);
   f.write("/timeseries/grain_collisions", ts.grain_collisions);
+  if (c.rough) f.write("/timeseries/rotational_temperature", ts.Trot);
   f.attribute("/timeseries/pressure_tensor", "components", std::string("xx yy zz xy xz yz"));
   f.attribute("/timeseries", "units",
               std::string("t: time; temperature: energy; velocity: sqrt(energy/mass); per_grain: energy per initial grain"));
@@ -182,6 +189,18 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   summary.set("a2.stderr", a2m.stderr_);
   summary.set("a2.final", fin.a2);
   summary.set("velocity.final", norm(fin.mean_velocity - c.background.velocity));
+  if (c.rough) {
+    // Trot = q m <|a omega|^2> / 3; R = Trot/Ttr over the steady window (blocked) and at the end
+    std::vector<double> Rw;
+    for (std::size_t k = 0; k < samples; ++k)
+      if (ts.t[k] >= c.steady_from - 1e-12 && ts.T[k] > 0.0) Rw.push_back(ts.Trot[k] / ts.T[k]);
+    const MeanError Rm = block_average(Rw);
+    summary.set("rotation.R", Rm.mean);
+    summary.set("rotation.R_stderr", Rm.stderr_);
+    summary.set("rotation.Trot_final", ts.Trot.back());
+    summary.set("rotation.R_final", ts.Trot.back() / ts.T.back());
+    summary.set("rotation.moment_of_inertia_q", c.rough->q);
+  }
 
   // ---- spatial: density mode decay
   if (c.spatial() && !ts.mode_amplitude.empty()) {

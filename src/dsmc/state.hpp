@@ -25,6 +25,7 @@ struct TimeSeries {
   std::vector<double> mode_amplitude;   // spatial runs with a density mode: 2 |<exp(ikx)>|
   std::vector<double> count;            // simulated particles
   std::vector<std::uint64_t> bath_collisions, grain_collisions;
+  std::vector<double> Trot;             // rough grains: rotational temperature
 };
 
 // Per-cell sums for time-averaged fields, in batches (for standard errors). Per cell and
@@ -67,7 +68,8 @@ struct State {
   RunCounters counters;
   TimeSeries series;
   FieldAccumulator fields;
-  double initial_kinetic_energy = 0.0;
+  double initial_kinetic_energy = 0.0;   // rough grains: translational + rotational
+  std::vector<double> wx, wy, wz;         // rough grains: spins a*omega (velocity units), as the particles
   // scratch (rebuilt every step, not checkpointed)
   std::vector<std::size_t> cell_start;    // cell c holds [cell_start[c], cell_start[c+1])
   SortScratch sort;                        // buffers of sort_by_cell, kept to avoid allocation

@@ -1,5 +1,6 @@
 #include "dsmc/theory.hpp"
 
+#include "dsmc/rough.hpp"
 #include "hydro/hydro.hpp"
 
 #include <cmath>
@@ -54,6 +55,7 @@ static std::optional<double> constant_e(const RestitutionLaw& law) {
 }
 
 std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
+  if (c.rough) return rough_theory_values(c);  // the smooth-grain theories below do not apply
   std::vector<std::pair<std::string, double>> out;
   if (auto p = closure_parameters(c)) {
     try {

@@ -130,6 +130,7 @@ CheckpointArrays arrays_of(Staging& g, RunState& r) {
   a.add("series/heating", s.heating);
   a.add("series/background", s.background);
   a.add("series/collisions", s.collisions);
+  a.add("series/rotational_temperature", s.rotational_temperature);
   a.add("trajectory/position", r.traj_pos);
   a.add("trajectory/time", r.traj_time);
   a.add("trajectory/step", g.traj_step);

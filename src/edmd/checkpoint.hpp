@@ -19,6 +19,7 @@ namespace grainbath::edmd {
 // also at the start).
 struct Series {
   std::vector<double> time, temperature, z, energy_lost, heating, background, collisions;
+  std::vector<double> rotational_temperature;  // rough grains: Trot at the sample times (incl. the start)
 };
 
 // Everything the EDMD driver carries across its event loop. A field added here must be

@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "closures/closures.hpp"
+#include "closures/rough.hpp"
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
 #include "edmd/checkpoint.hpp"
@@ -119,9 +121,15 @@ Config read_config(CaseReader& r) {
     const auto asp = r.reals("edmd", "aspect", std::vector<double>(c.dims, 1.0), c.dims, c.dims, Bounds::positive());
     if (asp.size() == static_cast<std::size_t>(c.dims)) c.aspect = {asp[0], asp[1], c.dims == 3 ? asp[2] : 1.0};
   }
-  c.restitution = read_restitution(r);
+  if (names_walton(r)) {
+    c.rough = read_rough(r, c.dims == 2 ? 0.5 : 0.4, "edmd");  // default q: the grain the engine moves
+  } else {
+    c.restitution = read_restitution(r);
+    if (r.has("edmd", "rotational_temperature"))
+      r.problem("edmd", "rotational_temperature", "only rough grains spin: needs [restitution] law = \"walton\"");
+  }
   const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
-                                  std::holds_alternative<PowerLawRestitution>(c.restitution);
+                                  std::holds_alternative<PowerLawRestitution>(c.restitution) || c.rough.has_value();
   c.contact_time = r.real("edmd", "contact_time", inelastic_constant ? 1e-6 : 0.0, Bounds::non_negative(), "time");
   const double cp = theory::close_packing(c.dims);
   if (c.packing_fraction >= cp) {
@@ -262,6 +270,7 @@ EngineSetup make_setup(const Config& c, std::uint64_t seed) {
   s.wall_driving = c.wall_driving;
   s.wall_restitution_side = c.wall_restitution_side;
   s.contact_time = c.contact_time;
+  if (c.rough) s.inertia_q = c.rough->q;
   s.heating = c.heating;
   s.seed = seed;
   if (c.background.present()) {
@@ -302,8 +311,65 @@ InitialState make_initial_state(const Config& c, std::uint64_t seed) {
   for (auto& v : st.velocities) v -= p, ke += norm2(v);
   const double s = std::sqrt(c.temperature * c.dims * n / ke);
   for (auto& v : st.velocities) v *= s;
+  if (c.rough) {
+    // Gaussian spins at exactly Trot = I <|omega|^2> / d_rot (2D: omega_z only, d_rot = 1)
+    st.omega.assign(n, Vec3{});
+    const double Trot = c.rough->rotational_temperature;
+    if (Trot > 0.0) {
+      const int d_rot = c.dims == 2 ? 1 : 3;
+      double w2 = 0.0;
+      for (std::size_t i = 0; i < n; ++i) {
+        CounterRng rng(seed, Stream::initial_angular_velocities, i, 0);
+        Vec3 w = rng.normal3();
+        if (c.dims == 2) w.x = w.y = 0.0;
+        st.omega[i] = w;
+        w2 += norm2(w);
+      }
+      const double I = 0.25 * c.rough->q;
+      const double sw = std::sqrt(Trot * d_rot * n / (I * w2));
+      for (auto& w : st.omega) w *= sw;
+    }
+  }
   return st;
 }
+
+namespace {
+using rough_model = closures::rough::Model;
+// the run's restitution law, rough or not, to a generic lambda (resolved once, outside the loop)
+template <class F>
+decltype(auto) visit_law(const Config& c, F&& f) {
+  if (c.rough) return f(c.rough->law);
+  return std::visit(f, c.restitution);
+}
+// closures/rough parameters of the case (docs/rough.md R1, R15): Enskog collision prefactor
+// G (Henderson chi in 2D, Carnahan-Starling in 3D) in engine units, and the collision-keyed
+// white noise as H_per_collision: each collision adds rate * kick^2 to the kinetic energy on
+// average (two opposite kicks of size kick in a random direction), i.e. per particle
+// dTtr/dt = nu rate kick^2 / D.
+closures::rough::Parameters rough_parameters(const Config& c) {
+  closures::rough::Parameters p = closures::rough::parameters_of(c.rough->law, c.rough->q, c.dims);
+  p.G = c.dims == 2 ? closures::rough::collision_prefactor_2d(c.packing_fraction)
+                    : closures::rough::collision_prefactor_3d(c.packing_fraction);
+  if (c.heating.kind == HeatingKind::white_noise) p.H_per_collision = c.heating.rate * c.heating.kick * c.heating.kick / c.dims;
+  return p;
+}
+// Steady R (R11) and, with a driving, Ttr (R12) of models A-E as "model_X.R", "model_X.Ttr".
+// A model without a steady state (smooth grains: beta0 = -1 or mu = 0; no dissipation) is
+// left out rather than failing the run.
+std::vector<std::pair<std::string, double>> rough_steady_theory(const Config& c) {
+  std::vector<std::pair<std::string, double>> out;
+  const auto p = rough_parameters(c);
+  for (auto m : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E}) {
+    const std::string key = std::string("model_") + closures::rough::to_string(m);
+    try {
+      out.emplace_back(key + ".R", closures::rough::steady_ratio(m, p));
+      if (p.H_per_collision > 0.0) out.emplace_back(key + ".Ttr", closures::rough::steady_state(m, p).Ttr);
+    } catch (const closures::ClosureError&) {
+    }
+  }
+  return out;
+}
+}  // namespace
 
 std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   std::vector<std::pair<std::string, double>> out;
@@ -324,16 +390,15 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   const double g = theory::g_contact_reference(D, nu);
   out.emplace_back("edmd.g_contact", g);
   out.emplace_back("edmd.enskog_frequency", theory::enskog_frequency(D, nu, g, c.temperature));
-  const double e = std::visit([&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; },
-                              c.restitution);
+  const double e = visit_law(c, [&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; });
   out.emplace_back("edmd.gamma0", theory::gamma0(D, nu, g, e, c.temperature));
   out.emplace_back("edmd.gamma_e",
-                   std::visit([&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }, c.restitution));
+                   visit_law(c, [&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }));
   if (c.background.present()) {
     const double K = c.background.density / c.background.knudsen;
-    out.emplace_back("edmd.medium_steady_temperature", std::visit([&](const auto& law) {
+    out.emplace_back("edmd.medium_steady_temperature", visit_law(c, [&](const auto& law) {
       return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
-    }, c.restitution));
+    }));
     // DSMC of the same physics: grain-grain cross-section 1 in DSMC units corresponds to
     // pi sigma^2 g(sigma) (3D) or 2 sigma g(sigma) (2D) here, so [grains] density =
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
@@ -344,13 +409,15 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     const Vec3 b = c.box();
     const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
                                     c.wall_restitution_side[1], wd == 0 ? b.x : wd == 1 ? b.y : b.z};
-    std::visit([&](const auto& law) {
+    visit_law(c, [&](const auto& law) {
       out.emplace_back("edmd.wall_balance_temperature", theory::wall_balance_temperature(law, D, nu, drive, true));
       out.emplace_back("edmd.wall_balance_temperature_dilute", theory::wall_balance_temperature(law, D, nu, drive, false));
       out.emplace_back("edmd.wall_balance_temperature_thesis_reading",
                        theory::wall_balance_temperature(law, D, nu, drive, false, true));
-    }, c.restitution);
+    });
   }
+  if (c.rough)
+    for (const auto& [k, v] : rough_steady_theory(c)) out.emplace_back("edmd.rough." + k, v);
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
     const double ec = std::get<ConstantRestitution>(c.restitution).e;
     out.emplace_back("edmd.a2_van_noije_ernst", theory::a2_van_noije_ernst(D, ec));
@@ -368,6 +435,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const std::size_t N = static_cast<std::size_t>(c.particles);
   const InitialState init = make_initial_state(c, seed);
   Engine eng(make_setup(c, seed), init.positions, init.velocities);
+  // rough grains (docs/rough.md): spins, Trot = I <|omega|^2> / d_rot, energies incl. rotation
+  constexpr bool rough = std::is_same_v<Law, WaltonRestitution>;
+  if (!init.omega.empty()) eng.set_angular_velocities(init.omega);
+  auto rotational_temperature = [&]() {
+    double w2 = 0.0;
+    for (std::size_t i = 0; i < N; ++i) w2 += norm2(eng.angular_velocity(i));
+    return eng.moment_of_inertia() * w2 / ((D == 2 ? 1.0 : 3.0) * N);
+  };
+  auto total_energy = [&]() { return eng.kinetic_energy() + (rough ? eng.rotational_energy() : 0.0); };
   const Vec3 box = c.box();
   const double volume = D == 3 ? box.x * box.y * box.z : box.x * box.y;
   const double n = N / volume;
@@ -502,10 +578,11 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     rs.t0 = eng.time();
     rs.T0 = T;
     T = snapshot();
-    rs.e_initial = eng.kinetic_energy();
+    rs.e_initial = total_energy();
     rs.p_initial = eng.momentum();
     s.time.push_back(0.0);
     s.temperature.push_back(T);
+    if (rough) s.rotational_temperature.push_back(rotational_temperature());
     prev = eng.counters();
     t_prev = rs.t0;
     T_prev = T;
@@ -590,6 +667,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       s.z.push_back(1.0 + (cur.virial - prev.virial) / (D * dt * N * Tm));
       s.time.push_back(eng.time() - t0);
       s.temperature.push_back(T);
+      if (rough) s.rotational_temperature.push_back(rotational_temperature());
       s.energy_lost.push_back((cur.energy_lost - prev.energy_lost) / (volume * dt));
       s.heating.push_back((cur.heating_energy - prev.heating_energy) / (volume * dt));
       s.background.push_back((cur.background_energy - prev.background_energy) / (volume * dt));
@@ -699,9 +777,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   // conservation
   summary.set("conservation.energy_change",
-              (eng.kinetic_energy() - e_initial) -
+              (total_energy() - e_initial) -
                   (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost));
-  summary.set("conservation.relative_energy_change_elastic", (eng.kinetic_energy() - e_initial) / e_initial);
+  summary.set("conservation.relative_energy_change_elastic", (total_energy() - e_initial) / e_initial);
   summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
   summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
   summary.set("energy.background_rate", t_run > 0 ? f.background_energy / (volume * t_run) : 0.0);
@@ -756,7 +834,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     std::vector<double> diff(wall_in_series.size());
     for (std::size_t k = 0; k < diff.size(); ++k) diff[k] = wall_in_series[k] - loss_series[k];
     summary.set("walls.balance_stderr", block_average(diff).stderr_ / loss);
-    summary.set("walls.energy_change_per_time", (eng.kinetic_energy() - e_initial) / t_run);
+    summary.set("walls.energy_change_per_time", (total_energy() - e_initial) / t_run);
     const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
     const double Lw = wd == 0 ? box.x : wd == 1 ? box.y : box.z;
     const theory::WallDriving drive{c.wall_driving[0], c.wall_driving[1], c.wall_restitution_side[0],
@@ -788,6 +866,40 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     summary.set("transport.blocks", static_cast<std::int64_t>(transport.blocks().size()));
     tr = transport_result(transport);
   }
+  // rough grains: steady R = Trot/Ttr over the second half of the samples (blocked standard
+  // error of the per-sample ratio), the models' R and their Ttr(t), Trot(t) from the
+  // measured start (docs/rough.md R2-R12; the models use the Enskog collision frequency)
+  std::vector<std::pair<std::string, std::vector<closures::rough::Sample>>> model_curves;
+  if constexpr (rough) {
+    const std::size_t m = s.temperature.size();
+    std::vector<double> ratio, ttr, trot;
+    for (std::size_t k = m / 2; k < m; ++k) {
+      if (k == 0) continue;  // the start is not a steady sample
+      ratio.push_back(s.rotational_temperature[k] / s.temperature[k]);
+      ttr.push_back(s.temperature[k]);
+      trot.push_back(s.rotational_temperature[k]);
+    }
+    const MeanError Rm = block_average(ratio), Ttm = block_average(ttr), Trm = block_average(trot);
+    summary.set("rotation.R", Rm.mean);
+    summary.set("rotation.R_stderr", Rm.stderr_);
+    summary.set("rotation.window_start_time", s.time[m / 2 > 0 ? m / 2 : 1]);
+    summary.set("rotation.Ttr_mean", Ttm.mean);
+    summary.set("rotation.Ttr_stderr", Ttm.stderr_);
+    summary.set("rotation.Trot_mean", Trm.mean);
+    summary.set("rotation.Trot_stderr", Trm.stderr_);
+    summary.set("rotation.Trot_initial", s.rotational_temperature.front());
+    summary.set("rotation.moment_of_inertia_q", c.rough->q);
+    for (const auto& [k, v] : rough_steady_theory(c)) summary.set("theory." + k, v);
+    const auto p = rough_parameters(c);
+    for (auto model : {rough_model::A, rough_model::B, rough_model::C, rough_model::D, rough_model::E}) {
+      try {
+        model_curves.emplace_back(closures::rough::to_string(model),
+                                  closures::rough::integrate(model, p, s.temperature.front(), s.rotational_temperature.front(), s.time));
+      } catch (const closures::ClosureError& err) {
+        std::fprintf(stderr, "warning: rough model %s not integrated: %s\n", closures::rough::to_string(model), err.what());
+      }
+    }
+  }
 
   // ---- results.h5 ----------------------------------------------------------------------
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
@@ -800,6 +912,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   h5.write("/series/heating_rate", s.heating);
   h5.write("/series/background_rate", s.background);
   h5.write("/series/collision_frequency", s.collisions);
+  if (rough) {
+    h5.write("/series/rotational_temperature", s.rotational_temperature);
+    for (const auto& [name, curve] : model_curves) {
+      std::vector<double> a, b;
+      for (const auto& x : curve) a.push_back(x.Ttr), b.push_back(x.Trot);
+      h5.write("/theory/rough_model_" + name + "/Ttr", a);  // at /series/time
+      h5.write("/theory/rough_model_" + name + "/Trot", b);
+    }
+  }
   if (!c.free_cooling) {
     h5.write("/observables/gr/r", pairs.gr_radii());
     h5.write("/observables/gr/g", pairs.gr());
@@ -882,7 +1003,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
 }  // namespace
 
 void run(const Config& c, const RunContext& ctx, Summary& summary) {
-  std::visit([&](const auto& law) { run_with(law, c, ctx, summary); }, c.restitution);
+  visit_law(c, [&](const auto& law) { run_with(law, c, ctx, summary); });
 }
 
 }  // namespace grainbath::edmd

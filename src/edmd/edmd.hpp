@@ -16,6 +16,7 @@
 #include "core/summary.hpp"
 #include "edmd/engine.hpp"
 #include "operators/restitution.hpp"
+#include "operators/walton.hpp"
 
 namespace grainbath::edmd {
 
@@ -37,6 +38,11 @@ struct Config {
                                       wall_restitution_side[0] != wall_restitution || wall_restitution_side[1] != wall_restitution; }
   Vec3 aspect{1.0, 1.0, 1.0};      // relative edge lengths of the box (volume fixed by N and packing)
   RestitutionLaw restitution = ElasticRestitution{};
+  // [restitution] law = "walton": rough grains with spin (docs/rough.md); replaces
+  // `restitution` (which then stays elastic and unused)
+  // (q default: 1/2 disks in 2D, 2/5 spheres in 3D)
+  using Rough = RoughParameters;
+  std::optional<Rough> rough;
   BackgroundParameters background;
   Heating heating;
   // [sampling]
@@ -76,6 +82,7 @@ const std::vector<ModelDescription>& edmd_models();
 // velocities at `temperature` with zero total momentum, rescaled to exactly that temperature.
 struct InitialState {
   std::vector<Vec3> positions, velocities;
+  std::vector<Vec3> omega;  // rough grains only (empty otherwise)
 };
 InitialState make_initial_state(const Config& config, std::uint64_t seed);
 EngineSetup make_setup(const Config& config, std::uint64_t seed);

@@ -97,7 +97,7 @@ void roots_in(const Poly& p, double a, double b, Roots& out, bool entering_only 
 
 Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const std::vector<Vec3>& velocities)
     : n_(positions.size()), dims_(s.dims), L_(s.length), walls_(s.walls), wall_e_(s.wall_restitution),
-      tc_(s.contact_time), heating_(s.heating), bg_(s.background), seed_(s.seed),
+      tc_(s.contact_time), q_(s.inertia_q), heating_(s.heating), bg_(s.background), seed_(s.seed),
       accelerated_(s.heating.kind == HeatingKind::air_table), vn_bin_width_(s.vn_bin_width) {
   for (int side = 0; side < 2; ++side) {
     wall_drive_[side] = s.wall_driving[side];
@@ -110,6 +110,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   driving_walls_ = wall_drive_[0] > 0.0 || wall_drive_[1] > 0.0 || wall_e_side_[0] != wall_e_ ||
                    wall_e_side_[1] != wall_e_;
   if (dims_ != 2 && dims_ != 3) throw std::invalid_argument("edmd: dimensions must be 2 or 3");
+  if (!(q_ > 0.0) || !std::isfinite(q_)) throw std::invalid_argument("edmd: moment of inertia factor q must be > 0");
   if (velocities.size() != n_) throw std::invalid_argument("edmd: positions and velocities differ in length");
   if (n_ < 2) throw std::invalid_argument("edmd: need at least 2 particles");
   if (n_ >= (std::size_t{1} << 32)) throw std::invalid_argument("edmd: too many particles");
@@ -960,6 +961,21 @@ void Engine::set_velocities(const std::vector<Vec3>& v) {
     if (dims_ == 2) u.z = 0.0;
   }
   rebuild();
+}
+
+void Engine::set_angular_velocities(const std::vector<Vec3>& w) {
+  if (w.size() != n_) throw std::invalid_argument("edmd: angular velocities must have N entries");
+  for (std::size_t i = 0; i < n_; ++i) {
+    Vec3 u = w[i];
+    if (dims_ == 2) u.x = u.y = 0.0;  // disks spin about z only (docs/rough.md sec. 1)
+    omega_[slot_of_[i]] = u;
+  }
+}
+
+double Engine::rotational_energy() const {
+  double s = 0.0;
+  for (const auto& w : omega_) s += norm2(w);
+  return 0.5 * moment_of_inertia() * s;
 }
 
 double Engine::kinetic_energy() const {

@@ -26,6 +26,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "edmd/background2d.hpp"
@@ -36,6 +37,7 @@
 #include "operators/random.hpp"
 #include "operators/restitution.hpp"
 #include "operators/vec3.hpp"
+#include "operators/walton.hpp"
 
 namespace grainbath::edmd {
 
@@ -96,6 +98,9 @@ struct EngineSetup {
   std::array<double, 2> wall_driving{0.0, 0.0};
   std::array<double, 2> wall_restitution_side{-1.0, -1.0};  // < 0: wall_restitution
   double contact_time = 0.0;  // TC-model collapse guard: e = 1 if either grain collided within t_c
+  // Rough grains (advance() with WaltonRestitution; docs/rough.md): moment of inertia
+  // I = inertia_q m a^2 with a = sigma/2, so I = inertia_q / 4 in engine units.
+  double inertia_q = 0.4;
   Heating heating;
   std::optional<BackgroundState> background;
   std::uint64_t seed = 1;
@@ -171,6 +176,11 @@ class Engine {
   // By stable particle id (storage order is internal: sorted by cell at every rebuild).
   Vec3 position(std::size_t id) const { return k_[slot_of_[id]].r; }   // valid after synchronize()
   Vec3 velocity(std::size_t id) const { return k_[slot_of_[id]].v; }
+  // Rough grains: angular velocity (2D: along z), changed only by Walton collisions.
+  Vec3 angular_velocity(std::size_t id) const { return omega_[slot_of_[id]]; }
+  void set_angular_velocities(const std::vector<Vec3>& w);  // by id; 2D keeps z only
+  double moment_of_inertia() const { return 0.25 * q_; }   // I = q m a^2, a = 1/2
+  double rotational_energy() const;                        // sum I |omega|^2 / 2
   std::uint64_t event_counter(std::size_t id) const { return counter_[slot_of_[id]]; }
   const Counters& counters() const { return c_; }
   Counters& counters() { return c_; }
@@ -267,6 +277,7 @@ class Engine {
   MoveHook move_hook_ = nullptr;
   void* move_hook_context_ = nullptr;
   double tc_ = 0.0;
+  double q_ = 0.4;  // I / (m a^2), rough grains
   Heating heating_;
   std::optional<BackgroundState> bg_;
   std::uint64_t seed_ = 1;
@@ -357,7 +368,16 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
     if (out.clamped) ++c_.clamped;
   }
   const Vec3 va0 = a.v, vb0 = b.v;  // for the measurement hook
-  c_.energy_lost += inelastic_collision(a.v, b.v, n, e, 1.0);  // Bizon eq. 28 per collision
+  if constexpr (std::is_same_v<Law, WaltonRestitution>) {
+    // rough grains: Walton's rule on v and omega (docs/rough.md W1-W5), chosen at compile
+    // time; the loss is eq. W5 (translational + rotational). The TC guard makes only the
+    // normal part elastic.
+    WaltonRestitution rule = law;
+    rule.e = e;
+    c_.energy_lost += walton_collision(a.v, b.v, omega_[i], omega_[j], n, 0.5, q_, rule, 1.0).energy_lost;
+  } else {
+    c_.energy_lost += inelastic_collision(a.v, b.v, n, e, 1.0);  // Bizon eq. 28 per collision
+  }
   if (hook_) {
     CollisionRecord rec;
     rec.ri = a.r;

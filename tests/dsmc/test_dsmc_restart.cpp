@@ -107,6 +107,17 @@ law = "constant"
 e = 0.85
 )";
 
+// Rough grains (issue #6): spins and the Trot series must be in the checkpoint; sliding
+// (mu = 0.5), the medium acting on the translation.
+// kHomogeneous with the power law replaced by Walton's rule
+std::string rough_homogeneous() {
+  std::string t = kHomogeneous;
+  const std::string power = "law = \"power\"\nbeta = 0.15\ndelta = 0.2\n";
+  t.replace(t.find(power), power.size(), "law = \"walton\"\ne = 0.85\nbeta0 = 0.6\nmu = 0.5\n");
+  t.replace(t.find("[background]"), 12, "rotational_temperature = 0.3\n[background]");
+  return t;
+}
+
 void check_exact_continuation(const std::string& toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -128,6 +139,7 @@ void check_exact_continuation(const std::string& toml, const std::string& tag) {
 TEST(DsmcRestart, HomogeneousContinuesBitwise) { check_exact_continuation(kHomogeneous, "hom"); }
 TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(std::string(kSpatialHead) + kSpatialRun, "spa"); }
 TEST(DsmcRestart, PeriodicBoxWithBathContinuesBitwise) { check_exact_continuation(std::string(kPeriodicHead) + kSpatialRun, "per"); }
+TEST(DsmcRestart, RoughHomogeneousContinuesBitwise) { check_exact_continuation(rough_homogeneous(), "rough"); }
 
 TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-corrupt-" + std::to_string(::getpid()));

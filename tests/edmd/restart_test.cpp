@@ -172,6 +172,30 @@ every = 20
 keep = true
 )";
 
+// Rough grains (issue #6): spins (in the engine state) and the Trot series (in the run
+// state) must both be checkpointed; Coulomb sliding (mu = 0.3) and the initial spins drawn
+// from their own stream.
+const char* kRoughDisks = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.1
+rotational_temperature = 0.5
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "walton"
+e = 0.9
+beta0 = 0.5
+mu = 0.3
+[heating]
+model = "white_noise"
+kick = 0.3
+[checkpoint]
+every = 20
+keep = true
+)";
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -192,6 +216,7 @@ void check_exact_continuation(const char* toml, const std::string& tag) {
 TEST(EdmdRestart, HeatedSpheresContinueBitwise) { check_exact_continuation(kHeatedSpheres, "heated"); }
 TEST(EdmdRestart, WallsAndMediumContinueBitwise) { check_exact_continuation(kWallsAndMedium, "walls"); }
 TEST(EdmdRestart, AirTableContinuesBitwise) { check_exact_continuation(kAirTable, "air"); }
+TEST(EdmdRestart, RoughDisksContinueBitwise) { check_exact_continuation(kRoughDisks, "rough"); }
 TEST(EdmdRestart, DrivingWallsWithProfilesContinueBitwise) {
   check_exact_continuation(kDrivingWallsProfiles, "driven");
 }

@@ -1,0 +1,61 @@
+#!/usr/bin/python3
+"""Collects the EDMD runs of cases/rough-driven (run.sh) into small CSV files for plot.py:
+  edmd_curves.csv   mu, t_nu0, Ttr, Trot (EDMD) and the models' Ttr_A..E, Trot_A..E at the same
+                    times (results.h5 /theory/rough_model_*: integrated by the driver from the
+                    measured start with the Enskog nu and the run's collision-keyed driving);
+                    thinned logarithmically in time
+  edmd_r_vs_mu.csv  mu, R, R_stderr, Ttr, Ttr_stderr, R_A..R_E, Ttr_E of the output-sweep/ runs
+Time unit: 1/nu(0), nu(0) = G sqrt(Ttr(0)), G = 2 n sigma chi sqrt(pi) (docs/rough.md R1,
+Henderson chi), as in theory_curves.csv."""
+import csv
+import glob
+import json
+import math
+import os
+
+import h5py
+
+here = os.path.dirname(os.path.abspath(__file__))
+
+
+def prefactor_2d(phi):
+    n = 4.0 * phi / math.pi
+    chi = (1.0 - 7.0 * phi / 16.0) / (1.0 - phi) ** 2
+    return 2.0 * n * chi * math.sqrt(math.pi)
+
+
+with open(os.path.join(here, "edmd_curves.csv"), "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(["mu", "t_nu0", "Ttr", "Trot"] + [f"Ttr_{m}" for m in "ABCDE"] + [f"Trot_{m}" for m in "ABCDE"])
+    for sub, mu in (("mu-inf", "inf"), ("mu-0.5", "0.5")):
+        h = h5py.File(os.path.join(here, sub, "output", "results.h5"), "r")
+        s = json.load(open(os.path.join(here, sub, "output", "summary.json")))
+        phi = 0.0866
+        t = h["/series/time"][:]
+        T = h["/series/temperature"][:]
+        nu0 = prefactor_2d(phi) * math.sqrt(T[0])
+        cols = [h["/series/temperature"][:], h["/series/rotational_temperature"][:]]
+        cols += [h[f"/theory/rough_model_{m}/Ttr"][:] for m in "ABCDE"]
+        cols += [h[f"/theory/rough_model_{m}/Trot"][:] for m in "ABCDE"]
+        last = -1.0
+        for k in range(len(t)):
+            x = t[k] * nu0
+            if k > 0 and x < 1.04 * last and k != len(t) - 1:
+                continue  # ~60 points per decade
+            last = x
+            w.writerow([mu, f"{x:.6g}"] + [f"{c[k]:.6g}" for c in cols])
+
+rows = []
+for d in glob.glob(os.path.join(here, "output-sweep", "mu-*")):
+    s = json.load(open(os.path.join(d, "summary.json")))
+    mu = float(os.path.basename(d)[3:])
+    r, th = s["rotation"], s["theory"]
+    rows.append([mu, r["R"], r["R_stderr"], r["Ttr_mean"], r["Ttr_stderr"]] +
+                [th[f"model_{m}"]["R"] for m in "ABCDE"] + [th["model_E"]["Ttr"]])
+rows.sort()
+with open(os.path.join(here, "edmd_r_vs_mu.csv"), "w", newline="") as f:
+    w = csv.writer(f)
+    w.writerow(["mu", "R", "R_stderr", "Ttr", "Ttr_stderr", "R_A", "R_B", "R_C", "R_D", "R_E", "Ttr_E"])
+    for r in rows:
+        w.writerow([f"{x:.6g}" for x in r])
+print("wrote edmd_curves.csv, edmd_r_vs_mu.csv")
