@@ -1,0 +1,53 @@
+#!/bin/sh
+# Every benchmark of issue #7 in one go, for the tables of docs/PERFORMANCE.md. Run it on an
+# otherwise idle machine (the 1-minute load average is logged before every run; on a shared
+# machine wall times are upper bounds). Usage:
+#   scripts/bench-issue7.sh BUILD_DIR OUT_DIR [REPEATS] [MPI_BUILD_DIR]
+# BUILD_DIR needs the targets bench_dsmc and bench_edmd; MPI_BUILD_DIR (optional) a grainbath
+# built with -DGRAINBATH_MPI=ON, for the 1-process vs 2-rank figure of the DSMC-1 case.
+# Writes OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
+# (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd) and OUT_DIR/mpi.txt.
+set -eu
+build=$1
+out=$2
+reps=${3:-3}
+mpibuild=${4:-}
+here=$(cd "$(dirname "$0")/.." && pwd)
+mkdir -p "$out"
+py=/usr/bin/python3
+
+echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
+"$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" "$reps" 'DSMC1_SpartaBox/1/' 'DSMC1_SpartaBox/2/' \
+  'DSMC2_HomogeneousBath/1/' 'DSMC2_HomogeneousBath/2/' 'StreamTriad' | tee -a "$out/dsmc.txt"
+"$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" 1 'DSMC1_SpartaBox_1e7/1/' 'DSMC1_SpartaBox_1e7/2/' \
+  | tee -a "$out/dsmc.txt"
+
+echo "== EDMD ($(date -u +%H:%M:%S), $(uptime))"
+sh "$here/scripts/bench-edmd.sh" "$build" "$out/edmd" "$reps"
+"$py" "$here/scripts/bench-edmd-table.py" "$out/edmd" | tee "$out/edmd.txt"
+
+if [ -n "$mpibuild" ]; then
+  # DSMC-1 as a case (bench/mpi-dsmc1, 200 steps): the same build as a plain process and as
+  # 2 ranks; results.h5 must be identical (h5diff silent), the wall times give the speed-up.
+  export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE
+  : > "$out/mpi.txt"
+  r=1
+  while [ "$r" -le "$reps" ]; do
+    for np in 1 2; do
+      dir="$out/mpi-np$np-r$r"
+      load=$(cut -d' ' -f1 /proc/loadavg)
+      if [ "$np" = 1 ]; then
+        "$mpibuild/grainbath" run "$here/bench/mpi-dsmc1" --out "$dir" --set dsmc.t_end=17.724 -q
+      else
+        mpirun --oversubscribe --bind-to none -np 2 "$mpibuild/grainbath" run "$here/bench/mpi-dsmc1" --out "$dir" \
+          --set dsmc.t_end=17.724 -q
+      fi
+      wall=$("$py" -c "import json,sys; print(json.load(open(sys.argv[1]))['performance']['wall_seconds'])" "$dir/summary.json")
+      echo "np=$np rep=$r load=$load wall_seconds=$wall" | tee -a "$out/mpi.txt"
+    done
+    h5diff --exclude-path /parameters "$out/mpi-np1-r$r/results.h5" "$out/mpi-np2-r$r/results.h5" \
+      && echo "rep $r: results.h5 identical for 1 and 2 ranks" | tee -a "$out/mpi.txt"
+    r=$((r + 1))
+  done
+fi
+echo "== end ($(date -u +%H:%M:%S), $(uptime))"
