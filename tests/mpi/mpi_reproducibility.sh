@@ -13,7 +13,7 @@
 # whole population (performance.rank_peak_particles < dsmc.particles).
 #
 # usage: mpi_reproducibility.sh GRAINBATH CASE_DIR WORK_DIR CHECK...
-#   CHECK: np1 | np2 | np2t2 | np3 | np4 | checkpoint (each compared with the plain run)
+#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | checkpoint (each compared with the plain run)
 #          rebalance (the 2-rank run must have moved its boundary at least once)
 #          multihop (the 4-rank run must have forwarded grains across two ranks in a step)
 set -euo pipefail
@@ -94,11 +94,15 @@ for check in "${checks[@]}"; do
       same "$work/plain" "$work/np2t2" "2 ranks x 2 threads"
       distributed "$work/np2t2" "2 ranks x 2 threads"
       checked_2ranks="$work/np2t2" ;;
-    np3|np4)
+    np3|np4|np4t2)
       np=${check#np}
-      mpi "$np" run "$case_dir" --out "$work/$check" -q > /dev/null
-      same "$work/plain" "$work/$check" "$np ranks"
-      distributed "$work/$check" "$np ranks" ;;
+      np=${np%t2}
+      threads=()
+      label="$np ranks"
+      if [[ $check == *t2 ]]; then threads=(--set run.threads=2); label="$np ranks x 2 threads"; fi
+      mpi "$np" run "$case_dir" --out "$work/$check" -q "${threads[@]}" > /dev/null
+      same "$work/plain" "$work/$check" "$label"
+      distributed "$work/$check" "$label" ;;
     multihop)
       # after np4: some grain must have crossed two ranks' cells in one step (forwarded)
       python3 - "$work/np4/summary.json" <<'PY' || fail=1
