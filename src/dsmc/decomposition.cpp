@@ -22,6 +22,10 @@ std::size_t reduction_block_cells(const Config& c) {
   return b;
 }
 
+bool medium_present(const Config& c) {
+  return c.background.present() || c.field.profile == BackgroundProfile::file;
+}
+
 // ---------------------------------------------------------------- MPI environment
 namespace mpi_env {
 namespace {
@@ -116,6 +120,74 @@ std::vector<double> exchange_doubles(const std::vector<std::vector<double>>& out
                 MPI_DOUBLE, MPI_COMM_WORLD);
   return recv;
 }
+
+// A migrating grain travels as one record of doubles: id (its 64 bits), velocity, position
+// (one per dimension) and, in runs with a medium, the carried bath residual.
+struct MigrantRecord {
+  int dims;
+  bool hazard;
+  std::size_t width;
+  explicit MigrantRecord(const Config& c)
+      : dims(c.domain.dimensions), hazard(medium_present(c)), width(4 + static_cast<std::size_t>(dims) + (hazard ? 1 : 0)) {}
+  void pack(const Particles& p, std::size_t i, std::vector<double>& o) const {
+    double id;
+    std::memcpy(&id, &p.id[i], sizeof id);  // the 64-bit id travels bit for bit
+    o.insert(o.end(), {id, p.vx[i], p.vy[i], p.vz[i], p.x[i]});
+    if (dims > 1) o.push_back(p.y[i]);
+    if (dims > 2) o.push_back(p.z[i]);
+    if (hazard) o.push_back(p.bath_hazard[i]);
+  }
+  std::uint32_t cell(const CellGrid& grid, const double* r) const {
+    return grid(r[4], dims > 1 ? r[5] : 0.0, dims > 2 ? r[6] : 0.0);
+  }
+  // append the records in `in` to the particles, and their cells to `cells`
+  void append(const std::vector<double>& in, const CellGrid& grid, Particles& p, std::vector<std::uint32_t>& cells) const {
+    const std::size_t n = p.size(), arrived = in.size() / width;
+    p.resize(n + arrived, false);
+    p.x.resize(n + arrived);
+    if (dims > 1) p.y.resize(n + arrived);
+    if (dims > 2) p.z.resize(n + arrived);
+    if (hazard) p.bath_hazard.resize(n + arrived);
+    cells.resize(n + arrived);
+    for (std::size_t j = 0; j < arrived; ++j) {
+      const double* r = in.data() + j * width;
+      const std::size_t i = n + j;
+      std::memcpy(&p.id[i], &r[0], sizeof(std::uint64_t));
+      p.vx[i] = r[1];
+      p.vy[i] = r[2];
+      p.vz[i] = r[3];
+      p.x[i] = r[4];
+      if (dims > 1) p.y[i] = r[5];
+      if (dims > 2) p.z[i] = r[6];
+      if (hazard) p.bath_hazard[i] = r[4 + dims];
+      cells[i] = cell(grid, r);
+    }
+  }
+};
+
+// One round of the ring: send `to_left` / `to_right` to the neighbours and receive what they
+// sent this way (any length: the receiver probes the size, so no separate count message).
+// With two ranks both neighbours are the same rank; the tags keep the two messages apart.
+constexpr int kTagRightward = 7001, kTagLeftward = 7002;
+void exchange_with_neighbours(const std::vector<double>& to_left, const std::vector<double>& to_right, int left,
+                              int right, std::vector<double>& from_left, std::vector<double>& from_right) {
+  MPI_Request sent[2];
+  MPI_Isend(to_right.data(), to_int(to_right.size(), "a migration message"), MPI_DOUBLE, right, kTagRightward,
+            MPI_COMM_WORLD, &sent[0]);
+  MPI_Isend(to_left.data(), to_int(to_left.size(), "a migration message"), MPI_DOUBLE, left, kTagLeftward,
+            MPI_COMM_WORLD, &sent[1]);
+  auto receive = [](int from, int tag, std::vector<double>& in) {
+    MPI_Status status;
+    MPI_Probe(from, tag, MPI_COMM_WORLD, &status);
+    int count = 0;
+    MPI_Get_count(&status, MPI_DOUBLE, &count);
+    in.resize(static_cast<std::size_t>(count));
+    MPI_Recv(in.data(), count, MPI_DOUBLE, from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+  };
+  receive(left, kTagRightward, from_left);
+  receive(right, kTagLeftward, from_right);
+  MPI_Waitall(2, sent, MPI_STATUSES_IGNORE);
+}
 }  // namespace
 #endif
 
@@ -197,6 +269,45 @@ double Decomposition::sum(double x) const {
   return t;
 }
 
+long long Decomposition::max(long long x) const {
+#ifdef GRAINBATH_MPI
+  if (size_ > 1) {
+    long long out = 0;
+    MPI_Allreduce(&x, &out, 1, MPI_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    return out;
+  }
+#endif
+  return x;
+}
+
+void Decomposition::share(std::size_t count, std::size_t granule, std::size_t& lo, std::size_t& hi) const {
+  const std::size_t units = (count + granule - 1) / granule, r = static_cast<std::size_t>(rank_),
+                    n = static_cast<std::size_t>(size_);
+  lo = std::min(count, units * r / n * granule);
+  hi = std::min(count, units * (r + 1) / n * granule);
+}
+
+// The ranks form a ring in cell order (rank r's cells precede rank r + 1's; the last rank's
+// neighbour on the right is rank 0). A grain goes the shorter way round (ties: rightwards),
+// so it never needs more than size/2 hops.
+int Decomposition::ring_offset(int to) const {
+  const int right = (to - rank_ + size_) % size_;
+  return right <= size_ - right ? right : right - size_;
+}
+
+Moments Decomposition::moments(const Particles& p, const std::vector<std::size_t>& bounds, double mass,
+                               bool per_block) const {
+  std::vector<RawMomentSums> raw;
+  raw_moment_sums(p, bounds, raw);
+  combine_in_order(raw, per_block);
+  Moments m = moments_from_raw(raw, mass);
+  std::vector<CentralMomentSums> central;
+  central_moment_sums(p, bounds, m.mean_velocity, central);
+  combine_in_order(central, per_block);
+  finish_moments(central, mass, m);
+  return m;
+}
+
 // Boundaries that split the block weights into `size_` nearly equal contiguous parts:
 // rank r starts at the first block where the running weight reaches r/size of the total.
 std::vector<std::size_t> Decomposition::balanced_boundaries(const std::vector<std::uint64_t>& w) {
@@ -246,9 +357,10 @@ void Decomposition::cells_of_all(State& s, const Config& c, const std::vector<st
   w.cell_fresh = true;
 }
 
-void Decomposition::distribute(State& s, const Config& c) {
-  if (size_ == 1) return;
+void Decomposition::distribute(State& s, const Config& c, bool holds_all) {
   Particles& p = s.particles;
+  note_particles(p.size());
+  if (size_ == 1) return;
   if (!c.spatial()) {  // one cell: rank 0 holds every grain, the others idle
     first_block_.assign(size_ + 1, blocks_);
     first_block_[0] = 0;
@@ -256,23 +368,30 @@ void Decomposition::distribute(State& s, const Config& c) {
     return;
   }
   cells_of_all(s, c, nullptr);
-  // every rank holds the whole population here, so the weights are known everywhere
-  std::vector<std::uint64_t> w(blocks_, 1);  // +1: empty regions are still spread out
+  std::vector<std::uint64_t> w(blocks_, 0);
   for (std::uint32_t k : s.sort.cell)
     if (k != kRemoved) ++w[k / block_cells_];
+#ifdef GRAINBATH_MPI
+  // particles per block over all ranks (integers: the sum is exact in any order)
+  if (!holds_all) MPI_Allreduce(MPI_IN_PLACE, w.data(), to_int(blocks_, "the reduction blocks"), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+#endif
+  for (auto& x : w) ++x;  // +1: empty regions are still spread out
   first_block_ = balanced_boundaries(w);
   balanced_at_step_ = s.step;
-  const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
-  for (auto& k : s.sort.cell)
-    if (k < lo || k >= hi) k = kRemoved;
+  if (holds_all) {  // keep this rank's cells only
+    const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
+    for (auto& k : s.sort.cell)
+      if (k < lo || k >= hi) k = kRemoved;
+  } else {
+    send_to_owners(s, c);
+    note_particles(p.size());
+  }
 }
 
 void Decomposition::send_to_owners(State& s, const Config& c) {
 #ifdef GRAINBATH_MPI
   Particles& p = s.particles;
-  const int dims = c.domain.dimensions;
-  const bool hazard = !p.bath_hazard.empty();  // runs with a medium carry the bath residual
-  const std::size_t width = 4 + static_cast<std::size_t>(dims) + (hazard ? 1 : 0);  // id, v (3), position (dims), residual
+  const MigrantRecord rec(c);
   std::vector<std::vector<double>> out(size_);
   std::vector<std::uint32_t>& cell = s.sort.cell;
   const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
@@ -280,37 +399,10 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t k = cell[i];
     if (k == kRemoved || (k >= lo && k < hi)) continue;
-    auto& o = out[owner_of_block(k / block_cells_)];
-    double id;
-    std::memcpy(&id, &p.id[i], sizeof id);  // the 64-bit id travels bit for bit
-    o.insert(o.end(), {id, p.vx[i], p.vy[i], p.vz[i], p.x[i]});
-    if (dims > 1) o.push_back(p.y[i]);
-    if (dims > 2) o.push_back(p.z[i]);
-    if (hazard) o.push_back(p.bath_hazard[i]);
+    rec.pack(p, i, out[owner_of_block(k / block_cells_)]);
     cell[i] = kRemoved;  // dropped here by the next sort
   }
-  const std::vector<double> in = exchange_doubles(out, size_);
-  const std::size_t arrived = in.size() / width;
-  p.resize(n + arrived, false);
-  p.x.resize(n + arrived);
-  if (dims > 1) p.y.resize(n + arrived);
-  if (dims > 2) p.z.resize(n + arrived);
-  if (hazard) p.bath_hazard.resize(n + arrived);
-  cell.resize(n + arrived);
-  const CellGrid grid(c.domain);
-  for (std::size_t j = 0; j < arrived; ++j) {
-    const double* r = in.data() + j * width;
-    const std::size_t i = n + j;
-    std::memcpy(&p.id[i], &r[0], sizeof(std::uint64_t));
-    p.vx[i] = r[1];
-    p.vy[i] = r[2];
-    p.vz[i] = r[3];
-    p.x[i] = r[4];
-    if (dims > 1) p.y[i] = r[5];
-    if (dims > 2) p.z[i] = r[6];
-    if (hazard) p.bath_hazard[i] = r[4 + dims];
-    cell[i] = grid(p.x[i], dims > 1 ? p.y[i] : 0.0, dims > 2 ? p.z[i] : 0.0);
-  }
+  rec.append(exchange_doubles(out, size_), CellGrid(c.domain), p, cell);
 #else
   (void)s;
   (void)c;
@@ -320,7 +412,60 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
 void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed) {
   if (size_ == 1) return;
   cells_of_all(s, c, &removed);
-  send_to_owners(s, c);
+#ifdef GRAINBATH_MPI
+  Particles& p = s.particles;
+  const MigrantRecord rec(c);
+  const CellGrid grid(c.domain);
+  std::vector<std::uint32_t>& cell = s.sort.cell;
+  const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
+  std::vector<double> to_left, to_right, from_left, from_right, kept;
+  int hops = 0;  // the most ranks any of this rank's migrants has to cross
+  const std::size_t n = p.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint32_t k = cell[i];
+    if (k == kRemoved || (k >= lo && k < hi)) continue;
+    const int d = ring_offset(owner_of_block(k / block_cells_));
+    rec.pack(p, i, d > 0 ? to_right : to_left);
+    hops = std::max(hops, std::abs(d));
+    cell[i] = kRemoved;  // dropped here by the next sort
+    ++stats_.migrants;
+  }
+  // How many rounds: with 2 or 3 ranks every other rank is a neighbour, so one round always
+  // suffices and no collective is needed. With more, the ranks agree on the largest hop
+  // count (an all-reduce of one int, overlapped with the first round); a grain that crosses
+  // several ranks' cells in one step (large dt, thin slabs, a reflection or a periodic wrap
+  // inside a rank's range) is forwarded by the ranks it passes, one hop per round.
+  int rounds = hops;
+  MPI_Request agreed = MPI_REQUEST_NULL;
+  if (size_ > 3) {
+    MPI_Iallreduce(&hops, &rounds, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD, &agreed);
+    ++stats_.collectives;
+  }
+  const int left = (rank_ + size_ - 1) % size_, right = (rank_ + 1) % size_;
+  for (int round = 1;; ++round) {
+    exchange_with_neighbours(to_left, to_right, left, right, from_left, from_right);
+    ++stats_.rounds;
+    stats_.messages += 2;
+    stats_.bytes += static_cast<long long>((to_left.size() + to_right.size()) * sizeof(double));
+    to_left.clear();
+    to_right.clear();
+    for (const std::vector<double>* in : {&from_left, &from_right})
+      for (std::size_t j = 0; j < in->size(); j += rec.width) {
+        const double* r = in->data() + j;
+        const int owner = owner_of_block(rec.cell(grid, r) / block_cells_);
+        std::vector<double>& to = owner == rank_ ? kept : ring_offset(owner) > 0 ? to_right : to_left;
+        to.insert(to.end(), r, r + rec.width);
+      }
+    if (round == 1 && agreed != MPI_REQUEST_NULL) MPI_Wait(&agreed, MPI_STATUS_IGNORE);
+    if (round >= rounds) break;
+  }
+  if (!to_left.empty() || !to_right.empty())
+    throw std::logic_error("migrate: a grain did not reach the rank that owns its cell");
+  stats_.max_hops = std::max(stats_.max_hops, rounds);
+  ++stats_.steps;
+  rec.append(kept, grid, p, cell);
+  note_particles(p.size());
+#endif
 }
 
 // Per-cell data that lives with the cell's owner: the NTC remainder and the field sums.
@@ -383,36 +528,9 @@ bool Decomposition::rebalance(State& s, const Config& c) {
   s.sort.cell_fresh = false;
   cells_of_all(s, c, nullptr);
   send_to_owners(s, c);
+  note_particles(s.particles.size());
   ++rebalances_;
   return true;
-}
-
-void Decomposition::allgather_particles(const Particles& local, bool with_x, Particles& all) const {
-#ifdef GRAINBATH_MPI
-  std::vector<int> counts(size_);
-  const int n = to_int(local.size(), "the particles of one rank");
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  const std::vector<int> d = displacements(counts);
-  const std::size_t total = static_cast<std::size_t>(d.back()) + counts.back();
-  all.vx.resize(total);
-  all.vy.resize(total);
-  all.vz.resize(total);
-  all.id.resize(total);
-  auto gather = [&](const std::vector<double>& a, std::vector<double>& b) {
-    MPI_Allgatherv(a.data(), n, MPI_DOUBLE, b.data(), counts.data(), d.data(), MPI_DOUBLE, MPI_COMM_WORLD);
-  };
-  gather(local.vx, all.vx);
-  gather(local.vy, all.vy);
-  gather(local.vz, all.vz);
-  if (with_x) {
-    all.x.resize(total);
-    gather(local.x, all.x);
-  }
-#else
-  (void)local;
-  (void)with_x;
-  (void)all;
-#endif
 }
 
 State Decomposition::gather_state(const State& s, const Config& c) const {

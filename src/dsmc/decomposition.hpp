@@ -14,11 +14,13 @@
 //     block order (combine_in_order), the same at any rank and thread count;
 //  3. moments of the whole population are taken on the gathered particles in global
 //     (cell, id) order, i.e. exactly the array a single process holds.
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <vector>
 
 #include "dsmc/dsmc.hpp"
+#include "dsmc/moments.hpp"
 #include "dsmc/state.hpp"
 
 namespace grainbath::dsmc {
@@ -27,6 +29,11 @@ namespace grainbath::dsmc {
 // (on average) or fewer: enough work per block for the threads, fine enough for the load
 // balance between ranks. A function of the case alone.
 std::size_t reduction_block_cells(const Config& c);
+
+// A medium is present if [background] density > 0, or if a file supplies the fields; then
+// every grain carries its bath residual (Particles::bath_hazard), also when it migrates.
+// From the case alone, so that a rank that holds no grain still agrees on the layout.
+bool medium_present(const Config& c);
 
 namespace mpi_env {
 // MPI is initialised only when the process was started by mpirun (or another launcher
@@ -76,13 +83,22 @@ class Decomposition {
     if (!all.empty()) std::memcpy(partials.data(), all.data(), all.size());
   }
 
-  // Start of a run (every rank holds the whole population, from initialise() or a
-  // checkpoint): choose balanced boundaries and keep only this rank's cells. The caller
-  // then sorts (sort_by_cell uses the cells left in s.sort.cell).
-  void distribute(State& s, const Config& c);
+  // Start of a run: choose balanced boundaries and send every particle to its owner.
+  // holds_all: every rank holds the whole population (a checkpoint read by every rank; the
+  // others are dropped); otherwise each rank holds a disjoint part of it (initialise() on
+  // this rank's share of the ids), the block weights are summed over the ranks and the
+  // particles move to their owners in one all-to-all. Leaves the cell of every particle
+  // (kRemoved: not this rank's) in s.sort.cell for sort_by_cell.
+  void distribute(State& s, const Config& c, bool holds_all);
   // After streaming: send particles that left this rank's cells to their owners, receive
-  // those that arrived. Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
+  // those that arrived. Neighbour exchanges only: the ranks form a ring in cell order, a
+  // migrant goes the shorter way round and is forwarded one neighbour per round until it
+  // reaches its owner (several rounds only when some grain crossed more than one rank's
+  // cells in a step). Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
   void migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed);
+  // Share [lo, hi) of `count` items (ids at start-up) for this rank: contiguous, in rank
+  // order, cut at multiples of `granule` (the moment blocks of measure_moments).
+  void share(std::size_t count, std::size_t granule, std::size_t& lo, std::size_t& hi) const;
   // Measured work: the collision candidates (background and grain-grain) of every
   // reduction block, from the per-block counters after combine_in_order, hence the same on
   // every rank; summed until the next rebalance.
@@ -96,8 +112,12 @@ class Decomposition {
   // per-cell data (NTC remainders, field sums) of cells that change owner. True if
   // anything moved (the caller sorts again).
   bool rebalance(State& s, const Config& c);
-  // All particles in global (cell, id) order on every rank (velocities, and x for spatial runs).
-  void allgather_particles(const Particles& local, bool with_x, Particles& all) const;
+  // Moments of the whole population from this rank's particles: per block
+  // [bounds[b], bounds[b+1]) sums, combined over the ranks in block order (two small
+  // all-gathers, no particle leaves its rank), so every rank gets the same numbers, the
+  // ones a single process gets with the same blocks. per_block: bounds are this rank's
+  // reduction blocks (block_bounds of a spatial run).
+  Moments moments(const Particles& p, const std::vector<std::size_t>& bounds, double mass, bool per_block) const;
   // The whole state on rank 0 (particles in global order, per-cell data from each cell's
   // owner); other ranks get an empty State. Collective.
   State gather_state(const State& s, const Config& c) const;
@@ -105,14 +125,29 @@ class Decomposition {
   bool any(bool flag) const { return any_bits(flag ? 1 : 0) != 0; }  // logical OR over the ranks
   int any_bits(int bits) const;     // bitwise OR over the ranks (several flags, one collective)
   double sum(double x) const;       // sum over the ranks (rank order)
+  long long max(long long x) const; // maximum over the ranks
   double imbalance() const { return imbalance_; }  // max/mean particles per rank at the last balance
   int rebalances() const { return rebalances_; }
+
+  // Communication of migrate() on this rank since the start (docs/performance/mpi.md):
+  // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed.
+  struct MigrationStats {
+    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0;
+    int max_hops = 0;
+  };
+  const MigrationStats& migration_stats() const { return stats_; }
+  // The most grains this rank has held at once in its particle arrays (from the start, or
+  // from reading a checkpoint, through the start-up distribution and every migration and
+  // rebalance): about N/size after a fresh start, N after a resume (every rank reads the
+  // checkpoint). Gathers for output on rank 0 are not counted.
+  std::size_t peak_particles() const { return peak_particles_; }
 
  private:
   std::vector<unsigned char> allgather_bytes(const std::vector<unsigned char>& mine, std::size_t bytes_per_block) const;
   std::vector<std::size_t> balanced_boundaries(const std::vector<std::uint64_t>& weights);
   void cells_of_all(State& s, const Config& c, const std::vector<std::uint8_t>* removed) const;
-  void send_to_owners(State& s, const Config& c);  // uses s.sort.cell
+  void send_to_owners(State& s, const Config& c);  // uses s.sort.cell; all-to-all
+  int ring_offset(int to) const;  // signed ring distance to rank `to` (shorter way; > 0: rightwards)
   void move_cell_data(State& s, const std::vector<std::size_t>& old_first);
 
   int rank_ = 0, size_ = 1;
@@ -123,6 +158,9 @@ class Decomposition {
   std::vector<std::size_t> first_block_;  // [size + 1]
   double imbalance_ = 1.0;
   int rebalances_ = 0;
+  MigrationStats stats_;
+  std::size_t peak_particles_ = 0;
+  void note_particles(std::size_t n) { peak_particles_ = std::max(peak_particles_, n); }
 };
 
 }  // namespace grainbath::dsmc

@@ -36,9 +36,22 @@ namespace {
 // Initial state: positions from the density profile and Maxwellian velocities, each grain
 // from its own counter-based stream; then velocities are shifted and scaled so that the
 // sample mean and temperature are exactly the requested ones (no O(N^-1/2) noise at t = 0).
-void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on) {
+// MPI, spatial runs: each rank generates only its share of the ids (contiguous, cut at the
+// 4096-id moment blocks), and Decomposition::distribute sends every grain to the owner of
+// its cell: no rank ever holds the whole population. Who generates a grain does not matter
+// (its streams are keyed on its id), and the moments for the shift and scale are summed per
+// id block and the blocks added in id order on every rank, as measure_moments does in one
+// process: the state is bitwise the same at any rank count. Homogeneous runs: rank 0
+// generates every grain (the others idle).
+void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on, const Decomposition& dec) {
+  constexpr std::size_t kMomentBlock = 4096;  // measure_moments' block (src/dsmc/moments.cpp)
   Particles& p = s.particles;
-  const std::size_t n = static_cast<std::size_t>(c.particles);
+  std::size_t first = 0, end = static_cast<std::size_t>(c.particles);
+  if (c.spatial())
+    dec.share(end, kMomentBlock, first, end);
+  else if (!dec.root())
+    end = 0;
+  const std::size_t n = end - first;
   const Domain& d = c.domain;
   p.resize(n, false);
   if (bath_on) p.bath_hazard.resize(n);
@@ -51,11 +64,12 @@ void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on) {
   const double k = c.spatial() ? c.wavenumber() : 0.0;
   const double A = c.grains.profile == GrainProfile::mode ? c.grains.amplitude : 0.0;
 #pragma omp parallel for schedule(static)
-  for (std::size_t i = 0; i < n; ++i) {
-    p.id[i] = i;
+  for (std::size_t j = 0; j < n; ++j) {
+    const std::uint64_t i = first + j;  // the grain's id
+    p.id[j] = i;
     CounterRng rng(seed, Stream::initial_velocities, i, 0);
-    p.set_velocity(i, sig * rng.normal3());
-    if (bath_on) p.bath_hazard[i] = CounterRng(seed, Stream::background_clock, i, 0).exponential_ziggurat();
+    p.set_velocity(j, sig * rng.normal3());
+    if (bath_on) p.bath_hazard[j] = CounterRng(seed, Stream::background_clock, i, 0).exponential_ziggurat();
     if (c.spatial()) {
       CounterRng pr(seed, Stream::initial_positions, i, 0);
       // n0 (1 + A cos kx) by rejection
@@ -63,17 +77,20 @@ void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on) {
       do {
         x = pr.uniform() * d.length[0];
       } while (A != 0.0 && pr.uniform() * (1.0 + std::abs(A)) > 1.0 + A * std::cos(k * x));
-      p.x[i] = x;
-      if (d.dimensions > 1) p.y[i] = pr.uniform() * d.length[1];
-      if (d.dimensions > 2) p.z[i] = pr.uniform() * d.length[2];
+      p.x[j] = x;
+      if (d.dimensions > 1) p.y[j] = pr.uniform() * d.length[1];
+      if (d.dimensions > 2) p.z[j] = pr.uniform() * d.length[2];
     }
   }
-  const Moments m = measure_moments(p, 0, n, c.grains.mass);
+  std::vector<std::size_t> id_blocks;  // this rank's moment blocks (first is a multiple of 4096)
+  for (std::size_t lo = 0; lo < n; lo += kMomentBlock) id_blocks.push_back(lo);
+  id_blocks.push_back(n);
+  const Moments m = dec.moments(p, id_blocks, c.grains.mass, false);
   const double scale = std::sqrt(c.grains.temperature / m.temperature);
   for (std::size_t i = 0; i < n; ++i)
     p.set_velocity(i, scale * (p.velocity(i) - m.mean_velocity) + c.grains.drift);
   s.remainder.assign(c.spatial() ? d.cell_count() : 1, 0.0);
-  s.initial_kinetic_energy = measure_moments(p, 0, n, c.grains.mass).kinetic_energy;
+  s.initial_kinetic_energy = dec.moments(p, id_blocks, c.grains.mass, false).kinetic_energy;
   if (c.rough) initialise_spins(s, c, seed);
 }
 
@@ -152,15 +169,18 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
   for (const auto& g : per_block) s.counters.grain.add(g);
 }
 
-// `all`: every particle in global (cell, id) order (s.particles in a single process).
-void sample(State& s, const Config& c, double t, const Particles& all) {
-  const Particles& p = all;
-  const std::size_t n = p.size();
-  Moments mo = measure_moments(p, 0, n, c.grains.mass);
+// Moments of the whole population, summed per reduction block (src/dsmc/decomposition.hpp)
+// and combined in block order: each rank sums its own particles, and every rank gets the
+// same numbers as one process (no particle is gathered).
+void sample(State& s, const Config& c, double t, const Decomposition& dec, std::vector<std::size_t>& bounds) {
+  const Particles& p = s.particles;
+  dec.block_bounds(s, c, bounds);
+  Moments mo = dec.moments(p, bounds, c.grains.mass, c.spatial());
+  const double n = mo.count;
   TimeSeries& ts = s.series;
   if (static_cast<std::int64_t>(ts.t.size()) == fault_nonfinite_sample()) mo.temperature = std::nan("");  // test hook
   // grain density of the sampled population (spatial: mean over the box)
-  const double density = c.grains.density * static_cast<double>(n) / static_cast<double>(c.particles);
+  const double density = c.grains.density * n / static_cast<double>(c.particles);
   ts.t.push_back(t);
   ts.T.push_back(mo.temperature);
   ts.a2.push_back(mo.a2);
@@ -174,7 +194,7 @@ void sample(State& s, const Config& c, double t, const Particles& all) {
   ts.loss.push_back(s.counters.grain.energy_loss * per);
   ts.wall_in.push_back(s.counters.wall_energy * per);
   ts.removed_out.push_back(s.counters.removed_energy * per);
-  ts.count.push_back(static_cast<double>(n));
+  ts.count.push_back(n);
   if (c.rough) ts.Trot.push_back(rotational_temperature(s, c));
   ts.bath_collisions.push_back(s.counters.bath_collisions);
   ts.grain_collisions.push_back(s.counters.grain.collisions);
@@ -184,9 +204,14 @@ void sample(State& s, const Config& c, double t, const Particles& all) {
     const double k = c.wavenumber();
     const double phase = k * c.background.velocity.x * t;
     const double cp = std::cos(phase), sp = std::sin(phase);
+    std::vector<double> per_block(bounds.size() - 1, 0.0);
+    for (std::size_t b = 0; b + 1 < bounds.size(); ++b)
+      for (std::size_t i = bounds[b]; i < bounds[b + 1]; ++i)
+        per_block[b] += std::cos(k * p.x[i]) * cp + std::sin(k * p.x[i]) * sp;
+    dec.combine_in_order(per_block, true);
     double a = 0;
-    for (std::size_t i = 0; i < n; ++i) a += std::cos(k * p.x[i]) * cp + std::sin(k * p.x[i]) * sp;
-    ts.mode_amplitude.push_back(2.0 * a / static_cast<double>(n));
+    for (double x : per_block) a += x;
+    ts.mode_amplitude.push_back(2.0 * a / n);
   }
   if (!std::isfinite(mo.temperature) || !std::isfinite(mo.a2))
     throw std::runtime_error("non-finite temperature or a2 at t = " + std::to_string(t) +
@@ -194,7 +219,6 @@ void sample(State& s, const Config& c, double t, const Particles& all) {
   // per-cell sums for the time-averaged fields
   FieldAccumulator& f = s.fields;
   if (f.cells > 0 && t >= c.steady_from - 1e-12 && f.taken < f.window_samples) {
-    const Particles& p = s.particles;  // this rank's cells
     const int batch = static_cast<int>(f.taken * f.batches / f.window_samples);
     double* base = f.sums.data() + static_cast<std::size_t>(batch) * f.cells * FieldAccumulator::kSums;
 #pragma omp parallel for schedule(dynamic, 256)
@@ -233,7 +257,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       BackgroundState::make(bg.density, bg.knudsen, bg.velocity, bg.temperature, bg.mass_ratio, c.grains.mass);
 
   // a medium is present if [background] density > 0, or if a file supplies the fields
-  const bool bath_on = bg.present() || c.field.profile == BackgroundProfile::file;
+  const bool bath_on = medium_present(c);
   Decomposition dec(c, ctx.decompose);  // MPI: this rank's share of the cells
   if (dec.size() > 1 && !c.spatial() && dec.root())
     std::fprintf(stderr, "note: a homogeneous run is one cell: rank 0 runs it and the other %d rank(s) idle; "
@@ -253,7 +277,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
                                std::to_string(s.particles.size()) + " grains (written before the carried bath residual)");
     if (dec.root()) std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
   } else {
-    initialise(s, c, ctx.seed, bath_on);
+    initialise(s, c, ctx.seed, bath_on, dec);
     if (c.spatial() && c.sample_fields) {
       FieldAccumulator& f = s.fields;
       f.cells = c.domain.cell_count();
@@ -274,28 +298,23 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       s.cell_start = {0, s.particles.size()};
     }
   };
-  dec.distribute(s, c);  // every rank holds the whole population until here
+  // MPI: each rank now keeps its own cells' grains (from a checkpoint, every rank has read
+  // them all; from initialise(), each rank made its share of the ids)
+  dec.distribute(s, c, resumed);
   rebuild_cells();
-  // the whole population in global (cell, id) order, for the moments of the time series
-  Particles gathered;
-  auto population = [&]() -> const Particles& {
-    if (dec.size() == 1) return s.particles;
-    dec.allgather_particles(s.particles, c.spatial(), gathered);
-    return gathered;
-  };
+  std::vector<std::size_t> bounds;
   // checkpoints and results are written by rank 0 from the gathered state
   auto checkpoint = [&] {
     if (dec.size() == 1) return write_checkpoint(ctx.checkpoint_dir, s, ctx);
     const State whole = dec.gather_state(s, c);
     if (dec.root()) write_checkpoint(ctx.checkpoint_dir, whole, ctx);
   };
-  if (!resumed) sample(s, c, 0.0, population());
+  if (!resumed) sample(s, c, 0.0, dec, bounds);
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
   const bool fused = fused_step_applies(c) && dec.size() == 1;  // one process: stream, sort, collide in one region
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
-  std::vector<std::size_t> bounds;
   std::vector<StreamCounters> walls;
   const bool walls_counted = c.spatial() && !fully_periodic(c.domain);
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
@@ -330,7 +349,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (c.rebalance_every > 0 && s.step % c.rebalance_every == 0 && dec.rebalance(s, c)) rebuild_cells();
     if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
       try {
-        sample(s, c, static_cast<double>(s.step) * c.dt, population());
+        sample(s, c, static_cast<double>(s.step) * c.dt, dec, bounds);
       } catch (const std::runtime_error& e) {
         // NaN/Inf in the sampled moments (seen by every rank alike): keep the state for a
         // post-mortem, then stop
@@ -380,6 +399,18 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   summary.set("performance.ranks", static_cast<std::int64_t>(dec.size()));
   summary.set("performance.rank_load_imbalance", dec.imbalance());
   summary.set("performance.rank_rebalances", static_cast<std::int64_t>(dec.rebalances()));
+  if (dec.size() > 1 && c.spatial()) {  // migration traffic over all ranks (docs/performance/mpi.md)
+    const Decomposition::MigrationStats& m = dec.migration_stats();
+    summary.set("performance.migration_steps", static_cast<std::int64_t>(m.steps));
+    summary.set("performance.migration_rounds", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.rounds))));
+    summary.set("performance.migration_messages", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.messages))));
+    summary.set("performance.migration_bytes", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.bytes))));
+    summary.set("performance.migration_collectives", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.collectives))));
+    summary.set("performance.migrants", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.migrants))));
+    summary.set("performance.migration_max_hops", static_cast<std::int64_t>(dec.max(m.max_hops)));
+    summary.set("performance.rank_peak_particles",
+                static_cast<std::int64_t>(dec.max(static_cast<long long>(dec.peak_particles()))));
+  }
 }
 
 }  // namespace grainbath::dsmc

@@ -4,6 +4,7 @@
 // of threads.
 #include <array>
 #include <cstddef>
+#include <vector>
 
 #include "dsmc/particles.hpp"
 
@@ -21,5 +22,29 @@ struct Moments {
 
 // Moments of particles [begin, end), velocities relative to their own mean.
 Moments measure_moments(const Particles& p, std::size_t begin, std::size_t end, double mass);
+
+// The two passes behind measure_moments, per block [bounds[b], bounds[b+1]) of particle
+// indices, for callers that hold only some of the blocks (MPI ranks: each rank sums its
+// own blocks, the partials of all ranks are then added in global block order, so the
+// moments are the same at any rank count; src/dsmc/decomposition.hpp). measure_moments is
+// these with blocks of 4096 particles.
+struct RawMomentSums {
+  double count = 0;  // particles in the block (an integer, exact in a double)
+  double v[3] = {0, 0, 0};
+  double e = 0;      // sum |v|^2
+};
+struct CentralMomentSums {
+  double c2 = 0, c4 = 0;
+  double p[6] = {0, 0, 0, 0, 0, 0};
+  double q[3] = {0, 0, 0};
+};
+void raw_moment_sums(const Particles& p, const std::vector<std::size_t>& bounds, std::vector<RawMomentSums>& out);
+void central_moment_sums(const Particles& p, const std::vector<std::size_t>& bounds, const Vec3& mean_velocity,
+                         std::vector<CentralMomentSums>& out);
+// From the partials of every block, in block order: count, mean velocity and kinetic
+// energy (first pass) ...
+Moments moments_from_raw(const std::vector<RawMomentSums>& raw, double mass);
+// ... then temperature, a2, pressure and heat flux (second pass) into m.
+void finish_moments(const std::vector<CentralMomentSums>& central, double mass, Moments& m);
 
 }  // namespace grainbath::dsmc

@@ -9,10 +9,13 @@
 # (performance.* left out). Then checkpoint/restart across rank counts: a 2-rank run that
 # keeps its checkpoints, resumed from its mid-run checkpoint with 1 rank, and a plain run's
 # checkpoint resumed with 2 ranks, must both end bitwise where the uninterrupted run ended.
+# Every fresh multi-rank run must also have started distributed: no rank ever held the
+# whole population (performance.rank_peak_particles < dsmc.particles).
 #
 # usage: mpi_reproducibility.sh GRAINBATH CASE_DIR WORK_DIR CHECK...
-#   CHECK: np1 | np2 | np2t2 | checkpoint (each compared with the plain run)
+#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | checkpoint (each compared with the plain run)
 #          rebalance (the 2-rank run must have moved its boundary at least once)
+#          multihop (the 4-rank run must have forwarded grains across two ranks in a step)
 set -euo pipefail
 exe=$1
 case_dir=$2
@@ -57,6 +60,18 @@ PY
   fi
   echo "ok   $3: bitwise identical to the plain run"
 }
+particles=$(sed -n 's/^particles *= *//p' "$case_dir/case.toml")
+distributed() {  # distributed RUN_DIR LABEL: a fresh multi-rank run never held every grain on one rank
+  python3 - "$1/summary.json" "$2" "$particles" <<'PY' || fail=1
+import json, sys
+p = json.load(open(sys.argv[1]))["performance"]
+n = int(sys.argv[3])
+print("     %s: at most %d of %d grains on one rank; %d migrations, at most %d rank(s) crossed in a step"
+      % (sys.argv[2], p["rank_peak_particles"], n, p["migrants"], p["migration_max_hops"]))
+if not p["rank_peak_particles"] < n:
+    print("FAIL %s: a rank held the whole population (the start is not distributed)" % sys.argv[2]); sys.exit(1)
+PY
+}
 
 "$exe" run "$case_dir" --out "$work/plain" -q > /dev/null
 if [ -n "$plain" ] && [ -x "$plain" ]; then
@@ -72,11 +87,33 @@ for check in "${checks[@]}"; do
     np2)
       mpi 2 run "$case_dir" --out "$work/np2" -q > /dev/null
       same "$work/plain" "$work/np2" "2 ranks"
+      distributed "$work/np2" "2 ranks"
       checked_2ranks="$work/np2" ;;
     np2t2)
       mpi 2 run "$case_dir" --out "$work/np2t2" -q --set run.threads=2 > /dev/null
       same "$work/plain" "$work/np2t2" "2 ranks x 2 threads"
+      distributed "$work/np2t2" "2 ranks x 2 threads"
       checked_2ranks="$work/np2t2" ;;
+    np3|np4|np4t2)
+      np=${check#np}
+      np=${np%t2}
+      threads=()
+      label="$np ranks"
+      if [[ $check == *t2 ]]; then threads=(--set run.threads=2); label="$np ranks x 2 threads"; fi
+      mpi "$np" run "$case_dir" --out "$work/$check" -q "${threads[@]}" > /dev/null
+      same "$work/plain" "$work/$check" "$label"
+      distributed "$work/$check" "$label" ;;
+    multihop)
+      # after np4: some grain must have crossed two ranks' cells in one step (forwarded)
+      python3 - "$work/np4/summary.json" <<'PY' || fail=1
+import json, sys
+h = json.load(open(sys.argv[1]))["performance"]["migration_max_hops"]
+if h < 2:
+    print("FAIL multihop: no grain crossed more than one rank in a step (max %d): the test does not test forwarding" % h)
+    sys.exit(1)
+print("ok   4 ranks: grains forwarded across %d ranks in one step" % h)
+PY
+      ;;
     checkpoint)
       # checkpoint/restart across rank counts: checkpoints at mid-run, kept; the 2-rank
       # run with checkpoints is itself compared with the plain run
@@ -85,6 +122,7 @@ for check in "${checks[@]}"; do
       ck=(--set checkpoint.every=$half --set checkpoint.keep=true)
       mpi 2 run "$case_dir" --out "$work/ck2" -q "${ck[@]}" > /dev/null
       same "$work/plain" "$work/ck2" "2 ranks writing checkpoints"
+      distributed "$work/ck2" "2 ranks writing checkpoints"
       checked_2ranks="$work/ck2"
       mkdir -p "$work/resume1.checkpoints"
       cp "$work/ck2.checkpoints"/* "$work/resume1.checkpoints/"
