@@ -234,16 +234,24 @@ inline double bath_half_uniform(std::uint32_t h) {
 }
 
 // Polar-method direction from the two direction words; false if both attempts fell outside
-// the unit disk.
+// the unit disk. The first attempt inside the disk is taken by a select in SSE2 registers
+// (a branch here was mispredicted on the 21% of first attempts that fall outside).
 inline bool bath_direction(std::uint64_t w6, std::uint64_t w7, Vec3& r) {
-  const double u1 = bath_half_uniform(static_cast<std::uint32_t>(w6)), v1 = bath_half_uniform(static_cast<std::uint32_t>(w6 >> 32));
-  const double u2 = bath_half_uniform(static_cast<std::uint32_t>(w7)), v2 = bath_half_uniform(static_cast<std::uint32_t>(w7 >> 32));
-  const double s1 = u1 * u1 + v1 * v1, s2 = u2 * u2 + v2 * v2;
-  const bool first = s1 < 1.0;
-  const double u = first ? u1 : u2, v = first ? v1 : v2, s = first ? s1 : s2;
-  const double q = 2.0 * std::sqrt(std::max(0.0, 1.0 - s));
-  r = Vec3{u * q, v * q, 1.0 - 2.0 * s};
-  return first || s2 < 1.0;
+  typedef double D2 __attribute__((vector_size(16)));
+  typedef long long M2 __attribute__((vector_size(16)));
+  const D2 uv1 = {bath_half_uniform(static_cast<std::uint32_t>(w6)), bath_half_uniform(static_cast<std::uint32_t>(w6 >> 32))};
+  const D2 uv2 = {bath_half_uniform(static_cast<std::uint32_t>(w7)), bath_half_uniform(static_cast<std::uint32_t>(w7 >> 32))};
+  const D2 q1 = uv1 * uv1, q2 = uv2 * uv2;
+  const double s1 = q1[0] + q1[1], s2 = q2[0] + q2[1];
+  const D2 ss1 = {s1, s1}, ss2 = {s2, s2}, one = {1.0, 1.0};
+  const M2 first = ss1 < one;
+  const D2 uv = reinterpret_cast<D2>((reinterpret_cast<M2>(uv1) & first) | (reinterpret_cast<M2>(uv2) & ~first));
+  const D2 ss = reinterpret_cast<D2>((reinterpret_cast<M2>(ss1) & first) | (reinterpret_cast<M2>(ss2) & ~first));
+  // 2 sqrt(max(0, 1 - s)): the max only guards the case of both attempts outside (redrawn)
+  const D2 rest = _mm_max_sd(one - ss, D2{0.0, 0.0});
+  const double q = 2.0 * _mm_cvtsd_f64(_mm_sqrt_sd(rest, rest));
+  r = Vec3{uv[0] * q, uv[1] * q, 1.0 - 2.0 * ss[0]};
+  return (s1 < 1.0) | (s2 < 1.0);
 }
 
 // Exact variates when a fast path failed (rare): the same words, the slow paths' further
