@@ -273,10 +273,11 @@ inline std::uint32_t bath_ctr1(std::uint64_t id, Stream stream) {
   return static_cast<std::uint32_t>(id >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24);
 }
 
-// The 8 words of test t of grain `id` (scalar Random123; the same bits as the lanes).
+// The 8 words of test t of grain `id` (the four blocks in one SIMD call; the same bits on
+// every path, tests/operators/test_random.cpp).
 inline void bath_words(const BathKey& key, std::uint64_t id, std::uint64_t t, std::uint64_t* w) {
-  Philox4x32Lanes::words8_scalar(key.seed, bath_ctr0(id), bath_ctr1(id, key.stream), static_cast<std::uint32_t>(key.step),
-                                 static_cast<std::uint32_t>(4 * t), w);
+  const std::uint32_t c0 = bath_ctr0(id), c1 = bath_ctr1(id, key.stream);
+  Philox4x32Lanes::words8(key.seed, &c0, &c1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t), 1, w);
 }
 
 // The variates of test t of grain `id` from its 8 words.
