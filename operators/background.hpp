@@ -14,9 +14,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numbers>
 
 #include "operators/binary_collision.hpp"
+#include "operators/random.hpp"
 #include "operators/vec3.hpp"
 
 namespace grainbath {
@@ -174,6 +176,372 @@ inline void evolve_in_background(Vec3& v, const BackgroundState& b, double grain
                                  BackgroundCounters& counters) {
   double hazard = rng.exponential_ziggurat();
   evolve_in_background(v, hazard, b, grain_mass, duration, rng, counters);
+}
+
+// ---------------------------------------------------------------------------------------
+// The DSMC bath kernel with a fixed random budget per test (Issue #7, docs/dsmc.md D2).
+//
+// The same candidate process, partner law, acceptance and post-collision rule as
+// evolve_in_background / background_test, with the random numbers laid out so that many
+// grains can be processed together:
+//  - test t (t = 0, 1, ...) of a grain in a substep takes exactly eight 64-bit words: four
+//    Philox4x32-10 blocks under the seed with counters (id, stream, step, 4t + j)
+//    (bath_words; computed for many grains at once in integer SIMD, Philox4x32Lanes):
+//      w0      one uniform U for both the mixture choice and the acceptance (below),
+//      w1..w4  the four ziggurat normals of the partner,
+//      w5      the unit exponential of the next candidate (the carried residual),
+//      w6, w7  the direction r: two polar-method attempts, one per word (32-bit halves);
+//    the rare slow paths (a ziggurat wedge or tail, ~1% per normal or exponential, or both
+//    direction attempts outside the disk, (1 - pi/4)^2 = 4.6%) draw their further numbers
+//    from sequence t + 1 of CounterRng(seed, stream, id, step) (Philox4x64, fourth counter
+//    word), so a test's numbers never depend on another test's: still counter-based on
+//    (seed, stream; id, step, draw);
+//  - one uniform for two decisions: with t' = U (|c| + <|c_w|>), the Maxwellian component
+//    is chosen iff t' < |c|, and given the choice, t'/|c| (Maxwellian) or (t' - |c|)/<|c_w|>
+//    (speed-weighted) is again uniform on [0, 1) and independent of the choice, so the
+//    acceptance u (|c| + |c_w|) < |g| becomes, on squares and without a division,
+//    (t'' (|c| + |c_w|))^2 < |g|^2 d^2 with t'' = t' or t' - |c| and d = |c| or <|c_w|>;
+//  - no branch on the acceptance: the collision is computed for every test and applied
+//    times 1 or 0 (v + 0 dv = v), and |c| is recomputed after every test;
+//  - the direction coordinates are 32-bit uniforms on (-1, 1) (spacing 2^-31): the
+//    direction is uniform on the grid points inside the unit disk, mapped to the sphere
+//    exactly (Marsaglia 1972); the other variates keep 53 bits.
+// bath_evolve_keyed (one grain) and bath_evolve_batch (many grains, tests of different
+// grains interleaved) run the same code per test and give bitwise the same velocities,
+// residuals and counters (tests/operators).
+
+// Key of a bath substep's random numbers: (seed, stream; grain id, step).
+struct BathKey {
+  std::uint64_t seed = 0;
+  Stream stream = Stream::background_first_half;
+  std::uint64_t step = 0;
+};
+
+// The variates of one test.
+struct BathVariates {
+  double u;        // (0, 1): mixture choice and acceptance
+  double z[4];     // standard normals
+  double e;        // unit exponential (next candidate's residual)
+  Vec3 r;          // uniform direction
+};
+
+namespace detail {
+
+// Uniform on (-1, 1) from 32 bits, read as a signed integer: odd multiples of 2^-32,
+// symmetric about 0 (one signed conversion, exact).
+inline double bath_half_uniform(std::uint32_t h) {
+  return (static_cast<double>(static_cast<std::int32_t>(h)) + 0.5) * 0x1.0p-31;
+}
+
+// Polar-method direction from the two direction words; false if both attempts fell outside
+// the unit disk. The first attempt inside the disk is taken by a select in SSE2 registers
+// (a branch here was mispredicted on the 21% of first attempts that fall outside).
+inline bool bath_direction(std::uint64_t w6, std::uint64_t w7, Vec3& r) {
+  typedef double D2 __attribute__((vector_size(16)));
+  typedef long long M2 __attribute__((vector_size(16)));
+  const D2 uv1 = {bath_half_uniform(static_cast<std::uint32_t>(w6)), bath_half_uniform(static_cast<std::uint32_t>(w6 >> 32))};
+  const D2 uv2 = {bath_half_uniform(static_cast<std::uint32_t>(w7)), bath_half_uniform(static_cast<std::uint32_t>(w7 >> 32))};
+  const D2 q1 = uv1 * uv1, q2 = uv2 * uv2;
+  const double s1 = q1[0] + q1[1], s2 = q2[0] + q2[1];
+  const D2 ss1 = {s1, s1}, ss2 = {s2, s2}, one = {1.0, 1.0};
+  const M2 first = ss1 < one;
+  const D2 uv = reinterpret_cast<D2>((reinterpret_cast<M2>(uv1) & first) | (reinterpret_cast<M2>(uv2) & ~first));
+  const D2 ss = reinterpret_cast<D2>((reinterpret_cast<M2>(ss1) & first) | (reinterpret_cast<M2>(ss2) & ~first));
+  // 2 sqrt(max(0, 1 - s)): the max only guards the case of both attempts outside (redrawn)
+  const D2 rest = _mm_max_sd(one - ss, D2{0.0, 0.0});
+  const double q = 2.0 * _mm_cvtsd_f64(_mm_sqrt_sd(rest, rest));
+  r = Vec3{uv[0] * q, uv[1] * q, 1.0 - 2.0 * ss[0]};
+  return (s1 < 1.0) | (s2 < 1.0);
+}
+
+// Exact variates when a fast path failed (rare): the same words, the slow paths' further
+// numbers from sequence t + 1.
+[[gnu::noinline]] inline void bath_variates_slow(const std::uint64_t* w, BathVariates& x, const BathKey& key,
+                                                 std::uint64_t id, std::uint64_t t) {
+  CounterRng more(key.seed, key.stream, id, key.step, t + 1);
+  for (int j = 0; j < 4; ++j) x.z[j] = more.normal_ziggurat_from(w[1 + j]);
+  x.e = more.exponential_ziggurat_from(w[5]);
+  if (!bath_direction(w[6], w[7], x.r)) x.r = more.unit_vector();
+}
+
+// The counters of a grain's test words: Philox4x32-10 under the 64-bit seed, counter
+// (id low 32 bits, id high bits | stream << 24, step, 4t + j), j = 0..3 (Philox4x32Lanes:
+// four blocks, eight 64-bit words per test). Injective for ids < 2^56, streams < 256 and
+// steps < 2^32 (checked by the DSMC driver) and tests t < 2^30 per grain and substep.
+inline std::uint32_t bath_ctr0(std::uint64_t id) { return static_cast<std::uint32_t>(id); }
+inline std::uint32_t bath_ctr1(std::uint64_t id, Stream stream) {
+  return static_cast<std::uint32_t>(id >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24);
+}
+
+// The 8 words of test t of grain `id` (the four blocks in one SIMD call; the same bits on
+// every path, tests/operators/test_random.cpp).
+inline void bath_words(const BathKey& key, std::uint64_t id, std::uint64_t t, std::uint64_t* w) {
+  const std::uint32_t c0 = bath_ctr0(id), c1 = bath_ctr1(id, key.stream);
+  Philox4x32Lanes::words8(key.seed, &c0, &c1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t), 1, w);
+}
+
+// The variates of test t of grain `id` from its 8 words.
+inline void bath_variates(const std::uint64_t* w, const BathKey& key, std::uint64_t id, std::uint64_t t,
+                          BathVariates& x) {
+  x.u = (static_cast<double>(static_cast<std::int64_t>(w[0] >> 11)) + 0.5) * 0x1.0p-53;
+  bool fast = CounterRng::normal_ziggurat_fast(w[1], x.z[0]);
+  fast &= CounterRng::normal_ziggurat_fast(w[2], x.z[1]);
+  fast &= CounterRng::normal_ziggurat_fast(w[3], x.z[2]);
+  fast &= CounterRng::normal_ziggurat_fast(w[4], x.z[3]);
+  fast &= CounterRng::exponential_ziggurat_fast(w[5], x.e);
+  fast &= bath_direction(w[6], w[7], x.r);
+  if (!fast) [[unlikely]]
+    bath_variates_slow(w, x, key, id, t);
+}
+
+// One thinning test from its variates (law of background_test). Updates v, c = v - uB,
+// cmod = |c|; returns whether the candidate was accepted; adds the energy change to gain.
+inline bool bath_test(const BathVariates& x, Vec3& v, Vec3& c, double& cmod, const BackgroundState& b,
+                      double grain_mass, double& gain) {
+  const double tp = x.u * (cmod + b.mean_speed);
+  const bool maxwellian = tp < cmod;
+  // speed-weighted partner sigma |z_1234| z_123 / |z_123|, Maxwellian sigma z_123: with
+  // a = |z_1234| or |z_123|, scale = sigma (a / |z_123|) (exactly sigma for the Maxwellian,
+  // a / a = 1) and |c_w| = sigma a
+  const double s3 = x.z[0] * x.z[0] + x.z[1] * x.z[1] + x.z[2] * x.z[2], s4 = s3 + x.z[3] * x.z[3];
+  const double a3 = std::sqrt(s3), a = std::sqrt(maxwellian ? s3 : s4);
+  const double scale = b.sigma * (a / a3);
+  const double cw_mod = b.sigma * a;
+  const Vec3 g = c - scale * Vec3{x.z[0], x.z[1], x.z[2]};
+  const double g2 = norm2(g);
+  const double tpp = tp - (maxwellian ? 0.0 : cmod), d = maxwellian ? cmod : b.mean_speed;
+  const double lhs = tpp * (cmod + cw_mod);
+  const bool accept = lhs * lhs < g2 * (d * d);
+  // applied without a branch: dv and de times 1 or 0 (v + 0 dv = v)
+  const double on = accept;
+  const Vec3 dv = -b.mass_ratio * (g - std::sqrt(g2) * x.r);
+  const Vec3 vn = v + dv;
+  const double de = 0.5 * grain_mass * (norm2(vn) - norm2(v));
+  v += on * dv;
+  gain += on * de;
+  c = v - b.velocity;
+  cmod = norm(c);
+  return accept;
+}
+
+}  // namespace detail
+
+// One grain through a bath substep of length `duration` with the carried residual `hazard`
+// (law of evolve_in_background). `gain` receives the grain's energy change (summed over its
+// collisions in order); counters get the candidates and collisions.
+inline void bath_evolve_keyed(Vec3& v, double& hazard, const BackgroundState& b, double grain_mass, double duration,
+                              const BathKey& key, std::uint64_t id, BackgroundCounters& counters, double& gain) {
+  gain = 0.0;
+  if (b.rate_scale <= 0.0) return;
+  Vec3 c = v - b.velocity;
+  double cmod = norm(c);
+  double rate = b.rate_scale * (cmod + b.mean_speed);
+  double need = rate * duration;
+  if (hazard >= need) {
+    hazard -= need;
+    return;
+  }
+  double left = std::max(0.0, duration - hazard / rate);
+  BathVariates x;
+  std::uint64_t w[8];
+  for (std::uint64_t t = 0;; ++t) {
+    detail::bath_words(key, id, t, w);
+    detail::bath_variates(w, key, id, t, x);
+    ++counters.candidates;
+    counters.collisions += detail::bath_test(x, v, c, cmod, b, grain_mass, gain);
+    rate = b.rate_scale * (cmod + b.mean_speed);
+    need = rate * left;
+    if (x.e >= need) {
+      hazard = x.e - need;
+      return;
+    }
+    left = std::max(0.0, left - x.e / rate);
+  }
+}
+
+namespace detail {
+
+// Two lanes of doubles (GCC vector extension, one SSE2 register on baseline x86-64): the
+// element-wise IEEE operations are those of the scalar code, so each lane gets bitwise the
+// scalar result.
+typedef double BathLanes __attribute__((vector_size(16)));
+typedef long long BathMask __attribute__((vector_size(16)));
+
+inline BathLanes bath_sqrt(BathLanes x) { return _mm_sqrt_pd(x); }
+inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
+  return reinterpret_cast<BathLanes>((reinterpret_cast<BathMask>(a) & m) | (reinterpret_cast<BathMask>(b) & ~m));
+}
+
+// bath_test for two grains at once (lanes), plus the bookkeeping of the next candidate:
+// the same operations in the same order as bath_test and bath_evolve_keyed for each lane,
+// so bitwise the same results; the independent lanes' square roots and divisions overlap.
+// In: the variates, velocities, |c|, remaining time `left`. Out: updated velocities, |c|,
+// gain, the acceptance (1 or 0), the residual, the remaining time, and `more` (1 if the grain
+// has a further candidate in this substep, else 0).
+inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z2, BathLanes z3, BathLanes e,
+                            BathLanes rx, BathLanes ry, BathLanes rz, BathLanes& vx, BathLanes& vy, BathLanes& vz,
+                            BathLanes& cmod, BathLanes& gain, BathLanes& on, BathLanes& hazard, BathLanes& left,
+                            BathLanes& more, const BackgroundState& b, double grain_mass) {
+  const BathLanes zero = {0.0, 0.0};
+  const BathLanes cx = vx - b.velocity.x, cy = vy - b.velocity.y, cz = vz - b.velocity.z;
+  const BathLanes tp = u * (cmod + b.mean_speed);
+  const BathMask maxw = tp < cmod;
+  const BathLanes s3 = z0 * z0 + z1 * z1 + z2 * z2, s4 = s3 + z3 * z3;
+  const BathLanes a3 = bath_sqrt(s3), a = bath_sqrt(bath_select(maxw, s3, s4));
+  const BathLanes scale = b.sigma * (a / a3);
+  const BathLanes gx = cx - z0 * scale, gy = cy - z1 * scale, gz = cz - z2 * scale;
+  const BathLanes g2 = gx * gx + gy * gy + gz * gz;
+  const BathLanes cw_mod = b.sigma * a;
+  const BathLanes tpp = tp - bath_select(maxw, zero, cmod), d = bath_select(maxw, cmod, zero + b.mean_speed);
+  const BathLanes lhs = tpp * (cmod + cw_mod);
+  on = bath_select(lhs * lhs < g2 * (d * d), zero + 1.0, zero);
+  const BathLanes gm = bath_sqrt(g2);
+  const BathLanes dvx = (gx - rx * gm) * -b.mass_ratio, dvy = (gy - ry * gm) * -b.mass_ratio,
+                  dvz = (gz - rz * gm) * -b.mass_ratio;
+  const BathLanes nx = vx + dvx, ny = vy + dvy, nz = vz + dvz;
+  const BathLanes de = 0.5 * grain_mass * ((nx * nx + ny * ny + nz * nz) - (vx * vx + vy * vy + vz * vz));
+  vx += dvx * on;
+  vy += dvy * on;
+  vz += dvz * on;
+  gain += de * on;
+  const BathLanes ex = vx - b.velocity.x, ey = vy - b.velocity.y, ez = vz - b.velocity.z;
+  cmod = bath_sqrt(ex * ex + ey * ey + ez * ez);
+  // next candidate (bath_evolve_keyed): done if the new residual covers the rest
+  const BathLanes rate = b.rate_scale * (cmod + b.mean_speed);
+  const BathLanes need = rate * left;
+  const BathMask done = e >= need;
+  hazard = bath_select(done, e - need, e);
+  more = bath_select(done, zero, zero + 1.0);
+  const BathLanes rest = left - e / rate;
+  left = bath_select(zero < rest, rest, zero);
+}
+
+inline BathLanes bath_load(const double* p) {
+  BathLanes x;
+  std::memcpy(&x, p, sizeof x);
+  return x;
+}
+inline void bath_store(double* p, BathLanes x) { std::memcpy(p, &x, sizeof x); }
+
+}  // namespace detail
+
+// All grains [0, n) of arrays vx, vy, vz, hazard (ids in `id`) through a bath substep in a
+// uniform medium: bitwise the results of bath_evolve_keyed per grain, with the energy
+// gains added to counters.energy_gain grain by grain in index order. Grains are taken in
+// chunks of 256 whose active grains (those with a candidate left) are kept compacted in
+// structure-of-arrays scratch; in round t every active grain makes its test t, in three
+// passes: (1) the round's Philox4x32 words, all grains at once in integer SIMD; (2) the
+// variates of each test (ziggurat fast paths, direction; the rare slow path), into arrays;
+// (3) the tests four lanes at a time (bath_test_lanes; tests of different grains are
+// independent, so their square roots and divisions overlap, and no branch depends on
+// the acceptance), then the compaction of the grains that go on. A short last group of
+// lanes computes padding (copies of valid lanes) that is not written back.
+inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx, double* vy, double* vz,
+                              double* hazard, const BackgroundState& b, double grain_mass, double duration,
+                              const BathKey& key, BackgroundCounters& counters) {
+  if (b.rate_scale <= 0.0) return;
+  constexpr std::size_t kChunk = 256, L = 2;
+  std::uint32_t index[kChunk], ctr0[kChunk], ctr1[kChunk];
+  alignas(64) std::uint64_t words[8 * kChunk];
+  // active-grain state and this round's variates, padded to whole lane groups
+  alignas(64) double avx[kChunk + L], avy[kChunk + L], avz[kChunk + L], acm[kChunk + L], aleft[kChunk + L],
+      again[kChunk + L], ahz[kChunk + L], aon[kChunk + L], amore[kChunk + L];
+  alignas(64) double xu[kChunk + L], xz0[kChunk + L], xz1[kChunk + L], xz2[kChunk + L], xz3[kChunk + L],
+      xe[kChunk + L], xrx[kChunk + L], xry[kChunk + L], xrz[kChunk + L];
+  double gain[kChunk];
+  std::uint64_t candidates = 0, collisions = 0;
+  for (std::size_t lo = 0; lo < n; lo += kChunk) {
+    const std::size_t m = std::min(kChunk, n - lo);
+    std::size_t na = 0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const std::size_t i = lo + k;
+      const Vec3 c = Vec3{vx[i], vy[i], vz[i]} - b.velocity;
+      const double cmod = norm(c);
+      const double rate = b.rate_scale * (cmod + b.mean_speed);
+      const double need = rate * duration;
+      const double h = hazard[i];
+      const bool run = h < need;
+      hazard[i] = run ? h : h - need;
+      gain[k] = 0.0;
+      index[na] = static_cast<std::uint32_t>(k);
+      ctr0[na] = detail::bath_ctr0(id[i]);
+      ctr1[na] = detail::bath_ctr1(id[i], key.stream);
+      avx[na] = vx[i];
+      avy[na] = vy[i];
+      avz[na] = vz[i];
+      acm[na] = cmod;
+      again[na] = 0.0;
+      aleft[na] = std::max(0.0, duration - h / rate);
+      na += run;
+    }
+    for (std::uint64_t t = 0; na > 0; ++t) {
+      candidates += na;
+      // (1) words
+      Philox4x32Lanes::words8(key.seed, ctr0, ctr1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t),
+                              na, words);
+      // (2) variates
+      for (std::size_t a = 0; a < na; ++a) {
+        BathVariates x;
+        detail::bath_variates(words + 8 * a, key, id[lo + index[a]], t, x);
+        xu[a] = x.u;
+        xz0[a] = x.z[0];
+        xz1[a] = x.z[1];
+        xz2[a] = x.z[2];
+        xz3[a] = x.z[3];
+        xe[a] = x.e;
+        xrx[a] = x.r.x;
+        xry[a] = x.r.y;
+        xrz[a] = x.r.z;
+      }
+      // padding lanes: copies of the last active grain
+      for (std::size_t a = na; a % L != 0; ++a) {
+        for (double* p : {avx, avy, avz, acm, aleft, again, xu, xz0, xz1, xz2, xz3, xe, xrx, xry, xrz}) p[a] = p[na - 1];
+      }
+      // (3) tests
+      for (std::size_t a = 0; a < na; a += L) {
+        using detail::bath_load;
+        detail::BathLanes lvx = bath_load(avx + a), lvy = bath_load(avy + a), lvz = bath_load(avz + a),
+                          lcm = bath_load(acm + a), lg = bath_load(again + a), lleft = bath_load(aleft + a), on, hz, more;
+        detail::bath_test_lanes(bath_load(xu + a), bath_load(xz0 + a), bath_load(xz1 + a), bath_load(xz2 + a),
+                                bath_load(xz3 + a), bath_load(xe + a), bath_load(xrx + a), bath_load(xry + a),
+                                bath_load(xrz + a), lvx, lvy, lvz, lcm, lg, on, hz, lleft, more, b, grain_mass);
+        detail::bath_store(avx + a, lvx);
+        detail::bath_store(avy + a, lvy);
+        detail::bath_store(avz + a, lvz);
+        detail::bath_store(acm + a, lcm);
+        detail::bath_store(again + a, lg);
+        detail::bath_store(aleft + a, lleft);
+        detail::bath_store(ahz + a, hz);
+        detail::bath_store(aon + a, on);
+        detail::bath_store(amore + a, more);
+      }
+      // write back, and keep the grains that go on
+      std::size_t nn = 0;
+      for (std::size_t a = 0; a < na; ++a) {
+        const std::size_t k = index[a], i = lo + k;
+        vx[i] = avx[a];
+        vy[i] = avy[a];
+        vz[i] = avz[a];
+        hazard[i] = ahz[a];
+        gain[k] = again[a];
+        collisions += static_cast<std::uint64_t>(aon[a]);
+        index[nn] = index[a];
+        ctr0[nn] = ctr0[a];
+        ctr1[nn] = ctr1[a];
+        avx[nn] = avx[a];
+        avy[nn] = avy[a];
+        avz[nn] = avz[a];
+        acm[nn] = acm[a];
+        again[nn] = again[a];
+        aleft[nn] = aleft[a];
+        nn += static_cast<std::size_t>(amore[a]);
+      }
+      na = nn;
+    }
+    for (std::size_t k = 0; k < m; ++k) counters.energy_gain += gain[k];
+  }
+  counters.candidates += candidates;
+  counters.collisions += collisions;
 }
 
 }  // namespace grainbath

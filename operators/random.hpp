@@ -14,6 +14,9 @@
 // because std:: distributions differ between standard libraries.
 #include <Random123/philox.h>
 
+#include <emmintrin.h>
+#include <immintrin.h>
+
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -113,6 +116,45 @@ class CounterRng {
 
   CounterRng(std::uint64_t seed, Stream stream, std::uint64_t entity, std::uint64_t step)
       : key_{{seed, static_cast<std::uint64_t>(stream)}}, ctr_{{entity, step, 0, 0}} {}
+
+  // A further sequence of the same (seed, stream; entity, step): the fourth counter word is
+  // `sequence` (the constructor above is sequence 0). The DSMC bath kernel draws its rare
+  // slow paths from these (operators/background.hpp).
+  CounterRng(std::uint64_t seed, Stream stream, std::uint64_t entity, std::uint64_t step, std::uint64_t sequence)
+      : key_{{seed, static_cast<std::uint64_t>(stream)}}, ctr_{{entity, step, 0, sequence}} {}
+
+  // Fast paths of the ziggurats on a given word w (the same bits as normal_ziggurat and
+  // exponential_ziggurat use): writes the variate and returns true on the fast path (~99%);
+  // returns false when the wedge or tail must be sampled (then use *_from on a generator).
+  static bool normal_ziggurat_fast(std::uint64_t w, double& out) {
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(static_cast<std::int64_t>(w >> 11)) * 0x1.0p-53;
+    out = std::bit_cast<double>(std::bit_cast<std::uint64_t>(u * kNormalZiggurat.x[i]) ^ ((w & 0x100u) << 55));
+    return u < kNormalZiggurat.ratio[i];
+  }
+  static bool exponential_ziggurat_fast(std::uint64_t w, double& out) {
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(static_cast<std::int64_t>(w >> 11)) * 0x1.0p-53;
+    out = u * kExponentialZiggurat.x[i];
+    return u < kExponentialZiggurat.ratio[i];
+  }
+  // The complete ziggurat draws whose first word is the given w: the fast path as above,
+  // otherwise the exact wedge/tail sampling with its further draws from this generator.
+  double normal_ziggurat_from(std::uint64_t w) {
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;
+    const double x = u * kNormalZiggurat.x[i];
+    if (u < kNormalZiggurat.ratio[i])
+      return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) ^ ((w & 0x100u) << 55));
+    return normal_ziggurat_edge(i, x, (w & 0x100u) ? -1.0 : 1.0);
+  }
+  double exponential_ziggurat_from(std::uint64_t w) {
+    const unsigned i = w & 0xffu;
+    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;
+    const double x = u * kExponentialZiggurat.x[i];
+    if (u < kExponentialZiggurat.ratio[i]) return x;
+    return exponential_ziggurat_edge(i, x);
+  }
 
   // Uniform on the open interval (0, 1): never 0, so log(u) is always finite.
   double uniform() {
@@ -258,6 +300,110 @@ class CounterRng {
   bool have_half_ = false;
   std::uint32_t half_ = 0;
   double spare_ = 0.0;
+};
+
+// ---------------------------------------------------------------------------------------
+// Philox4x32-10 (Salmon et al. 2011, the Random123 algorithm) in integer SIMD lanes, for
+// kernels that need a fixed number of words per event (the DSMC bath kernel, Issue #7).
+// x86-64 has no vector 64x64->128 multiply, so Philox4x64 does not vectorise; Philox4x32's
+// 32x32->64 multiplies are exactly PMULUDQ. Each block's four 32-bit words sit in the low
+// halves of 64-bit lanes (one lane per block); PMULUDQ ignores the high halves, so the low
+// products may carry garbage there until the output is masked. Integer arithmetic only:
+// the SSE2 (baseline x86-64) and AVX2 paths give the same bits, which the test checks
+// against Random123's scalar r123::Philox4x32 (tests/operators/test_random.cpp).
+//
+// The block "words8" of (key; c0, c1, c2, base) are the four Philox4x32 blocks with counters
+// (c0, c1, c2, base + j), j = 0..3, packed as eight 64-bit words:
+//   word j     = out_j[0] | out_j[1] << 32,   word 4 + j = out_j[2] | out_j[3] << 32.
+struct Philox4x32Lanes {
+  static constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
+  static constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;
+
+  // Scalar reference by Random123 (also the per-grain path): the same eight words.
+  static void words8_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
+                            std::uint32_t base, std::uint64_t* w) {
+    const r123::Philox4x32::key_type k{{static_cast<std::uint32_t>(key), static_cast<std::uint32_t>(key >> 32)}};
+    for (std::uint32_t j = 0; j < 4; ++j) {
+      const r123::Philox4x32::ctr_type c{{c0, c1, c2, base + j}};
+      const auto o = r123::Philox4x32{}(c, k);
+      w[j] = o.v[0] | static_cast<std::uint64_t>(o.v[1]) << 32;
+      w[4 + j] = o.v[2] | static_cast<std::uint64_t>(o.v[3]) << 32;
+    }
+  }
+
+  // n groups of eight words, group a with counters (c0[a], c1[a], c2, base): SSE2, two
+  // blocks per vector.
+  static void words8_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    __m128i k0[10], k1[10];
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
+    }
+    const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
+    const __m128i x2i = _mm_set1_epi64x(c2);
+    for (std::size_t a = 0; a < n; ++a) {
+      for (std::uint32_t h = 0; h < 4; h += 2) {
+        __m128i x0 = _mm_set1_epi64x(c0[a]), x1 = _mm_set1_epi64x(c1[a]), x2 = x2i;
+        __m128i x3 = _mm_set_epi64x(base + h + 1, base + h);
+        for (int r = 0; r < 10; ++r) {
+          const __m128i p0 = _mm_mul_epu32(x0, m0), p1 = _mm_mul_epu32(x2, m1);
+          x0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p1, 32), x1), k0[r]);
+          x2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p0, 32), x3), k1[r]);
+          x1 = p1;
+          x3 = p0;
+        }
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 8 * a + h),
+                         _mm_or_si128(_mm_and_si128(x0, lo), _mm_slli_epi64(x1, 32)));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 8 * a + 4 + h),
+                         _mm_or_si128(_mm_and_si128(x2, lo), _mm_slli_epi64(x3, 32)));
+      }
+    }
+  }
+
+  // The same with AVX2, four blocks (one group) per vector. Integer instructions only.
+  [[gnu::target("avx2")]] static void words8_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
+                                                  std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    __m256i k0[10], k1[10];
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
+    }
+    const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
+    const __m256i x2i = _mm256_set1_epi64x(c2);
+    const __m256i x3i = _mm256_set_epi64x(base + 3, base + 2, base + 1, base);
+    for (std::size_t a = 0; a < n; ++a) {
+      __m256i x0 = _mm256_set1_epi64x(c0[a]), x1 = _mm256_set1_epi64x(c1[a]), x2 = x2i, x3 = x3i;
+      for (int r = 0; r < 10; ++r) {
+        const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
+        x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0[r]);
+        x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1[r]);
+        x1 = p1;
+        x3 = p0;
+      }
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 8 * a),
+                          _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32)));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 8 * a + 4),
+                          _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32)));
+    }
+  }
+
+  static bool have_avx2() {
+    static const bool avx2 = [] {
+      __builtin_cpu_init();
+      return __builtin_cpu_supports("avx2") != 0;
+    }();
+    return avx2;
+  }
+
+  // The fastest path this CPU has (the same bits on every path).
+  static void words8(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                     std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    if (have_avx2())
+      words8_avx2(key, c0, c1, c2, base, n, w);
+    else
+      words8_sse2(key, c0, c1, c2, base, n, w);
+  }
 };
 
 }  // namespace grainbath

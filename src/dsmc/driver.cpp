@@ -105,21 +105,31 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
   const double m = c.grains.mass;
   const auto step = static_cast<std::uint64_t>(s.step);
   std::vector<BackgroundCounters> partial(blocks);
+  const BathKey key{seed, stream, step};
+  // the bath kernel's Philox4x32 counters hold the id in 56 bits and the step in 32
+  // (operators/background.hpp, bath_ctr0/bath_ctr1)
+  if (step >> 32 != 0 || static_cast<std::uint64_t>(c.particles) >> 56 != 0)
+    throw std::runtime_error("bath substep: step or grain ids beyond the bath kernel's counter range");
+  // The fixed random budget per test (operators/background.hpp, bath_evolve_batch): a
+  // uniform medium takes the interleaved kernel over the block, a local one the per-grain
+  // kernel with the same draws (bitwise the same results for the same medium).
 #pragma omp parallel for schedule(dynamic, 4)
   for (std::size_t blk = 0; blk < blocks; ++blk) {
     BackgroundCounters cnt;
     const std::size_t lo = bounds[blk], hi = bounds[blk + 1];
-    for (std::size_t i = lo; i < hi; ++i) {
-      CounterRng rng(seed, stream, p.id[i], step);
-      Vec3 v = p.velocity(i);
-      if (local) {
+    if (local) {
+      for (std::size_t i = lo; i < hi; ++i) {
+        Vec3 v = p.velocity(i);
         const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
         const BackgroundState b = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
-        evolve_in_background(v, p.bath_hazard[i], b, m, duration, rng, cnt);
-      } else {
-        evolve_in_background(v, p.bath_hazard[i], uniform_bath, m, duration, rng, cnt);
+        double gain;
+        bath_evolve_keyed(v, p.bath_hazard[i], b, m, duration, key, p.id[i], cnt, gain);
+        cnt.energy_gain += gain;
+        p.set_velocity(i, v);
       }
-      p.set_velocity(i, v);
+    } else {
+      bath_evolve_batch(hi - lo, p.id.data() + lo, p.vx.data() + lo, p.vy.data() + lo, p.vz.data() + lo,
+                        p.bath_hazard.data() + lo, uniform_bath, m, duration, key, cnt);
     }
     partial[blk] = cnt;
   }

@@ -60,9 +60,14 @@ TEST_P(BackgroundIntegral, RateMomentumAndEnergyExchange) {
   // operator: repeated thinning attempts from the same grain velocity, by the general
   // attempt (EDMD) and by the DSMC bath kernel's test (background_test), each checked
   // against the same independent references
-  for (const bool dsmc_kernel : {false, true}) {
-  SCOPED_TRACE(dsmc_kernel ? "background_test (DSMC kernel)" : "attempt_background_collision");
+  // and by the fixed-budget kernel's test (bath_variates + bath_test, test t of one grain)
+  for (const int kernel : {0, 1, 2}) {
+  const bool dsmc_kernel = kernel == 1;
+  SCOPED_TRACE(kernel == 2   ? "bath_test (fixed-budget DSMC kernel)"
+               : dsmc_kernel ? "background_test (DSMC kernel)"
+                             : "attempt_background_collision");
   CounterRng rng(99, Stream::background_first_half, 0, 0);
+  const BathKey key{99, Stream::background_first_half, 5};
   const double majorant = background_majorant_rate(k.v, b);
   double acc = 0, dvx = 0, dvy = 0, dvz = 0, de = 0, de2 = 0, dvx2 = 0;
   for (int t = 0; t < trials; ++t) {
@@ -70,9 +75,18 @@ TEST_P(BackgroundIntegral, RateMomentumAndEnergyExchange) {
     double gain = 0;
     Vec3 c = k.v - k.uB;
     double cmod = norm(c);
-    const bool hit = dsmc_kernel ? background_test(v, c, cmod, b, k.m, rng, gain)
-                                 : attempt_background_collision(v, b, k.m, rng, gain);
-    if (dsmc_kernel && hit) {
+    bool hit;
+    if (kernel == 2) {
+      std::uint64_t w[8];
+      BathVariates x;
+      detail::bath_words(key, 17, static_cast<std::uint64_t>(t), w);
+      detail::bath_variates(w, key, 17, static_cast<std::uint64_t>(t), x);
+      hit = detail::bath_test(x, v, c, cmod, b, k.m, gain);
+    } else {
+      hit = dsmc_kernel ? background_test(v, c, cmod, b, k.m, rng, gain)
+                        : attempt_background_collision(v, b, k.m, rng, gain);
+    }
+    if (kernel != 0 && hit) {
       EXPECT_EQ(c.x, v.x - k.uB.x);  // the kernel keeps c = v - uB and |c| current
       EXPECT_DOUBLE_EQ(cmod, norm(v - k.uB));
     }
@@ -201,4 +215,148 @@ TEST(BackgroundEvolution, CarriedResidualKeepsTheRatesAcrossSubsteps) {
   // collisions: a Poisson count per grain at most as variable as the candidates
   EXPECT_NEAR(static_cast<double>(counters.collisions) / grains, K * mean_g * T, 5 * std::sqrt(cv / grains));
   EXPECT_NEAR(m * s2 / grains / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / grains));
+}
+
+// The fixed-budget kernel (bath_evolve_keyed per grain, bath_evolve_batch over arrays):
+// detailed balance as above, from one far-from-equilibrium velocity, through many substeps
+// with the carried residual.
+TEST(BathKernel, RelaxesToBackgroundMaxwellian) {
+  const double alpha = 0.3, TB = 1.7, m = 1.0;
+  const Vec3 uB{0.5, 0, -0.2};
+  const BackgroundState b = BackgroundState::make(1.0, 1.0, uB, TB, alpha, m);
+  const std::size_t grains = 200'000;
+  std::vector<double> vx(grains, 3.0), vy(grains, 0.0), vz(grains, 0.0), hz(grains);
+  std::vector<std::uint64_t> id(grains);
+  for (std::size_t i = 0; i < grains; ++i) {
+    id[i] = i;
+    hz[i] = CounterRng(1, Stream::background_clock, i, 0).exponential_ziggurat();
+  }
+  BackgroundCounters counters;
+  for (int s = 0; s < 20; ++s)  // 20 substeps of 1.5: t = 30 as above
+    bath_evolve_batch(grains, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, m, 1.5,
+                      BathKey{1, Stream::background_first_half, static_cast<std::uint64_t>(s)}, counters);
+  double sx = 0, s2 = 0, s4 = 0;
+  for (std::size_t i = 0; i < grains; ++i) {
+    const Vec3 c = Vec3{vx[i], vy[i], vz[i]} - uB;
+    sx += c.x;
+    s2 += norm2(c);
+    s4 += norm2(c) * norm2(c);
+  }
+  const double th = TB / m, n = static_cast<double>(grains);
+  EXPECT_NEAR(sx / n, 0.0, 5 * std::sqrt(th / n));
+  EXPECT_NEAR(m * s2 / n / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / n));
+  EXPECT_NEAR(s4 / n / (15 * th * th), 1.0, 5 * std::sqrt(945.0 / 225 - 1) / std::sqrt(n));
+  EXPECT_GT(counters.collisions, 20u * grains);
+  EXPECT_LE(counters.collisions, counters.candidates);
+}
+
+// The carried-residual rates (as CarriedResidualKeepsTheRatesAcrossSubsteps) for the
+// fixed-budget kernel, run by bath_evolve_batch: candidates at K (<|c|> + <|c_w|>), collisions
+// at K <|g|>, temperature kept at TB.
+TEST(BathKernel, CarriedResidualKeepsTheRatesAcrossSubsteps) {
+  const double alpha = 0.4, TB = 1.3, m = 1.0, K = 5.0;
+  const BackgroundState b = BackgroundState::make(K, 1.0, {0.2, 0.0, 0.0}, TB, alpha, m);
+  const double mB = background_mass(alpha, m);
+  const std::size_t grains = 100'000;
+  const int substeps = 16;
+  const double T = 0.8, dt = T / substeps;
+  std::vector<double> vx(grains), vy(grains), vz(grains), hz(grains);
+  std::vector<std::uint64_t> id(grains);
+  for (std::size_t i = 0; i < grains; ++i) {
+    CounterRng init(3, Stream::initial_velocities, i, 0);
+    const Vec3 v = b.velocity + std::sqrt(TB / m) * init.normal3();
+    vx[i] = v.x;
+    vy[i] = v.y;
+    vz[i] = v.z;
+    hz[i] = init.exponential();
+    id[i] = i;
+  }
+  // candidates per grain, one grain at a time through the same substeps (bath_evolve_keyed)
+  std::vector<double> cand(grains);
+  BackgroundCounters counters;
+  for (std::size_t i = 0; i < grains; i += 1000) {
+    for (int s = 0; s < substeps; ++s) {
+      const BathKey key{3, s % 2 ? Stream::background_second_half : Stream::background_first_half,
+                        static_cast<std::uint64_t>(s / 2)};
+      bath_evolve_batch(1000, id.data() + i, vx.data() + i, vy.data() + i, vz.data() + i, hz.data() + i, b, m, dt, key,
+                        counters);
+    }
+  }
+  // per-grain candidate variance from a second, keyed run of a subset
+  const std::size_t sub = 20'000;
+  double cm = 0, cv = 0;
+  for (std::size_t i = 0; i < sub; ++i) {
+    CounterRng init(3, Stream::initial_velocities, i, 0);
+    Vec3 v = b.velocity + std::sqrt(TB / m) * init.normal3();
+    double hazard = init.exponential();
+    BackgroundCounters one;
+    for (int s = 0; s < substeps; ++s) {
+      const BathKey key{3, s % 2 ? Stream::background_second_half : Stream::background_first_half,
+                        static_cast<std::uint64_t>(s / 2)};
+      double gain;
+      bath_evolve_keyed(v, hazard, b, m, dt, key, i, one, gain);
+    }
+    cand[i] = static_cast<double>(one.candidates);
+    cm += cand[i];
+  }
+  cm /= sub;
+  for (std::size_t i = 0; i < sub; ++i) cv += (cand[i] - cm) * (cand[i] - cm);
+  cv /= sub - 1;
+  const double n = static_cast<double>(grains);
+  const double mean_c = std::sqrt(8 * TB / (std::numbers::pi * m)), mean_w = std::sqrt(8 * TB / (std::numbers::pi * mB));
+  const double mean_g = std::sqrt(8 * TB * (1 / m + 1 / mB) / std::numbers::pi);
+  const double per_grain = static_cast<double>(counters.candidates) / n;
+  std::printf("bath kernel: candidates per grain %.5f +- %.5f (expected %.5f), collisions %.5f (expected %.5f)\n",
+              per_grain, std::sqrt(cv / n), K * (mean_c + mean_w) * T, static_cast<double>(counters.collisions) / n,
+              K * mean_g * T);
+  EXPECT_NEAR(per_grain, K * (mean_c + mean_w) * T, 5 * std::sqrt(cv / n));
+  EXPECT_NEAR(static_cast<double>(counters.collisions) / n, K * mean_g * T, 5 * std::sqrt(cv / n));
+  double s2 = 0;
+  for (std::size_t i = 0; i < grains; ++i) s2 += norm2(Vec3{vx[i], vy[i], vz[i]} - b.velocity);
+  EXPECT_NEAR(m * s2 / n / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / n));
+}
+
+// The interleaved kernel is the per-grain kernel: bitwise the same velocities, residuals and
+// counters (energy summed grain by grain in order), for block sizes that are not multiples
+// of the lane count or the chunk, ids that are not 0..n-1, a residual that runs out
+// immediately, a grain at rest in the bath frame, and many tests per grain.
+TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
+  const BackgroundState b = BackgroundState::make(2.0, 0.05, {0.1, -0.3, 0.2}, 1.4, 0.6, 1.3);
+  for (const std::size_t n : {1u, 3u, 5u, 255u, 257u, 1031u}) {
+    SCOPED_TRACE(n);
+    std::vector<double> vx(n), vy(n), vz(n), hz(n);
+    std::vector<std::uint64_t> id(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      CounterRng r(11, Stream::initial_velocities, i, 0);
+      vx[i] = 2 * r.normal();
+      vy[i] = r.normal();
+      vz[i] = r.normal();
+      hz[i] = i % 7 == 3 ? 1e3 : r.exponential();
+      id[i] = 1000003 * i + (std::uint64_t{1} << 40);
+    }
+    vx[n / 2] = b.velocity.x, vy[n / 2] = b.velocity.y, vz[n / 2] = b.velocity.z;
+    auto kx = vx, ky = vy, kz = vz, kh = hz;
+    BackgroundCounters batch, keyed;
+    for (int s = 0; s < 3; ++s) {
+      const BathKey key{11, Stream::background_second_half, static_cast<std::uint64_t>(s)};
+      bath_evolve_batch(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.3, 0.2, key, batch);
+      for (std::size_t i = 0; i < n; ++i) {
+        Vec3 v{kx[i], ky[i], kz[i]};
+        double gain;
+        bath_evolve_keyed(v, kh[i], b, 1.3, 0.2, key, id[i], keyed, gain);
+        keyed.energy_gain += gain;
+        kx[i] = v.x, ky[i] = v.y, kz[i] = v.z;
+      }
+    }
+    EXPECT_GT(keyed.candidates, 20 * n);
+    EXPECT_EQ(batch.candidates, keyed.candidates);
+    EXPECT_EQ(batch.collisions, keyed.collisions);
+    EXPECT_EQ(batch.energy_gain, keyed.energy_gain);
+    for (std::size_t i = 0; i < n; ++i) {
+      ASSERT_EQ(vx[i], kx[i]) << i;
+      ASSERT_EQ(vy[i], ky[i]) << i;
+      ASSERT_EQ(vz[i], kz[i]) << i;
+      ASSERT_EQ(hz[i], kh[i]) << i;
+    }
+  }
 }

@@ -258,3 +258,34 @@ TEST(CounterRng, BelowIsUniformOnTheIntegers) {
   for (int k = 0; k < n; ++k) low += r.below(big) < (1u << 30);
   EXPECT_NEAR(low / n, 1.0 / 3.0, 5 * std::sqrt(2.0 / 9.0 / n));
 }
+
+// The integer-SIMD Philox4x32-10 of the bath kernel: every compiled path gives Random123's
+// scalar r123::Philox4x32 words (words8_scalar), for ids with high bits, every stream byte
+// and step, and block bases far from 0; and the scalar words are Random123's known answer.
+TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
+  const auto kat = r123::Philox4x32{}(r123::Philox4x32::ctr_type{{0, 0, 0, 0}}, r123::Philox4x32::key_type{{0, 0}});
+  EXPECT_EQ(kat.v[0], 0x6627e8d5u);  // Random123 kat_vectors: philox4x32_10, zero counter and key
+  EXPECT_EQ(kat.v[3], 0x9b00dbd8u);
+  const std::size_t n = 777;
+  std::vector<std::uint32_t> c0(n), c1(n);
+  for (std::size_t a = 0; a < n; ++a) {
+    c0[a] = static_cast<std::uint32_t>(a * 2654435761u);
+    c1[a] = static_cast<std::uint32_t>((a % 256) << 24 | (a * 40503u & 0xffffffu));
+  }
+  for (const std::uint64_t key : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{0xfedcba9876543210ull}}) {
+    for (const std::uint32_t base : {0u, 4u, 4000000000u}) {
+      std::vector<std::uint64_t> ref(8 * n), sse2(8 * n, 0), avx2(8 * n, 0);
+      for (std::size_t a = 0; a < n; ++a) Philox4x32Lanes::words8_scalar(key, c0[a], c1[a], 123456789u, base, &ref[8 * a]);
+      Philox4x32Lanes::words8_sse2(key, c0.data(), c1.data(), 123456789u, base, n, sse2.data());
+      EXPECT_EQ(sse2, ref);
+      if (Philox4x32Lanes::have_avx2()) {
+        Philox4x32Lanes::words8_avx2(key, c0.data(), c1.data(), 123456789u, base, n, avx2.data());
+        EXPECT_EQ(avx2, ref);
+      }
+      std::vector<std::uint64_t> best(8 * n, 0);
+      Philox4x32Lanes::words8(key, c0.data(), c1.data(), 123456789u, base, n, best.data());
+      EXPECT_EQ(best, ref);
+    }
+  }
+  if (!Philox4x32Lanes::have_avx2()) GTEST_SKIP() << "no AVX2 on this CPU: only the SSE2 path was compared";
+}
