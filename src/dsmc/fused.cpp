@@ -21,6 +21,8 @@ bool fused_step_applies(const Config& c) {
 
 namespace {
 
+// the gather asks for the lines of the particle kAhead slots ahead (its old slot is known
+// from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
 
 template <int Dim, class Law>

@@ -46,7 +46,7 @@ void check_cell(std::uint64_t id_offset, std::size_t m, std::uint32_t seed) {
 }
 
 TEST(DsmcCellOrder, OrdersByIdInEveryBranch) {
-  for (std::size_t m : {0u, 1u, 2u, 3u, 4u, 5u, 7u, 8u, 15u, 16u, 17u, 33u, 63u, 64u, 65u, 200u}) {
+  for (std::size_t m : {0u, 1u, 2u, 3u, 4u, 5u, 7u, 8u, 15u, 16u, 17u, 23u, 24u, 25u, 31u, 32u, 33u, 63u, 64u, 65u, 200u}) {
     check_cell(0, m, 11u + static_cast<std::uint32_t>(m));               // 32-bit keys
     check_cell(0x100000000ull, m, 97u + static_cast<std::uint32_t>(m));  // ids above 2^32: doubles
     check_cell(0x7fffff00ull, m, 5u + static_cast<std::uint32_t>(m));    // across 2^31 and 2^32
