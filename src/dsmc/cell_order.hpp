@@ -7,20 +7,74 @@
 
 namespace grainbath::dsmc {
 
+namespace detail {
+// Ranking of m <= 4 Q 32-bit keys (padded to 4 Q with INT32_MAX): Q vectors of four.
+template <std::size_t Q>
+inline void rank_int32(const std::int32_t* __restrict keys, std::size_t m, const std::uint32_t* __restrict slots,
+                       std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0) {
+  using Int4 = std::int32_t __attribute__((vector_size(16)));
+  Int4 kv[Q];
+  for (std::size_t q = 0; q < Q; ++q) kv[q] = reinterpret_cast<const Int4*>(keys)[q];
+  for (std::size_t a = 0; a < m; ++a) {
+    const std::int32_t k = keys[a];
+    const Int4 key = {k, k, k, k};
+    Int4 below = kv[0] < key;  // true is -1
+    for (std::size_t q = 1; q < Q; ++q) below += kv[q] < key;
+    const auto rank = static_cast<std::size_t>(-(below[0] + below[1] + below[2] + below[3]));
+    perm[b0 + rank] = slots[a];
+    id_out[b0 + rank] = static_cast<std::uint32_t>(k) ^ 0x80000000u;
+  }
+}
+}  // namespace detail
+
 // Orders the slots [b0, b1) of `perm` (old particle indices) and `id_out` (their ids, in
 // the same order) by id. Small cells (the usual 10-30 particles) are sorted by ranking: the
-// rank of each id is the count of smaller ids, a branch-free O(m^2) loop in two-lane vectors
-// (ids, < 2^32 here, are compared as doubles, exact below 2^53). Larger cells use an
-// insertion sort through `id` (the ids in the old order).
+// rank of each id is the count of smaller ids, a branch-free O(m^2) loop in vectors. Ids
+// below 2^32 (every id of a run with fewer than 2^32 grains) are compared as 32-bit integers,
+// four per SSE2 vector (offset by 2^31 for the signed compare, order preserved); a cell with
+// a larger id compares doubles, two per vector (exact below 2^53). Larger cells use an
+// insertion sort through `id` (the ids in the old order). Every variant gives the same order.
 inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
                              const std::uint64_t* __restrict id, std::size_t b0, std::size_t b1) {
   using Double2 = double __attribute__((vector_size(16)));  // GCC/Clang vector extensions; SSE2 on x86-64
   using Long2 = long long __attribute__((vector_size(16)));
+  using Int4 = std::int32_t __attribute__((vector_size(16)));
   constexpr std::size_t kLocal = 64;
   const std::size_t m = b1 - b0;
   if (m <= kLocal) {
-    alignas(64) double keys[kLocal + 2];
     std::uint32_t slots[kLocal];
+    std::uint64_t high = 0;  // any bit above 31 of any id
+    for (std::size_t a = 0; a < m; ++a) high |= id_out[b0 + a];
+    if ((high >> 32) == 0) {
+      alignas(64) std::int32_t keys[kLocal + 4];
+      for (std::size_t a = 0; a < m; ++a) {
+        slots[a] = perm[b0 + a];
+        keys[a] = static_cast<std::int32_t>(static_cast<std::uint32_t>(id_out[b0 + a]) ^ 0x80000000u);
+      }
+      // the usual cell sizes get a fixed number of vectors (the compare loop unrolled, the keys
+      // in registers): up to 16, 24 and 32 particles
+      const std::size_t quads = m <= 16 ? 4 : m <= 24 ? 6 : m <= 32 ? 8 : (m + 3) / 4;
+      // pad: never smaller than a key (the largest key is INT32_MAX itself)
+      for (std::size_t a = m; a < 4 * quads; ++a) keys[a] = std::numeric_limits<std::int32_t>::max();
+      switch (quads) {
+        case 4: detail::rank_int32<4>(keys, m, slots, perm, id_out, b0); return;
+        case 6: detail::rank_int32<6>(keys, m, slots, perm, id_out, b0); return;
+        case 8: detail::rank_int32<8>(keys, m, slots, perm, id_out, b0); return;
+        default: break;
+      }
+      const auto* kv = reinterpret_cast<const Int4*>(keys);
+      for (std::size_t a = 0; a < m; ++a) {
+        const std::int32_t k = keys[a];
+        const Int4 key = {k, k, k, k};
+        Int4 below = {0, 0, 0, 0};
+        for (std::size_t b = 0; b < quads; ++b) below -= (kv[b] < key);  // true is -1
+        const auto rank = static_cast<std::size_t>(below[0] + below[1] + below[2] + below[3]);
+        perm[b0 + rank] = slots[a];
+        id_out[b0 + rank] = static_cast<std::uint32_t>(k) ^ 0x80000000u;
+      }
+      return;
+    }
+    alignas(64) double keys[kLocal + 2];
     for (std::size_t a = 0; a < m; ++a) {
       slots[a] = perm[b0 + a];
       keys[a] = static_cast<double>(id_out[b0 + a]);

@@ -21,7 +21,9 @@ bool fused_step_applies(const Config& c) {
 
 namespace {
 
-constexpr std::size_t kPrefetch = 48;
+// the gather asks for the lines of the particle kAhead slots ahead (its old slot is known
+// from perm): the far ones (moved across a z face) come from L3
+constexpr std::size_t kAhead = 16;
 
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
@@ -31,7 +33,15 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   if (n >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
   SortScratch& w = s.sort;
   std::vector<double>().swap(w.gather);  // not used here
-  w.records.resize(n);
+  // the state before the step moves to the scratch arrays; Particles receives the new order
+  std::vector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
+  const double* previous[7] = {};
+  for (int a = 0; a < 7; ++a) {
+    if (state_arrays[a]->empty()) continue;
+    w.previous[a].resize(n);
+    state_arrays[a]->swap(w.previous[a]);
+    previous[a] = w.previous[a].data();
+  }
   w.id.resize(n);
   w.cell.resize(n);
   w.perm.resize(n);
@@ -48,11 +58,25 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const double weight = c.grains.density * c.domain.volume() / static_cast<double>(c.particles);
   const double cell_volume = c.domain.cell_volume();
   const auto step = static_cast<std::uint64_t>(s.step);
+  // The gather below reads the previous arrays at the old index of each particle, which lies
+  // near its new index: a particle that moved at most one cell per axis came from a cell at
+  // most `reach` cells away (x-fastest numbering), i.e. about reach * n / cells slots. Each
+  // line of the previous arrays is therefore read within a window of +-reach cells around
+  // the sweep (2.5 MB at 40^3 x 16), which stays in cache; the leading edge of the window is
+  // fetched ahead, one line of each array per 8 particles.
+  const std::size_t reach = 1 + c.domain.cells[0] * (1 + (Dim > 1 ? c.domain.cells[1] : 0));
+  const std::size_t lead = (reach * n + cells - 1) / cells + 64;
   std::size_t* start = s.cell_start.data();
-  SortScratch::Record* __restrict rec = w.records.data();
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict perm = w.perm.data();
   std::uint32_t* counts = w.counts.data();
+  const double* __restrict ox = previous[0];
+  const double* __restrict oy = previous[1];
+  const double* __restrict oz = previous[2];
+  const double* __restrict ovx = previous[3];
+  const double* __restrict ovy = previous[4];
+  const double* __restrict ovz = previous[5];
+  const double* __restrict ohz = previous[6];
   double* __restrict x = p.x.data();
   double* __restrict y = Dim > 1 ? p.y.data() : nullptr;
   double* __restrict z = Dim > 2 ? p.z.data() : nullptr;
@@ -68,18 +92,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     const std::size_t lo = n * t / threads, hi = n * (t + 1) / threads;
     std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(t) * cells;
     std::fill(cnt, cnt + cells, 0u);
-    // stream, wrap, cell index and count in one pass; the streamed state goes to the records
+    // cell index after streaming, and the counts: reads the state once, writes 4 bytes
+    // (the streamed positions are recomputed by the gather, bitwise the same expression)
     for (std::size_t i = lo; i < hi; ++i) {
-      double* r = rec[i].v;
-      const double xi = wrap_periodic(x[i] + vx[i] * dt, Lx);
+      const double xi = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
       double yi = 0.0, zi = 0.0;
-      r[0] = xi;
-      if constexpr (Dim > 1) r[1] = yi = wrap_periodic(y[i] + vy[i] * dt, Ly);
-      if constexpr (Dim > 2) r[2] = zi = wrap_periodic(z[i] + vz[i] * dt, Lz);
-      r[Dim] = vx[i];
-      r[Dim + 1] = vy[i];
-      r[Dim + 2] = vz[i];
-      if (hazard) r[Dim + 3] = hz[i];
+      if constexpr (Dim > 1) yi = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+      if constexpr (Dim > 2) zi = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
       const std::uint32_t k = grid(xi, yi, zi);
       cell[i] = k;
       ++cnt[k];
@@ -94,8 +113,9 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       id_out[slot] = id[i];
     }
 #pragma omp barrier
-    // per block of cells: order each cell by id, gather the block from the records into the
-    // state arrays in the new order, then collide in each cell while the block is in L2
+    // per block of cells: order each cell by id, gather the block from the previous arrays
+    // (streaming it on the way) into the new order, then collide in each cell while the
+    // block is in L2
 #pragma omp for schedule(static)
     for (std::size_t blk = 0; blk < blocks; ++blk) {
       GrainCounters counters;
@@ -103,17 +123,34 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
       const std::size_t j1 = start[k1];
       for (std::size_t j = start[k0]; j < j1; ++j) {
-        // the records are read in an irregular order the hardware prefetcher cannot follow;
-        // perm says which line comes next, so ask for it kPrefetch particles ahead
-        if (j + kPrefetch < n) __builtin_prefetch(&rec[perm[j + kPrefetch]]);
-        const double* r = rec[perm[j]].v;
-        x[j] = r[0];
-        if constexpr (Dim > 1) y[j] = r[1];
-        if constexpr (Dim > 2) z[j] = r[2];
-        vx[j] = r[Dim];
-        vy[j] = r[Dim + 1];
-        vz[j] = r[Dim + 2];
-        if (hazard) hz[j] = r[Dim + 3];
+        if ((j & 7) == 0 && j + lead < n) {
+          const std::size_t f = j + lead;
+          __builtin_prefetch(ox + f);
+          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+          __builtin_prefetch(ovx + f);
+          __builtin_prefetch(ovy + f);
+          __builtin_prefetch(ovz + f);
+          if (hazard) __builtin_prefetch(ohz + f);
+        }
+        if (j + kAhead < j1) {
+          const std::uint32_t f = perm[j + kAhead];
+          __builtin_prefetch(ox + f);
+          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+          __builtin_prefetch(ovx + f);
+          __builtin_prefetch(ovy + f);
+          __builtin_prefetch(ovz + f);
+          if (hazard) __builtin_prefetch(ohz + f);
+        }
+        const std::uint32_t i = perm[j];
+        x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
+        if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+        if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+        vx[j] = ovx[i];
+        vy[j] = ovy[i];
+        vz[j] = ovz[i];
+        if (hazard) hz[j] = ohz[i];
       }
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];

@@ -51,14 +51,11 @@ struct SortScratch {
   std::vector<std::uint64_t> id;          // ids in the new order (swapped with Particles::id)
   std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
   static constexpr std::size_t bytes_per_particle = 2 * sizeof(std::uint32_t) + sizeof(double) + sizeof(std::uint64_t);
-  // fully periodic boxes (src/dsmc/fused.cpp): the streamed state of each particle packed in
-  // one cache line, so the gather into cell order reads one line per particle instead of one
-  // per array (replaces `gather`)
-  struct alignas(64) Record {
-    double v[8];  // positions (one per dimension), velocity (3), bath residual
-  };
-  std::vector<Record> records;
-  static constexpr std::size_t fused_bytes_per_particle = 2 * sizeof(std::uint32_t) + sizeof(Record) + sizeof(std::uint64_t);
+  // fully periodic boxes (src/dsmc/fused.cpp): the state before the step, swapped out of
+  // Particles so that the gather into cell order writes the new arrays while it reads these
+  // (replaces `gather`): x, y, z, vx, vy, vz, bath residual
+  std::vector<double> previous[7];
+  static constexpr std::size_t fused_bytes_per_particle = 2 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
 struct State {
