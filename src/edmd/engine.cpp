@@ -137,16 +137,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   for (std::uint32_t i = 0; i < n_; ++i) id_[i] = slot_of_[i] = i;
   a_.assign(n_, Vec3{});
   omega_.assign(n_, Vec3{});
-  counter_.assign(n_, 0);
-  last_collision_.assign(n_, -kInf);
-  bg_time_.assign(n_, kInf);
-  ev_time_.assign(n_, kInf);
-  coll_time_.assign(n_, kInf);
-  coll_partner_.assign(n_, 0);
-  coll_partner_counter_.assign(n_, 0);
-  ev_.assign(n_, Event{});
-  cellc_.assign(n_, {0, 0, 0});
-  slot_.assign(n_, 0);
+  sc_.assign(n_, Sched{});
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
   for (std::size_t i = 0; i < n_; ++i) {
@@ -195,7 +186,7 @@ void Engine::assign_cell(std::uint32_t i) {
       c = static_cast<int>(std::floor(comp(k_[i].r, d) / comp(w_, d)));
       c = std::clamp(c, 0, nc_[d] - 1);
     }
-    cellc_[i][d] = c;
+    sc_[i].cell[d] = c;
   }
 }
 
@@ -204,7 +195,7 @@ void Engine::fill_cells() {
     members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
-      const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+      const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
       if (cell_block(c)[0] >= static_cast<std::uint32_t>(cap_)) ok = false;
       else insert_cell(i);
     }
@@ -219,7 +210,7 @@ void Engine::grow_cells() {
 }
 
 void Engine::insert_cell(std::uint32_t i) {
-  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
   std::uint32_t* b = cell_block(c);
   if (b[0] >= static_cast<std::uint32_t>(cap_)) {
     grow_cells();  // rare: re-inserts everyone including i
@@ -227,23 +218,21 @@ void Engine::insert_cell(std::uint32_t i) {
   }
   const std::uint32_t s = b[0]++;
   b[1 + s] = i;
-  slot_[i] = s;
+  sc_[i].cell_pos = s;
 }
 
 void Engine::remove_cell(std::uint32_t i) {
-  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
   std::uint32_t* b = cell_block(c);
   const std::uint32_t last = b[b[0]];  // the last member, b[1 + count - 1]
-  b[1 + slot_[i]] = last;
-  slot_[last] = slot_[i];
+  b[1 + sc_[i].cell_pos] = last;
+  sc_[last].cell_pos = sc_[i].cell_pos;
   --b[0];
 }
 
-void Engine::move_to(std::uint32_t i, double t) {
+// Free flight of i over dt (ballistic, or under the constant air-table acceleration).
+inline void Engine::advance_piece(std::uint32_t i, double dt) {
   Kin& k = k_[i];
-  const double dt = t - k.t;
-  if (dt == 0.0) return;
-  const Vec3 r0 = k.r, v0 = k.v;  // for the free-flight hook
   if (accelerated_) {
     const double e0 = norm2(k.v);
     k.r += dt * k.v + (0.5 * dt * dt) * a_[i];
@@ -252,21 +241,34 @@ void Engine::move_to(std::uint32_t i, double t) {
   } else {
     k.r += dt * k.v;
   }
+}
+
+void Engine::move_to(std::uint32_t i, double t) {
+  Kin& k = k_[i];
+  const double dt = t - k.t;
+  if (dt == 0.0) return;
+  if (move_hook_) {  // transport bookkeeping: the hook needs the piece's start
+    const Vec3 r0 = k.r, v0 = k.v;
+    advance_piece(i, dt);
+    k.t = t;
+    move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
+    return;
+  }
+  advance_piece(i, dt);
   k.t = t;
-  if (move_hook_) move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {
-  ++counter_[i];
+  ++k_[i].counter;
   draw_background_time(i);
 }
 
 void Engine::draw_background_time(std::uint32_t i) {
   if (bg_) {
-    CounterRng rng(seed_, Stream::edmd_background, id_[i], counter_[i]);
+    CounterRng rng(seed_, Stream::edmd_background, id_[i], k_[i].counter);
     const double rate = dims_ == 2 ? background_majorant_rate_2d(k_[i].v, *bg_)
                                    : background_majorant_rate(k_[i].v, *bg_);
-    bg_time_[i] = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
+    sc_[i].bg_time = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
   }
 }
 
@@ -354,13 +356,13 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 
 // Scans the neighbouring cells of i: all 3^D of them (layer_dim < 0) or only the layer
 // at offset `layer_dir` in direction `layer_dim` (after a cell crossing: the other cells
-// were scanned before and their best collision is kept in coll_time_).
+// were scanned before and their best collision is kept in Sched::coll_time).
 void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
-  const auto& c = cellc_[i];
-  double best = coll_time_[i];
-  std::uint32_t partner = coll_partner_[i];
+  const auto& c = sc_[i].cell;
+  double best = sc_[i].coll_time;
+  std::uint32_t partner = sc_[i].coll_partner;
   int lo[3] = {-1, -1, dims_ == 3 ? -1 : 0}, hi[3] = {1, 1, dims_ == 3 ? 1 : 0};
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
@@ -404,9 +406,9 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
         const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
         if (tc < best) best = tc, partner = j;
       }
-      coll_time_[i] = best;
-      coll_partner_[i] = partner;
-      if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+      sc_[i].coll_time = best;
+      sc_[i].coll_partner = partner;
+      if (std::isfinite(best)) sc_[i].coll_partner_counter = k_[partner].counter;
       return;
     }
   }
@@ -455,17 +457,17 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
       }
     }
   }
-  coll_time_[i] = best;
-  coll_partner_[i] = partner;
-  if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+  sc_[i].coll_time = best;
+  sc_[i].coll_partner = partner;
+  if (std::isfinite(best)) sc_[i].coll_partner_counter = k_[partner].counter;
 }
 
 // After a collision both grains need a full scan; their neighbourhoods overlap (the cells
 // are adjacent), so one pass over the union of cells serves both, loading every neighbour's
 // record once. Falls back to two scans near boundaries or under acceleration.
 void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
-  const auto& ci = cellc_[i];
-  const auto& cj = cellc_[j];
+  const auto& ci = sc_[i].cell;
+  const auto& cj = sc_[j].cell;
   auto interior = [&](const std::array<int, 3>& c) {
     return c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
            (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
@@ -534,18 +536,18 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
     if (k != i) test(ki, rk, kk.v, best_i, pi, k);
     if (k != j) test(kj, rk, kk.v, best_j, pj, k);
   }
-  coll_time_[i] = best_i;
-  coll_partner_[i] = pi;
-  if (std::isfinite(best_i)) coll_partner_counter_[i] = counter_[pi];
-  coll_time_[j] = best_j;
-  coll_partner_[j] = pj;
-  if (std::isfinite(best_j)) coll_partner_counter_[j] = counter_[pj];
+  sc_[i].coll_time = best_i;
+  sc_[i].coll_partner = pi;
+  if (std::isfinite(best_i)) sc_[i].coll_partner_counter = k_[pi].counter;
+  sc_[j].coll_time = best_j;
+  sc_[j].coll_partner = pj;
+  if (std::isfinite(best_j)) sc_[j].coll_partner_counter = k_[pj].counter;
   schedule(i);
   schedule(j);
 }
 
 void Engine::predict(std::uint32_t i) {
-  coll_time_[i] = kInf;
+  sc_[i].coll_time = kInf;
   scan_neighbours(i, -1, 0);
   schedule(i);
 }
@@ -556,12 +558,13 @@ void Engine::schedule(std::uint32_t i) {
   const Kin& ki = k_[i];
   const double t = ki.t;
   double best = kInf;
-  Event ev{};
+  std::uint8_t type = ev_none, aux = 0;
   if (bg_) {
-    best = bg_time_[i];
-    ev.type = ev_background;
+    best = sc_[i].bg_time;
+    type = ev_background;
   }
-  const auto& c = cellc_[i];
+  Sched& s = sc_[i];
+  const auto& c = s.cell;
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
   for (int d = 0; d < dims_; ++d) {
     const double x = comp(ki.r, d), v = comp(ki.v, d), acc = comp(ai, d);
@@ -574,16 +577,16 @@ void Engine::schedule(std::uint32_t i) {
         const double tc = t + std::max(0.0, (bound - x) / v);
         if (tc < best) {
           best = tc;
-          ev.type = high_wall ? ev_wall : ev_cell;
-          ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+          type = high_wall ? ev_wall : ev_cell;
+          aux = static_cast<std::uint8_t>(2 * d + 1);
         }
       } else if (v < 0.0) {
         const double bound = low_wall ? 0.5 : lo;
         const double tc = t + std::max(0.0, (bound - x) / v);
         if (tc < best) {
           best = tc;
-          ev.type = low_wall ? ev_wall : ev_cell;
-          ev.aux = static_cast<std::uint8_t>(2 * d);
+          type = low_wall ? ev_wall : ev_cell;
+          aux = static_cast<std::uint8_t>(2 * d);
         }
       }
     } else {
@@ -593,40 +596,40 @@ void Engine::schedule(std::uint32_t i) {
       const double tl = (x <= bl && v < 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl, -1.0);
       if (t + th < best) {
         best = t + th;
-        ev.type = high_wall ? ev_wall : ev_cell;
-        ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+        type = high_wall ? ev_wall : ev_cell;
+        aux = static_cast<std::uint8_t>(2 * d + 1);
       }
       if (t + tl < best) {
         best = t + tl;
-        ev.type = low_wall ? ev_wall : ev_cell;
-        ev.aux = static_cast<std::uint8_t>(2 * d);
+        type = low_wall ? ev_wall : ev_cell;
+        aux = static_cast<std::uint8_t>(2 * d);
       }
     }
   }
-  if (coll_time_[i] < best) {
-    best = coll_time_[i];
-    ev.type = ev_collision;
-    ev.partner = coll_partner_[i];
-    ev.partner_counter = coll_partner_counter_[i];
+  if (s.coll_time < best) {
+    best = s.coll_time;
+    type = ev_collision;
+    aux = 0;
   }
-  ev_time_[i] = best;
-  ev_[i] = ev;
+  s.ev_time = best;
+  s.type = type;
+  s.aux = aux;
   heap_.update(i, best);
 }
 
 void Engine::process_cell(std::uint32_t i) {
   move_to(i, now_);
   ++c_.cell_crossings;
-  const int d = ev_[i].aux >> 1;
-  const int dir = (ev_[i].aux & 1) ? 1 : -1;
+  const int d = sc_[i].aux >> 1;
+  const int dir = (sc_[i].aux & 1) ? 1 : -1;
   remove_cell(i);
-  int& c = cellc_[i][d];
+  int& c = sc_[i].cell[d];
   c += dir;
   if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
   else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
   insert_cell(i);
   // keep the best collision found so far unless its partner moved on; scan only the new layer
-  if (std::isfinite(coll_time_[i]) && counter_[coll_partner_[i]] != coll_partner_counter_[i]) {
+  if (std::isfinite(sc_[i].coll_time) && k_[sc_[i].coll_partner].counter != sc_[i].coll_partner_counter) {
     predict(i);
   } else {
     scan_neighbours(i, d, dir);
@@ -637,9 +640,9 @@ void Engine::process_cell(std::uint32_t i) {
 void Engine::process_wall(std::uint32_t i) {
   move_to(i, now_);
   ++c_.wall_collisions;
-  const int d = ev_[i].aux >> 1;
+  const int d = sc_[i].aux >> 1;
   double& v = comp(k_[i].v, d);
-  const bool high = ev_[i].aux & 1;
+  const bool high = sc_[i].aux & 1;
   if ((high && v > 0.0) || (!high && v < 0.0)) {
     const double e0 = 0.5 * v * v;
     if (driving_walls_) {
@@ -668,7 +671,7 @@ void Engine::process_wall(std::uint32_t i) {
 void Engine::process_background(std::uint32_t i) {
   move_to(i, now_);
   ++c_.background_candidates;
-  CounterRng rng(seed_, Stream::edmd_collisions, id_[i], counter_[i]);
+  CounterRng rng(seed_, Stream::edmd_collisions, id_[i], k_[i].counter);
   const bool hit = dims_ == 2 ? attempt_background_collision_2d(k_[i].v, *bg_, 1.0, rng, c_.background_energy)
                               : attempt_background_collision(k_[i].v, *bg_, 1.0, rng, c_.background_energy);
   if (hit) ++c_.background_collisions;
@@ -797,7 +800,7 @@ void Engine::rebuild() {
   sort_by_cell();
   fill_cells();
   offset_ += now_;
-  for (std::uint32_t i = 0; i < n_; ++i) last_collision_[i] -= now_;
+  for (std::uint32_t i = 0; i < n_; ++i) sc_[i].last_collision -= now_;
   now_ = 0.0;
   ++rebuilds_;
   for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
@@ -816,11 +819,11 @@ void Engine::rebuild_calendar() {
   double sum = 0.0;
   std::size_t finite = 0;
   for (std::uint32_t i = 0; i < n_; ++i)
-    if (std::isfinite(ev_time_[i])) sum += ev_time_[i], ++finite;
+    if (std::isfinite(sc_[i].ev_time)) sum += sc_[i].ev_time, ++finite;
   calendar_width_ = finite ? 2.0 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
   heap_.reset(n_, 0.0, calendar_width_);
-  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time_[i]);
+  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, sc_[i].ev_time);
 #endif
   at_rebuild_ = true;
 }
@@ -851,7 +854,7 @@ void Engine::sort_by_cell() {
     std::uint32_t id, slot;
   };
   std::vector<Key> key(n_);
-  for (std::uint32_t s = 0; s < n_; ++s) key[s] = {morton3(cellc_[s][0], cellc_[s][1], cellc_[s][2]), id_[s], s};
+  for (std::uint32_t s = 0; s < n_; ++s) key[s] = {morton3(sc_[s].cell[0], sc_[s].cell[1], sc_[s].cell[2]), id_[s], s};
   std::sort(key.begin(), key.end(),
             [](const Key& a, const Key& b) { return a.morton < b.morton || (a.morton == b.morton && a.id < b.id); });
   std::vector<std::uint32_t> order(n_);  // new slot -> old slot
@@ -863,10 +866,7 @@ void Engine::sort_by_cell() {
   permute(k_);
   permute(a_);
   permute(omega_);
-  permute(counter_);
-  permute(last_collision_);
-  permute(bg_time_);
-  permute(cellc_);
+  permute(sc_);
   permute(id_);
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
 }
@@ -893,8 +893,8 @@ EngineState Engine::state() const {
     const std::uint32_t id = id_[s];
     st.positions[id] = k_[s].r;
     st.velocities[id] = k_[s].v;
-    st.event_counters[id] = counter_[s];
-    st.last_collision[id] = last_collision_[s];
+    st.event_counters[id] = k_[s].counter;
+    st.last_collision[id] = sc_[s].last_collision;
     if (!omega_.empty()) st.omega[id] = omega_[s];
     if (accelerated_) st.accelerations[id] = a_[s];
   }
@@ -931,8 +931,8 @@ void Engine::restore(const EngineState& st) {
     k_[i].r = st.positions[i];
     k_[i].v = st.velocities[i];
     k_[i].t = 0.0;
-    counter_[i] = st.event_counters[i];
-    last_collision_[i] = st.last_collision[i];
+    k_[i].counter = st.event_counters[i];
+    sc_[i].last_collision = st.last_collision[i];
     assign_cell(i);
   }
   if (!st.omega.empty()) omega_ = st.omega;
@@ -993,7 +993,7 @@ Vec3 Engine::momentum() const {
 double Engine::min_distance() const {
   double best2 = kInf;
   for (std::uint32_t i = 0; i < n_; ++i) {
-    const auto& c = cellc_[i];
+    const auto& c = sc_[i].cell;
     const int zlo = dims_ == 3 ? -1 : 0, zhi = dims_ == 3 ? 1 : 0;
     for (int dz = zlo; dz <= zhi; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
