@@ -138,6 +138,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   a_.assign(n_, Vec3{});
   omega_.assign(n_, Vec3{});
   sc_.assign(n_, Sched{});
+  bg_time_.assign(n_, kInf);
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
   for (std::size_t i = 0; i < n_; ++i) {
@@ -218,7 +219,7 @@ void Engine::insert_cell(std::uint32_t i) {
   }
   const std::uint32_t s = b[0]++;
   b[1 + s] = i;
-  sc_[i].cell_pos = s;
+  sc_[i].cell_pos = static_cast<std::uint16_t>(s);
 }
 
 void Engine::remove_cell(std::uint32_t i) {
@@ -268,7 +269,7 @@ void Engine::draw_background_time(std::uint32_t i) {
     CounterRng rng(seed_, Stream::edmd_background, id_[i], k_[i].counter);
     const double rate = dims_ == 2 ? background_majorant_rate_2d(k_[i].v, *bg_)
                                    : background_majorant_rate(k_[i].v, *bg_);
-    sc_[i].bg_time = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
+    bg_time_[i] = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
   }
 }
 
@@ -304,7 +305,7 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
 // Earliest collision of i with the grains of one cell (image shifted by `shift`); updates
 // the running best collision time and partner.
 inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
-                              double& best, std::uint32_t& partner) const {
+                              Top2& best) const {
   const double t = ki.t;
   const std::uint32_t* m = cell_block(cell) + 1;
   const int cnt = static_cast<int>(m[-1]);
@@ -320,7 +321,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
       const double b = dot(dr, dv);
       if (b >= 0.0) continue;
       const double q2 = dot(dr, dr) - 1.0;
-      if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;  // lower bound, no sqrt
+      if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) continue;  // lower bound, no sqrt
       const double dv2 = dot(dv, dv);
       const double disc = b * b - dv2 * q2;
       if (disc <= 0.0) continue;
@@ -328,18 +329,18 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
     } else {
       const Vec3 vj = kj.v + dtj * a_[j];
       const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
-      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
+      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best.t1 - t);
 #ifdef EDMD_DEBUG_QUARTIC
       {
         const Vec3 dr = rj - ki.r, dv = vj - ki.v, da = a_[j] - ai;
-        const double hi = std::min({best - t, tcol, 2.0});
+        const double hi = std::min({best.t1 - t, tcol, 2.0});
         if (dot(dr, dr) > 1.0 + 1e-9)
           for (int k = 1; k <= 4000; ++k) {
             const double tt = hi * k / 4000.0;
             const Vec3 x = dr + tt * dv + (0.5 * tt * tt) * da;
             if (dot(x, x) < 1.0 - 1e-9) {
               std::fprintf(stderr, "MISSED: tcol %.17g found overlap at %.17g; dr %.17g %.17g dv %.17g %.17g da %.17g %.17g tmax %.17g\n",
-                           tcol, tt, dr.x, dr.y, dv.x, dv.y, da.x, da.y, best - t);
+                           tcol, tt, dr.x, dr.y, dv.x, dv.y, da.x, da.y, best.t1 - t);
               break;
             }
           }
@@ -347,10 +348,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 #endif
       if (!std::isfinite(tcol)) continue;
     }
-    if (t + tcol < best) {
-      best = t + tcol;
-      partner = j;
-    }
+    best.offer(t + tcol, j, kj.counter);
   }
 }
 
@@ -361,8 +359,7 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
   const auto& c = sc_[i].cell;
-  double best = sc_[i].coll_time;
-  std::uint32_t partner = sc_[i].coll_partner;
+  Top2 best = load_top2(sc_[i]);
   int lo[3] = {-1, -1, dims_ == 3 ? -1 : 0}, hi[3] = {1, 1, dims_ == 3 ? 1 : 0};
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
@@ -400,15 +397,13 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
         const double b = dot(dr, dv);
         if (b >= 0.0) continue;
         const double q2 = dot(dr, dr) - 1.0;
-        if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;
+        if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) continue;
         const double disc = b * b - dot(dv, dv) * q2;
         if (disc <= 0.0) continue;
         const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
-        if (tc < best) best = tc, partner = j;
+        best.offer(tc, j, kj.counter);
       }
-      sc_[i].coll_time = best;
-      sc_[i].coll_partner = partner;
-      if (std::isfinite(best)) sc_[i].coll_partner_counter = k_[partner].counter;
+      store_top2(i, best);
       return;
     }
   }
@@ -417,7 +412,7 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
-        for (int dx = lo[0]; dx <= hi[0]; ++dx) scan_cell(i, ki, ai, row + dx, zero, best, partner);
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) scan_cell(i, ki, ai, row + dx, zero, best);
       }
   } else {
     for (int dz = lo[2]; dz <= hi[2]; ++dz) {
@@ -452,14 +447,46 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
             if (walls_[0]) continue;
             cx -= nc_[0], sx = L_.x;
           }
-          scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best, partner);
+          scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best);
         }
       }
     }
   }
-  sc_[i].coll_time = best;
-  sc_[i].coll_partner = partner;
-  if (std::isfinite(best)) sc_[i].coll_partner_counter = k_[partner].counter;
+  if (accelerated_) {
+    // the quartic search is bounded by the first candidate only: the second is unknown,
+    // and every other covered pair collides no earlier than the first
+    best.t2 = best.t1;
+    best.c2 = kUnknownCounter;
+  }
+  store_top2(i, best);
+}
+
+void Engine::store_top2(std::uint32_t i, const Top2& b) {
+  Sched& s = sc_[i];
+  s.coll_time = b.t1;
+  s.coll_partner = b.p1;
+  s.coll_partner_counter = b.c1;
+  s.coll2_time = b.t2;
+  s.coll2_partner = b.p2;
+  s.coll2_partner_counter = b.c2;
+}
+
+// i's first candidate is stale (its partner changed trajectory). By the invariant of
+// Sched (engine.hpp), the second is i's next collision among the pairs i still covers if
+// its partner is unchanged (or there is none: +inf). Returns false when a rescan is needed.
+bool Engine::promote_second(std::uint32_t i) {
+  Sched& s = sc_[i];
+  if (s.coll2_time == kInf) {  // no other collision among the covered pairs
+    s.coll_time = kInf;
+    return true;
+  }
+  if (s.coll2_partner_counter == kUnknownCounter || k_[s.coll2_partner].counter != s.coll2_partner_counter)
+    return false;
+  s.coll_time = s.coll2_time;
+  s.coll_partner = s.coll2_partner;
+  s.coll_partner_counter = s.coll2_partner_counter;
+  s.coll2_partner_counter = kUnknownCounter;  // coll2_time stays as the bound on the rest
+  return true;
 }
 
 // After a collision both grains need a full scan; their neighbourhoods overlap (the cells
@@ -514,40 +541,34 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
   const Kin& ki = k_[i];
   const Kin& kj = k_[j];
   const double t = ki.t;  // == kj.t == now
-  double best_i = kInf, best_j = kInf;
-  std::uint32_t pi = 0, pj = 0;
-  auto test = [&](const Kin& a, const Vec3& rk, const Vec3& vk, double& best, std::uint32_t& partner,
-                  std::uint32_t k) {
+  Top2 best_i{kInf, kInf, 0, 0, 0, 0}, best_j{kInf, kInf, 0, 0, 0, 0};
+  auto test = [&](const Kin& a, const Vec3& rk, const Vec3& vk, Top2& best, std::uint32_t k, std::uint64_t ck) {
     const Vec3 dr = rk - a.r;
     const Vec3 dv = vk - a.v;
     const double b = dot(dr, dv);
     if (b >= 0.0) return;
     const double q2 = dot(dr, dr) - 1.0;
-    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) return;
+    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) return;
     const double disc = b * b - dot(dv, dv) * q2;
     if (disc <= 0.0) return;
     const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
-    if (tc < best) best = tc, partner = k;
+    best.offer(tc, k, ck);
   };
   for (int q = 0; q < nb; ++q) {
     const std::uint32_t k = buf[q];
     const Kin& kk = k_[k];
     const Vec3 rk = kk.r + (t - kk.t) * kk.v;
-    if (k != i) test(ki, rk, kk.v, best_i, pi, k);
-    if (k != j) test(kj, rk, kk.v, best_j, pj, k);
+    if (k != i) test(ki, rk, kk.v, best_i, k, kk.counter);
+    if (k != j) test(kj, rk, kk.v, best_j, k, kk.counter);
   }
-  sc_[i].coll_time = best_i;
-  sc_[i].coll_partner = pi;
-  if (std::isfinite(best_i)) sc_[i].coll_partner_counter = k_[pi].counter;
-  sc_[j].coll_time = best_j;
-  sc_[j].coll_partner = pj;
-  if (std::isfinite(best_j)) sc_[j].coll_partner_counter = k_[pj].counter;
+  store_top2(i, best_i);
+  store_top2(j, best_j);
   schedule(i);
   schedule(j);
 }
 
 void Engine::predict(std::uint32_t i) {
-  sc_[i].coll_time = kInf;
+  sc_[i].coll_time = sc_[i].coll2_time = kInf;
   scan_neighbours(i, -1, 0);
   schedule(i);
 }
@@ -560,7 +581,7 @@ void Engine::schedule(std::uint32_t i) {
   double best = kInf;
   std::uint8_t type = ev_none, aux = 0;
   if (bg_) {
-    best = sc_[i].bg_time;
+    best = bg_time_[i];
     type = ev_background;
   }
   Sched& s = sc_[i];
@@ -611,7 +632,6 @@ void Engine::schedule(std::uint32_t i) {
     type = ev_collision;
     aux = 0;
   }
-  s.ev_time = best;
   s.type = type;
   s.aux = aux;
   heap_.update(i, best);
@@ -628,8 +648,10 @@ void Engine::process_cell(std::uint32_t i) {
   if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
   else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
   insert_cell(i);
-  // keep the best collision found so far unless its partner moved on; scan only the new layer
-  if (std::isfinite(sc_[i].coll_time) && k_[sc_[i].coll_partner].counter != sc_[i].coll_partner_counter) {
+  // keep the two best collisions found so far (the second promoted if the first partner
+  // moved on and the second is still valid); scan only the new layer
+  if (std::isfinite(sc_[i].coll_time) && k_[sc_[i].coll_partner].counter != sc_[i].coll_partner_counter &&
+      !promote_second(i)) {
     predict(i);
   } else {
     scan_neighbours(i, d, dir);
@@ -816,14 +838,16 @@ void Engine::rebuild_calendar() {
   // to the next event (about two events per bucket) and re-insert
   heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
+  std::vector<double> ev_time(n_);
+  for (std::uint32_t i = 0; i < n_; ++i) ev_time[i] = heap_.key(i);
   double sum = 0.0;
   std::size_t finite = 0;
   for (std::uint32_t i = 0; i < n_; ++i)
-    if (std::isfinite(sc_[i].ev_time)) sum += sc_[i].ev_time, ++finite;
+    if (std::isfinite(ev_time[i])) sum += ev_time[i], ++finite;
   calendar_width_ = finite ? 2.0 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
   heap_.reset(n_, 0.0, calendar_width_);
-  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, sc_[i].ev_time);
+  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);
 #endif
   at_rebuild_ = true;
 }
@@ -867,6 +891,7 @@ void Engine::sort_by_cell() {
   permute(a_);
   permute(omega_);
   permute(sc_);
+  permute(bg_time_);
   permute(id_);
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
 }

@@ -240,28 +240,57 @@ class Engine {
   // 2026-11-25); one record costs one. The scheduled event is a collision (with coll_partner,
   // valid while its counter still equals coll_partner_counter), a cell crossing, a wall hit
   // or a background candidate.
+  //
+  // Second candidate (coll2_*): every scan keeps the two earliest collisions it finds.
+  // Invariant: every pair (i, k) that i's scans cover (k not changed since) and that is
+  // neither of the two stored ones collides no earlier than coll2_time. When the first
+  // partner turns out stale (it changed trajectory; the pair is then covered by the
+  // partner's own scan), the second, if its partner is unchanged, is therefore i's next
+  // collision among the pairs i still covers: it is promoted without a rescan. A second
+  // slot that is unknown (after a promotion, or under acceleration) keeps the bound
+  // coll2_time but carries kUnknownCounter, which never matches, forcing the full rescan.
   struct alignas(64) Sched {
     double coll_time = kInf;                // best predicted collision (absolute time)
     std::uint64_t coll_partner_counter = 0;  // the partner's counter when predicted
-    double ev_time = kInf;                  // the scheduled event's time (the calendar key)
+    double coll2_time = kInf;               // second candidate (see above)
+    std::uint64_t coll2_partner_counter = 0;
     double last_collision = -kInf;          // TC-model guard
-    double bg_time = kInf;                  // next background-medium candidate
     std::array<int, 3> cell{0, 0, 0};       // cell coordinates
     std::uint32_t coll_partner = 0;         // slot
-    std::uint32_t cell_pos = 0;             // position in the cell's member list
+    std::uint32_t coll2_partner = 0;        // slot
+    std::uint16_t cell_pos = 0;             // position in the cell's member list (< cap_ <= 65535)
     std::uint8_t type = ev_none;            // the scheduled event
     std::uint8_t aux = 0;  // cell crossing: 2 * dim + (dir > 0); wall: 2 * dim + (high side)
   };
+  static constexpr std::uint64_t kUnknownCounter = ~std::uint64_t{0};
   static_assert(sizeof(Sched) == 64, "the scheduling record is one cache line");
 
   void move_to(std::uint32_t i, double t);
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
+  bool promote_second(std::uint32_t i);  // first candidate stale: take the second if still valid
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
-  void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, double& best,
-                 std::uint32_t& partner) const;
+  // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
+  struct Top2 {
+    double t1, t2;
+    std::uint32_t p1, p2;
+    std::uint64_t c1, c2;
+    void offer(double tc, std::uint32_t j, std::uint64_t cj) {
+      if (tc < t1) {
+        t2 = t1, p2 = p1, c2 = c1;
+        t1 = tc, p1 = j, c1 = cj;
+      } else if (tc < t2) {
+        t2 = tc, p2 = j, c2 = cj;
+      }
+    }
+  };
+  Top2 load_top2(const Sched& s) const {
+    return {s.coll_time, s.coll2_time, s.coll_partner, s.coll2_partner, s.coll_partner_counter, s.coll2_partner_counter};
+  }
+  void store_top2(std::uint32_t i, const Top2& b);
+  void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, Top2& best) const;
   void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
   void draw_background_time(std::uint32_t i);  // from (id, counter): next background candidate
   void rebuild_calendar();  // predict everyone, size and fill the calendar (rebuild, restore)
@@ -310,6 +339,7 @@ class Engine {
   std::vector<Vec3> omega_;      // angular velocity: reserved for rough grains (issue #6)
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
   std::vector<Sched> sc_;
+  std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};
@@ -438,7 +468,8 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
         if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);
-          predict(i);
+          if (promote_second(i)) schedule(i);  // the second candidate is still valid: no rescan
+          else predict(i);
         } else {
           process_collision(law, i, ev.coll_partner);
         }
