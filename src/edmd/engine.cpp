@@ -371,6 +371,12 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
     std::uint32_t buf[kMax];
     int nb = 0;
     bool overflow = false;
+    for (int dz = lo[2]; dz <= hi[2]; ++dz)  // rows of cells requested first, as in predict_pair
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        const std::uint32_t* row = cell_block(cell_index(c[0] + lo[0], c[1] + dy, c[2] + dz));
+        __builtin_prefetch(row);
+        __builtin_prefetch(row + (hi[0] - lo[0] + 1) * (cap_ + 1) - 1);
+      }
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
@@ -522,6 +528,13 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
       buf[nb++] = m[q];
     }
   };
+  // request every row of cells first (independent misses in flight together), then gather
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = cell_block(cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz));
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
+    }
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);

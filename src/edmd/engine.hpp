@@ -465,6 +465,9 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
+        // the partner's scheduling record is needed only after its kinematics (counter,
+        // move_to): request it now so that the two misses overlap
+        __builtin_prefetch(&sc_[ev.coll_partner]);
         if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);
