@@ -137,16 +137,8 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   for (std::uint32_t i = 0; i < n_; ++i) id_[i] = slot_of_[i] = i;
   a_.assign(n_, Vec3{});
   omega_.assign(n_, Vec3{});
-  counter_.assign(n_, 0);
-  last_collision_.assign(n_, -kInf);
+  sc_.assign(n_, Sched{});
   bg_time_.assign(n_, kInf);
-  ev_time_.assign(n_, kInf);
-  coll_time_.assign(n_, kInf);
-  coll_partner_.assign(n_, 0);
-  coll_partner_counter_.assign(n_, 0);
-  ev_.assign(n_, Event{});
-  cellc_.assign(n_, {0, 0, 0});
-  slot_.assign(n_, 0);
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
   for (std::size_t i = 0; i < n_; ++i) {
@@ -195,7 +187,7 @@ void Engine::assign_cell(std::uint32_t i) {
       c = static_cast<int>(std::floor(comp(k_[i].r, d) / comp(w_, d)));
       c = std::clamp(c, 0, nc_[d] - 1);
     }
-    cellc_[i][d] = c;
+    sc_[i].cell[d] = c;
   }
 }
 
@@ -204,7 +196,7 @@ void Engine::fill_cells() {
     members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
-      const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+      const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
       if (cell_block(c)[0] >= static_cast<std::uint32_t>(cap_)) ok = false;
       else insert_cell(i);
     }
@@ -219,7 +211,7 @@ void Engine::grow_cells() {
 }
 
 void Engine::insert_cell(std::uint32_t i) {
-  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
   std::uint32_t* b = cell_block(c);
   if (b[0] >= static_cast<std::uint32_t>(cap_)) {
     grow_cells();  // rare: re-inserts everyone including i
@@ -227,23 +219,21 @@ void Engine::insert_cell(std::uint32_t i) {
   }
   const std::uint32_t s = b[0]++;
   b[1 + s] = i;
-  slot_[i] = s;
+  sc_[i].cell_pos = static_cast<std::uint16_t>(s);
 }
 
 void Engine::remove_cell(std::uint32_t i) {
-  const int c = cell_index(cellc_[i][0], cellc_[i][1], cellc_[i][2]);
+  const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
   std::uint32_t* b = cell_block(c);
   const std::uint32_t last = b[b[0]];  // the last member, b[1 + count - 1]
-  b[1 + slot_[i]] = last;
-  slot_[last] = slot_[i];
+  b[1 + sc_[i].cell_pos] = last;
+  sc_[last].cell_pos = sc_[i].cell_pos;
   --b[0];
 }
 
-void Engine::move_to(std::uint32_t i, double t) {
+// Free flight of i over dt (ballistic, or under the constant air-table acceleration).
+inline void Engine::advance_piece(std::uint32_t i, double dt) {
   Kin& k = k_[i];
-  const double dt = t - k.t;
-  if (dt == 0.0) return;
-  const Vec3 r0 = k.r, v0 = k.v;  // for the free-flight hook
   if (accelerated_) {
     const double e0 = norm2(k.v);
     k.r += dt * k.v + (0.5 * dt * dt) * a_[i];
@@ -252,18 +242,31 @@ void Engine::move_to(std::uint32_t i, double t) {
   } else {
     k.r += dt * k.v;
   }
+}
+
+void Engine::move_to(std::uint32_t i, double t) {
+  Kin& k = k_[i];
+  const double dt = t - k.t;
+  if (dt == 0.0) return;
+  if (move_hook_) {  // transport bookkeeping: the hook needs the piece's start
+    const Vec3 r0 = k.r, v0 = k.v;
+    advance_piece(i, dt);
+    k.t = t;
+    move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
+    return;
+  }
+  advance_piece(i, dt);
   k.t = t;
-  if (move_hook_) move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {
-  ++counter_[i];
+  ++k_[i].counter;
   draw_background_time(i);
 }
 
 void Engine::draw_background_time(std::uint32_t i) {
   if (bg_) {
-    CounterRng rng(seed_, Stream::edmd_background, id_[i], counter_[i]);
+    CounterRng rng(seed_, Stream::edmd_background, id_[i], k_[i].counter);
     const double rate = dims_ == 2 ? background_majorant_rate_2d(k_[i].v, *bg_)
                                    : background_majorant_rate(k_[i].v, *bg_);
     bg_time_[i] = rate > 0.0 ? now_ + rng.exponential() / rate : kInf;
@@ -302,7 +305,7 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
 // Earliest collision of i with the grains of one cell (image shifted by `shift`); updates
 // the running best collision time and partner.
 inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
-                              double& best, std::uint32_t& partner) const {
+                              Top2& best) const {
   const double t = ki.t;
   const std::uint32_t* m = cell_block(cell) + 1;
   const int cnt = static_cast<int>(m[-1]);
@@ -318,7 +321,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
       const double b = dot(dr, dv);
       if (b >= 0.0) continue;
       const double q2 = dot(dr, dr) - 1.0;
-      if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;  // lower bound, no sqrt
+      if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) continue;  // lower bound, no sqrt
       const double dv2 = dot(dv, dv);
       const double disc = b * b - dv2 * q2;
       if (disc <= 0.0) continue;
@@ -326,18 +329,18 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
     } else {
       const Vec3 vj = kj.v + dtj * a_[j];
       const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
-      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best - t);
+      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best.t1 - t);
 #ifdef EDMD_DEBUG_QUARTIC
       {
         const Vec3 dr = rj - ki.r, dv = vj - ki.v, da = a_[j] - ai;
-        const double hi = std::min({best - t, tcol, 2.0});
+        const double hi = std::min({best.t1 - t, tcol, 2.0});
         if (dot(dr, dr) > 1.0 + 1e-9)
           for (int k = 1; k <= 4000; ++k) {
             const double tt = hi * k / 4000.0;
             const Vec3 x = dr + tt * dv + (0.5 * tt * tt) * da;
             if (dot(x, x) < 1.0 - 1e-9) {
               std::fprintf(stderr, "MISSED: tcol %.17g found overlap at %.17g; dr %.17g %.17g dv %.17g %.17g da %.17g %.17g tmax %.17g\n",
-                           tcol, tt, dr.x, dr.y, dv.x, dv.y, da.x, da.y, best - t);
+                           tcol, tt, dr.x, dr.y, dv.x, dv.y, da.x, da.y, best.t1 - t);
               break;
             }
           }
@@ -345,22 +348,18 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 #endif
       if (!std::isfinite(tcol)) continue;
     }
-    if (t + tcol < best) {
-      best = t + tcol;
-      partner = j;
-    }
+    best.offer(t + tcol, j, kj.counter);
   }
 }
 
 // Scans the neighbouring cells of i: all 3^D of them (layer_dim < 0) or only the layer
 // at offset `layer_dir` in direction `layer_dim` (after a cell crossing: the other cells
-// were scanned before and their best collision is kept in coll_time_).
+// were scanned before and their best collision is kept in Sched::coll_time).
 void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
-  const auto& c = cellc_[i];
-  double best = coll_time_[i];
-  std::uint32_t partner = coll_partner_[i];
+  const auto& c = sc_[i].cell;
+  Top2 best = load_top2(sc_[i]);
   int lo[3] = {-1, -1, dims_ == 3 ? -1 : 0}, hi[3] = {1, 1, dims_ == 3 ? 1 : 0};
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
@@ -372,6 +371,12 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
     std::uint32_t buf[kMax];
     int nb = 0;
     bool overflow = false;
+    for (int dz = lo[2]; dz <= hi[2]; ++dz)  // rows of cells requested first, as in predict_pair
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        const std::uint32_t* row = cell_block(cell_index(c[0] + lo[0], c[1] + dy, c[2] + dz));
+        __builtin_prefetch(row);
+        __builtin_prefetch(row + (hi[0] - lo[0] + 1) * (cap_ + 1) - 1);
+      }
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
@@ -398,15 +403,13 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
         const double b = dot(dr, dv);
         if (b >= 0.0) continue;
         const double q2 = dot(dr, dr) - 1.0;
-        if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) continue;
+        if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) continue;
         const double disc = b * b - dot(dv, dv) * q2;
         if (disc <= 0.0) continue;
         const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
-        if (tc < best) best = tc, partner = j;
+        best.offer(tc, j, kj.counter);
       }
-      coll_time_[i] = best;
-      coll_partner_[i] = partner;
-      if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+      store_top2(i, best);
       return;
     }
   }
@@ -415,7 +418,7 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
-        for (int dx = lo[0]; dx <= hi[0]; ++dx) scan_cell(i, ki, ai, row + dx, zero, best, partner);
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) scan_cell(i, ki, ai, row + dx, zero, best);
       }
   } else {
     for (int dz = lo[2]; dz <= hi[2]; ++dz) {
@@ -450,22 +453,54 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
             if (walls_[0]) continue;
             cx -= nc_[0], sx = L_.x;
           }
-          scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best, partner);
+          scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best);
         }
       }
     }
   }
-  coll_time_[i] = best;
-  coll_partner_[i] = partner;
-  if (std::isfinite(best)) coll_partner_counter_[i] = counter_[partner];
+  if (accelerated_) {
+    // the quartic search is bounded by the first candidate only: the second is unknown,
+    // and every other covered pair collides no earlier than the first
+    best.t2 = best.t1;
+    best.c2 = kUnknownCounter;
+  }
+  store_top2(i, best);
+}
+
+void Engine::store_top2(std::uint32_t i, const Top2& b) {
+  Sched& s = sc_[i];
+  s.coll_time = b.t1;
+  s.coll_partner = b.p1;
+  s.coll_partner_counter = b.c1;
+  s.coll2_time = b.t2;
+  s.coll2_partner = b.p2;
+  s.coll2_partner_counter = b.c2;
+}
+
+// i's first candidate is stale (its partner changed trajectory). By the invariant of
+// Sched (engine.hpp), the second is i's next collision among the pairs i still covers if
+// its partner is unchanged (or there is none: +inf). Returns false when a rescan is needed.
+bool Engine::promote_second(std::uint32_t i) {
+  Sched& s = sc_[i];
+  if (s.coll2_time == kInf) {  // no other collision among the covered pairs
+    s.coll_time = kInf;
+    return true;
+  }
+  if (s.coll2_partner_counter == kUnknownCounter || k_[s.coll2_partner].counter != s.coll2_partner_counter)
+    return false;
+  s.coll_time = s.coll2_time;
+  s.coll_partner = s.coll2_partner;
+  s.coll_partner_counter = s.coll2_partner_counter;
+  s.coll2_partner_counter = kUnknownCounter;  // coll2_time stays as the bound on the rest
+  return true;
 }
 
 // After a collision both grains need a full scan; their neighbourhoods overlap (the cells
 // are adjacent), so one pass over the union of cells serves both, loading every neighbour's
 // record once. Falls back to two scans near boundaries or under acceleration.
 void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
-  const auto& ci = cellc_[i];
-  const auto& cj = cellc_[j];
+  const auto& ci = sc_[i].cell;
+  const auto& cj = sc_[j].cell;
   auto interior = [&](const std::array<int, 3>& c) {
     return c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
            (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
@@ -493,6 +528,13 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
       buf[nb++] = m[q];
     }
   };
+  // request every row of cells first (independent misses in flight together), then gather
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = cell_block(cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz));
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
+    }
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);
@@ -512,40 +554,34 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
   const Kin& ki = k_[i];
   const Kin& kj = k_[j];
   const double t = ki.t;  // == kj.t == now
-  double best_i = kInf, best_j = kInf;
-  std::uint32_t pi = 0, pj = 0;
-  auto test = [&](const Kin& a, const Vec3& rk, const Vec3& vk, double& best, std::uint32_t& partner,
-                  std::uint32_t k) {
+  Top2 best_i{kInf, kInf, 0, 0, 0, 0}, best_j{kInf, kInf, 0, 0, 0, 0};
+  auto test = [&](const Kin& a, const Vec3& rk, const Vec3& vk, Top2& best, std::uint32_t k, std::uint64_t ck) {
     const Vec3 dr = rk - a.r;
     const Vec3 dv = vk - a.v;
     const double b = dot(dr, dv);
     if (b >= 0.0) return;
     const double q2 = dot(dr, dr) - 1.0;
-    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best) return;
+    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) return;
     const double disc = b * b - dot(dv, dv) * q2;
     if (disc <= 0.0) return;
     const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc)));
-    if (tc < best) best = tc, partner = k;
+    best.offer(tc, k, ck);
   };
   for (int q = 0; q < nb; ++q) {
     const std::uint32_t k = buf[q];
     const Kin& kk = k_[k];
     const Vec3 rk = kk.r + (t - kk.t) * kk.v;
-    if (k != i) test(ki, rk, kk.v, best_i, pi, k);
-    if (k != j) test(kj, rk, kk.v, best_j, pj, k);
+    if (k != i) test(ki, rk, kk.v, best_i, k, kk.counter);
+    if (k != j) test(kj, rk, kk.v, best_j, k, kk.counter);
   }
-  coll_time_[i] = best_i;
-  coll_partner_[i] = pi;
-  if (std::isfinite(best_i)) coll_partner_counter_[i] = counter_[pi];
-  coll_time_[j] = best_j;
-  coll_partner_[j] = pj;
-  if (std::isfinite(best_j)) coll_partner_counter_[j] = counter_[pj];
+  store_top2(i, best_i);
+  store_top2(j, best_j);
   schedule(i);
   schedule(j);
 }
 
 void Engine::predict(std::uint32_t i) {
-  coll_time_[i] = kInf;
+  sc_[i].coll_time = sc_[i].coll2_time = kInf;
   scan_neighbours(i, -1, 0);
   schedule(i);
 }
@@ -556,12 +592,13 @@ void Engine::schedule(std::uint32_t i) {
   const Kin& ki = k_[i];
   const double t = ki.t;
   double best = kInf;
-  Event ev{};
+  std::uint8_t type = ev_none, aux = 0;
   if (bg_) {
     best = bg_time_[i];
-    ev.type = ev_background;
+    type = ev_background;
   }
-  const auto& c = cellc_[i];
+  Sched& s = sc_[i];
+  const auto& c = s.cell;
   const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
   for (int d = 0; d < dims_; ++d) {
     const double x = comp(ki.r, d), v = comp(ki.v, d), acc = comp(ai, d);
@@ -574,16 +611,16 @@ void Engine::schedule(std::uint32_t i) {
         const double tc = t + std::max(0.0, (bound - x) / v);
         if (tc < best) {
           best = tc;
-          ev.type = high_wall ? ev_wall : ev_cell;
-          ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+          type = high_wall ? ev_wall : ev_cell;
+          aux = static_cast<std::uint8_t>(2 * d + 1);
         }
       } else if (v < 0.0) {
         const double bound = low_wall ? 0.5 : lo;
         const double tc = t + std::max(0.0, (bound - x) / v);
         if (tc < best) {
           best = tc;
-          ev.type = low_wall ? ev_wall : ev_cell;
-          ev.aux = static_cast<std::uint8_t>(2 * d);
+          type = low_wall ? ev_wall : ev_cell;
+          aux = static_cast<std::uint8_t>(2 * d);
         }
       }
     } else {
@@ -593,40 +630,41 @@ void Engine::schedule(std::uint32_t i) {
       const double tl = (x <= bl && v < 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl, -1.0);
       if (t + th < best) {
         best = t + th;
-        ev.type = high_wall ? ev_wall : ev_cell;
-        ev.aux = static_cast<std::uint8_t>(2 * d + 1);
+        type = high_wall ? ev_wall : ev_cell;
+        aux = static_cast<std::uint8_t>(2 * d + 1);
       }
       if (t + tl < best) {
         best = t + tl;
-        ev.type = low_wall ? ev_wall : ev_cell;
-        ev.aux = static_cast<std::uint8_t>(2 * d);
+        type = low_wall ? ev_wall : ev_cell;
+        aux = static_cast<std::uint8_t>(2 * d);
       }
     }
   }
-  if (coll_time_[i] < best) {
-    best = coll_time_[i];
-    ev.type = ev_collision;
-    ev.partner = coll_partner_[i];
-    ev.partner_counter = coll_partner_counter_[i];
+  if (s.coll_time < best) {
+    best = s.coll_time;
+    type = ev_collision;
+    aux = 0;
   }
-  ev_time_[i] = best;
-  ev_[i] = ev;
+  s.type = type;
+  s.aux = aux;
   heap_.update(i, best);
 }
 
 void Engine::process_cell(std::uint32_t i) {
   move_to(i, now_);
   ++c_.cell_crossings;
-  const int d = ev_[i].aux >> 1;
-  const int dir = (ev_[i].aux & 1) ? 1 : -1;
+  const int d = sc_[i].aux >> 1;
+  const int dir = (sc_[i].aux & 1) ? 1 : -1;
   remove_cell(i);
-  int& c = cellc_[i][d];
+  int& c = sc_[i].cell[d];
   c += dir;
   if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
   else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
   insert_cell(i);
-  // keep the best collision found so far unless its partner moved on; scan only the new layer
-  if (std::isfinite(coll_time_[i]) && counter_[coll_partner_[i]] != coll_partner_counter_[i]) {
+  // keep the two best collisions found so far (the second promoted if the first partner
+  // moved on and the second is still valid); scan only the new layer
+  if (std::isfinite(sc_[i].coll_time) && k_[sc_[i].coll_partner].counter != sc_[i].coll_partner_counter &&
+      !promote_second(i)) {
     predict(i);
   } else {
     scan_neighbours(i, d, dir);
@@ -637,9 +675,9 @@ void Engine::process_cell(std::uint32_t i) {
 void Engine::process_wall(std::uint32_t i) {
   move_to(i, now_);
   ++c_.wall_collisions;
-  const int d = ev_[i].aux >> 1;
+  const int d = sc_[i].aux >> 1;
   double& v = comp(k_[i].v, d);
-  const bool high = ev_[i].aux & 1;
+  const bool high = sc_[i].aux & 1;
   if ((high && v > 0.0) || (!high && v < 0.0)) {
     const double e0 = 0.5 * v * v;
     if (driving_walls_) {
@@ -668,7 +706,7 @@ void Engine::process_wall(std::uint32_t i) {
 void Engine::process_background(std::uint32_t i) {
   move_to(i, now_);
   ++c_.background_candidates;
-  CounterRng rng(seed_, Stream::edmd_collisions, id_[i], counter_[i]);
+  CounterRng rng(seed_, Stream::edmd_collisions, id_[i], k_[i].counter);
   const bool hit = dims_ == 2 ? attempt_background_collision_2d(k_[i].v, *bg_, 1.0, rng, c_.background_energy)
                               : attempt_background_collision(k_[i].v, *bg_, 1.0, rng, c_.background_energy);
   if (hit) ++c_.background_collisions;
@@ -797,7 +835,7 @@ void Engine::rebuild() {
   sort_by_cell();
   fill_cells();
   offset_ += now_;
-  for (std::uint32_t i = 0; i < n_; ++i) last_collision_[i] -= now_;
+  for (std::uint32_t i = 0; i < n_; ++i) sc_[i].last_collision -= now_;
   now_ = 0.0;
   ++rebuilds_;
   for (std::uint32_t i = 0; i < n_; ++i) trajectory_changed(i);
@@ -813,14 +851,16 @@ void Engine::rebuild_calendar() {
   // to the next event (about two events per bucket) and re-insert
   heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
+  std::vector<double> ev_time(n_);
+  for (std::uint32_t i = 0; i < n_; ++i) ev_time[i] = heap_.key(i);
   double sum = 0.0;
   std::size_t finite = 0;
   for (std::uint32_t i = 0; i < n_; ++i)
-    if (std::isfinite(ev_time_[i])) sum += ev_time_[i], ++finite;
+    if (std::isfinite(ev_time[i])) sum += ev_time[i], ++finite;
   calendar_width_ = finite ? 2.0 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
   heap_.reset(n_, 0.0, calendar_width_);
-  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time_[i]);
+  for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);
 #endif
   at_rebuild_ = true;
 }
@@ -851,7 +891,7 @@ void Engine::sort_by_cell() {
     std::uint32_t id, slot;
   };
   std::vector<Key> key(n_);
-  for (std::uint32_t s = 0; s < n_; ++s) key[s] = {morton3(cellc_[s][0], cellc_[s][1], cellc_[s][2]), id_[s], s};
+  for (std::uint32_t s = 0; s < n_; ++s) key[s] = {morton3(sc_[s].cell[0], sc_[s].cell[1], sc_[s].cell[2]), id_[s], s};
   std::sort(key.begin(), key.end(),
             [](const Key& a, const Key& b) { return a.morton < b.morton || (a.morton == b.morton && a.id < b.id); });
   std::vector<std::uint32_t> order(n_);  // new slot -> old slot
@@ -863,10 +903,8 @@ void Engine::sort_by_cell() {
   permute(k_);
   permute(a_);
   permute(omega_);
-  permute(counter_);
-  permute(last_collision_);
+  permute(sc_);
   permute(bg_time_);
-  permute(cellc_);
   permute(id_);
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
 }
@@ -893,8 +931,8 @@ EngineState Engine::state() const {
     const std::uint32_t id = id_[s];
     st.positions[id] = k_[s].r;
     st.velocities[id] = k_[s].v;
-    st.event_counters[id] = counter_[s];
-    st.last_collision[id] = last_collision_[s];
+    st.event_counters[id] = k_[s].counter;
+    st.last_collision[id] = sc_[s].last_collision;
     if (!omega_.empty()) st.omega[id] = omega_[s];
     if (accelerated_) st.accelerations[id] = a_[s];
   }
@@ -931,8 +969,8 @@ void Engine::restore(const EngineState& st) {
     k_[i].r = st.positions[i];
     k_[i].v = st.velocities[i];
     k_[i].t = 0.0;
-    counter_[i] = st.event_counters[i];
-    last_collision_[i] = st.last_collision[i];
+    k_[i].counter = st.event_counters[i];
+    sc_[i].last_collision = st.last_collision[i];
     assign_cell(i);
   }
   if (!st.omega.empty()) omega_ = st.omega;
@@ -993,7 +1031,7 @@ Vec3 Engine::momentum() const {
 double Engine::min_distance() const {
   double best2 = kInf;
   for (std::uint32_t i = 0; i < n_; ++i) {
-    const auto& c = cellc_[i];
+    const auto& c = sc_[i].cell;
     const int zlo = dims_ == 3 ? -1 : 0, zhi = dims_ == 3 ? 1 : 0;
     for (int dz = zlo; dz <= zhi; ++dz)
       for (int dy = -1; dy <= 1; ++dy)

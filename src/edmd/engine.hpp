@@ -181,7 +181,7 @@ class Engine {
   void set_angular_velocities(const std::vector<Vec3>& w);  // by id; 2D keeps z only
   double moment_of_inertia() const { return 0.25 * q_; }   // I = q m a^2, a = 1/2
   double rotational_energy() const;                        // sum I |omega|^2 / 2
-  std::uint64_t event_counter(std::size_t id) const { return counter_[slot_of_[id]]; }
+  std::uint64_t event_counter(std::size_t id) const { return k_[slot_of_[id]].counter; }
   const Counters& counters() const { return c_; }
   Counters& counters() { return c_; }
   double kinetic_energy() const;   // after synchronize()
@@ -228,22 +228,69 @@ class Engine {
     Vec3 r;             // position at local time t
     double t = 0.0;     // local time (relative to offset_)
     Vec3 v;             // velocity at local time t
-    double pad = 0.0;   // keeps the record at 64 bytes (one cache line)
+    // Event counter, bumped whenever the trajectory changes (lazy invalidation). It fills
+    // the 8 bytes that would otherwise pad the record to 64: the staleness test of a
+    // predicted collision reads the partner's counter, and a valid collision needs the
+    // partner's kinematics next, so both come with one cache line.
+    std::uint64_t counter = 0;
   };
-  struct Event {
-    std::uint32_t partner = 0;
-    std::uint8_t type = ev_none;
+  static_assert(sizeof(Kin) == 64, "the kinematic record is one cache line");
+  // Everything else the event loop touches for a particle, in one cache line (by slot).
+  // Separate arrays cost one cache miss each per event at large N (docs/performance/edmd.md,
+  // 2026-11-25); one record costs one. The scheduled event is a collision (with coll_partner,
+  // valid while its counter still equals coll_partner_counter), a cell crossing, a wall hit
+  // or a background candidate.
+  //
+  // Second candidate (coll2_*): every scan keeps the two earliest collisions it finds.
+  // Invariant: every pair (i, k) that i's scans cover (k not changed since) and that is
+  // neither of the two stored ones collides no earlier than coll2_time. When the first
+  // partner turns out stale (it changed trajectory; the pair is then covered by the
+  // partner's own scan), the second, if its partner is unchanged, is therefore i's next
+  // collision among the pairs i still covers: it is promoted without a rescan. A second
+  // slot that is unknown (after a promotion, or under acceleration) keeps the bound
+  // coll2_time but carries kUnknownCounter, which never matches, forcing the full rescan.
+  struct alignas(64) Sched {
+    double coll_time = kInf;                // best predicted collision (absolute time)
+    std::uint64_t coll_partner_counter = 0;  // the partner's counter when predicted
+    double coll2_time = kInf;               // second candidate (see above)
+    std::uint64_t coll2_partner_counter = 0;
+    double last_collision = -kInf;          // TC-model guard
+    std::array<int, 3> cell{0, 0, 0};       // cell coordinates
+    std::uint32_t coll_partner = 0;         // slot
+    std::uint32_t coll2_partner = 0;        // slot
+    std::uint16_t cell_pos = 0;             // position in the cell's member list (< cap_ <= 65535)
+    std::uint8_t type = ev_none;            // the scheduled event
     std::uint8_t aux = 0;  // cell crossing: 2 * dim + (dir > 0); wall: 2 * dim + (high side)
-    std::uint64_t partner_counter = 0;
   };
+  static constexpr std::uint64_t kUnknownCounter = ~std::uint64_t{0};
+  static_assert(sizeof(Sched) == 64, "the scheduling record is one cache line");
 
   void move_to(std::uint32_t i, double t);
+  void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
+  bool promote_second(std::uint32_t i);  // first candidate stale: take the second if still valid
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
-  void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, double& best,
-                 std::uint32_t& partner) const;
+  // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
+  struct Top2 {
+    double t1, t2;
+    std::uint32_t p1, p2;
+    std::uint64_t c1, c2;
+    void offer(double tc, std::uint32_t j, std::uint64_t cj) {
+      if (tc < t1) {
+        t2 = t1, p2 = p1, c2 = c1;
+        t1 = tc, p1 = j, c1 = cj;
+      } else if (tc < t2) {
+        t2 = tc, p2 = j, c2 = cj;
+      }
+    }
+  };
+  Top2 load_top2(const Sched& s) const {
+    return {s.coll_time, s.coll2_time, s.coll_partner, s.coll2_partner, s.coll_partner_counter, s.coll2_partner_counter};
+  }
+  void store_top2(std::uint32_t i, const Top2& b);
+  void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, Top2& best) const;
   void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
   void draw_background_time(std::uint32_t i);  // from (id, counter): next background candidate
   void rebuild_calendar();  // predict everyone, size and fill the calendar (rebuild, restore)
@@ -291,16 +338,8 @@ class Engine {
   std::vector<Vec3> a_;          // acceleration (air table), zero otherwise
   std::vector<Vec3> omega_;      // angular velocity: reserved for rough grains (issue #6)
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
-  std::vector<std::uint64_t> counter_;
-  std::vector<double> last_collision_;
-  std::vector<double> bg_time_;
-  std::vector<double> ev_time_;
-  std::vector<double> coll_time_;                  // best predicted collision (absolute time)
-  std::vector<std::uint32_t> coll_partner_;
-  std::vector<std::uint64_t> coll_partner_counter_;
-  std::vector<Event> ev_;
-  std::vector<std::array<int, 3>> cellc_;
-  std::vector<std::uint32_t> slot_;
+  std::vector<Sched> sc_;
+  std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};
@@ -351,16 +390,16 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
   // debug builds: the colliding pair must be in contact, never overlapping
   if (!(dist > 1.0 - 1e-9 && dist < 1.0 + 1e-6))
     throw std::logic_error("edmd: colliding pair at distance " + std::to_string(dist) + " (expected sigma = 1); cells (" +
-                           std::to_string(cellc_[i][0]) + "," + std::to_string(cellc_[i][1]) + ") (" +
-                           std::to_string(cellc_[j][0]) + "," + std::to_string(cellc_[j][1]) + "), collisions " +
+                           std::to_string(sc_[i].cell[0]) + "," + std::to_string(sc_[i].cell[1]) + ") (" +
+                           std::to_string(sc_[j].cell[0]) + "," + std::to_string(sc_[j].cell[1]) + "), collisions " +
                            std::to_string(c_.collisions) + ", rebuilds " + std::to_string(rebuilds_) + ", t " +
-                           std::to_string(now_) + ", last collisions " + std::to_string(last_collision_[i]) + " " +
-                           std::to_string(last_collision_[j]));
+                           std::to_string(now_) + ", last collisions " + std::to_string(sc_[i].last_collision) + " " +
+                           std::to_string(sc_[j].last_collision));
 #endif
   const Vec3 n = (1.0 / dist) * dr;  // unit vector from i to j (Bizon's k)
   const double gn = dot(a.v - b.v, n);    // approach speed > 0
   double e = 1.0;
-  if (tc_ > 0.0 && (now_ - last_collision_[i] < tc_ || now_ - last_collision_[j] < tc_)) {
+  if (tc_ > 0.0 && (now_ - sc_[i].last_collision < tc_ || now_ - sc_[j].last_collision < tc_)) {
     ++c_.guard_elastic;  // TC model (Luding-McNamara): collapse guard for constant e
   } else {
     const RestitutionOutcome out = restitution(law, gn);
@@ -395,7 +434,7 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
   c_.sum_e += e;
   const std::size_t bin = static_cast<std::size_t>(gn / vn_bin_width_);
   if (bin < c_.vn_histogram.size()) ++c_.vn_histogram[bin];
-  last_collision_[i] = last_collision_[j] = now_;
+  sc_[i].last_collision = sc_[j].last_collision = now_;
   ++c_.collisions;
   ++total_collisions_;
   trajectory_changed(i);
@@ -423,15 +462,19 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     now_ = t;
     at_rebuild_ = false;
     ++c_.events;
-    const Event ev = ev_[i];
+    const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
-        if (counter_[ev.partner] != ev.partner_counter) {
+        // the partner's scheduling record is needed only after its kinematics (counter,
+        // move_to): request it now so that the two misses overlap
+        __builtin_prefetch(&sc_[ev.coll_partner]);
+        if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);
-          predict(i);
+          if (promote_second(i)) schedule(i);  // the second candidate is still valid: no rescan
+          else predict(i);
         } else {
-          process_collision(law, i, ev.partner);
+          process_collision(law, i, ev.coll_partner);
         }
         break;
       case ev_cell: process_cell(i); break;

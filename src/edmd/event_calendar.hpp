@@ -41,6 +41,7 @@ class EventCalendar {
     link(i, slot_for(key));
     if (cached_ && (i == min_ || key < min_key_ || (key == min_key_ && i < min_))) cached_ = false;
   }
+  double key(std::uint32_t i) const { return node_[i].key; }
   std::uint32_t top() {
     if (!cached_) find_min();
     return min_;

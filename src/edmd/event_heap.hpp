@@ -25,6 +25,7 @@ class EventHeap {
     for (std::uint32_t i = 0; i < n; ++i)
       heap_[i] = {std::numeric_limits<double>::infinity(), i}, pos_[i] = i;
   }
+  double key(std::uint32_t i) const { return heap_[pos_[i]].key; }
   std::uint32_t top() const { return heap_[0].id; }
   double top_key() const { return heap_[0].key; }
   bool empty() const { return heap_.empty(); }
