@@ -121,21 +121,28 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
-      // the lines of one old slot in every previous array (the leading edge of the read
-      // window, and the particle kAhead slots ahead, whose slot perm gives)
-      const auto prefetch_old_slot = [&](std::size_t f) {
-        __builtin_prefetch(ox + f);
-        if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-        if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-        __builtin_prefetch(ovx + f);
-        __builtin_prefetch(ovy + f);
-        __builtin_prefetch(ovz + f);
-        if (hazard) __builtin_prefetch(ohz + f);
-      };
       const std::size_t j1 = start[k1];
       for (std::size_t j = start[k0]; j < j1; ++j) {
-        if ((j & 7) == 0 && j + lead < n) prefetch_old_slot(j + lead);
-        if (j + kAhead < j1) prefetch_old_slot(perm[j + kAhead]);
+        if ((j & 7) == 0 && j + lead < n) {
+          const std::size_t f = j + lead;
+          __builtin_prefetch(ox + f);
+          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+          __builtin_prefetch(ovx + f);
+          __builtin_prefetch(ovy + f);
+          __builtin_prefetch(ovz + f);
+          if (hazard) __builtin_prefetch(ohz + f);
+        }
+        if (j + kAhead < j1) {
+          const std::uint32_t f = perm[j + kAhead];
+          __builtin_prefetch(ox + f);
+          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+          __builtin_prefetch(ovx + f);
+          __builtin_prefetch(ovy + f);
+          __builtin_prefetch(ovz + f);
+          if (hazard) __builtin_prefetch(ohz + f);
+        }
         const std::uint32_t i = perm[j];
         x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
         if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
