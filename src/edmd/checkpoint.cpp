@@ -98,6 +98,7 @@ struct Staging {
   // slab profiles: blocks as [snapshots, time, kin..., coll...] rows, the open block alike
   std::vector<double> profile_blocks, profile_open, profile_real;
   std::vector<std::uint64_t> profile_int;
+  TransportCheckpoint transport;  // only with [transport]
 };
 
 CheckpointArrays arrays_of(Staging& g, RunState& r) {
@@ -153,6 +154,14 @@ CheckpointArrays arrays_of(Staging& g, RunState& r) {
   a.add("profiles/tails/counts", r.tails.counts);
   a.add("profiles/tails/samples", r.tails.samples);
   a.add("profiles/tails/outside", r.tails.outside);
+  // [transport] runs only, so that checkpoints of other runs keep their earlier layout
+  if (r.transport_on) {
+    a.add("transport/stored", g.transport.stored);
+    a.add("transport/blocks", g.transport.blocks);
+    a.add("transport/open_block", g.transport.open);
+    a.add("transport/slab_of_particle", g.transport.slab_of);
+    a.add("transport/counts", g.transport.counts);
+  }
   return a;
 }
 
@@ -191,6 +200,7 @@ Staging stage(const EngineState& e, const RunState& r) {
   row(g.profile_open, pa.open);
   g.profile_real = {r.tails.vmax};
   g.profile_int = {pa.block_intervals, pa.open_intervals, pa.collisions, pa.blocks.size()};
+  if (r.transport_on) g.transport = r.transport.save();
   return g;
 }
 
@@ -265,6 +275,7 @@ void unstage(const Staging& g, EngineState& e, RunState& r) {
   if (tails_on && (r.tails.counts.size() != static_cast<std::size_t>(r.tails.slabs * r.tails.dims * r.tails.bins) ||
                    r.tails.samples.size() != static_cast<std::size_t>(r.tails.slabs)))
     throw std::runtime_error("velocity histograms do not match the case's slabs");
+  if (r.transport_on) r.transport.load(g.transport);
 }
 
 // Keys that may change between the checkpoint and the resumed run: the length of the

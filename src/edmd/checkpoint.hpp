@@ -12,6 +12,7 @@
 #include "edmd/engine.hpp"
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
+#include "edmd/transport.hpp"
 
 namespace grainbath::edmd {
 
@@ -50,6 +51,10 @@ struct RunState {
   // [profiles]: slab fields (layout from the case; vmax of the tails set when measuring starts)
   SlabProfiles profiles;
   SlabVelocityHistograms tails;
+  // [transport] (Bizon Sec. V): slab balances and fluxes; init()-ed from the case before a
+  // resume (transport_on), begun when the measurements start
+  bool transport_on = false;
+  SlabTransport transport;
   double engine_seconds = 0.0;  // wall time spent in the event loop (performance only)
 };
 

@@ -477,8 +477,14 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     rs.profiles.init({D, box, c.profile_axis, c.profile_slabs, !c.walls[c.profile_axis]});
     rs.tails.init(D, c.profile_slabs, c.tail_bins, 1.0);
   }
-  if (ctx.resume && c.transport)
-    throw std::runtime_error("--resume: the [transport] sums are not checkpointed; rerun the case from the start");
+  if (c.transport) {
+    rs.transport_on = true;
+    rs.transport.init({D, box, c.heating.profile_axis,
+                       c.heating.profile == ForcingProfile::shear ? c.heating.bias_component
+                                                                   : (c.heating.profile_axis == 0 ? 1 : 0),
+                       c.transport_slabs},
+                      N);
+  }
   if (ctx.resume) {
     std::string warning;
     const bool ok = read_newest_checkpoint(ctx.checkpoint_dir, ctx, eng, rs, warning);
@@ -562,6 +568,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   };
 
   double T = 0.0;
+  // a run resumed in its measuring phase has its transport sums from the checkpoint
+  const bool transport_begun = rs.phase == RunState::measuring;
   if (rs.phase == RunState::equilibrating) {
     // --- equilibration -----------------------------------------------------------------
     for (; rs.eq_chunk <= 20 && n_eq > 0; ++rs.eq_chunk) {
@@ -600,17 +608,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     v_raw.resize(N);
   }
   // transport bookkeeping (Bizon Sec. V): free-flight and collision hooks from here on
-  SlabTransport transport;
+  SlabTransport& transport = rs.transport;
   CollisionHookPair both_hooks;
   if (c.transport) {
-    transport.init({D, box, c.heating.profile_axis, c.heating.profile == ForcingProfile::shear ? c.heating.bias_component
-                                                                                                  : (c.heating.profile_axis == 0 ? 1 : 0),
-                    c.transport_slabs},
-                   N);
-    eng.synchronize();
-    std::vector<Vec3> xr(N), vr(N);
-    for (std::size_t i = 0; i < N; ++i) xr[i] = eng.position(i), vr[i] = eng.velocity(i);
-    transport.begin(xr, vr);
+    if (!transport_begun) {
+      eng.synchronize();
+      std::vector<Vec3> xr(N), vr(N);
+      for (std::size_t i = 0; i < N; ++i) xr[i] = eng.position(i), vr[i] = eng.velocity(i);
+      transport.begin(xr, vr);
+    }
     eng.set_move_hook(&SlabTransport::move_hook, &transport);
     if (c.profiles) {
       both_hooks = {&SlabProfiles::collision_hook, &profiles, &SlabTransport::collision_hook, &transport};

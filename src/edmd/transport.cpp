@@ -105,6 +105,51 @@ void SlabTransport::end_interval(double dt, const std::vector<Vec3>& v) {
   }
 }
 
+TransportCheckpoint SlabTransport::save() const {
+  TransportCheckpoint ck;
+  ck.stored.reserve(3 * e_prev_.size());
+  for (const auto* a : {&e_prev_, &pc_prev_, &pz_prev_}) ck.stored.insert(ck.stored.end(), a->begin(), a->end());
+  auto row = [](std::vector<double>& out, const TransportBlock& b) {
+    out.push_back(b.time);
+    out.insert(out.end(), b.slab.begin(), b.slab.end());
+    out.insert(out.end(), b.plane.begin(), b.plane.end());
+  };
+  for (const auto& b : blocks_) row(ck.blocks, b);
+  row(ck.open, open_);
+  ck.slab_of.assign(slab_.begin(), slab_.end());
+  ck.counts = {block_intervals_, open_intervals_, blocks_.size()};
+  return ck;
+}
+
+void SlabTransport::load(const TransportCheckpoint& ck) {
+  const std::size_t S = static_cast<std::size_t>(setup_.slabs), row = 1 + S * kSlab + S * kPlane;
+  auto bad = [](const std::string& what) { throw std::runtime_error("transport checkpoint: " + what); };
+  if (ck.counts.size() != 3) bad("wrong counter layout");
+  const std::uint64_t nblocks = ck.counts[2];
+  if (ck.open.size() != row || ck.blocks.size() != nblocks * row || nblocks >= 2 * kMaxBlocks)
+    bad("block arrays do not match the case's " + std::to_string(S) + " slabs");
+  if (ck.stored.size() != 3 * S && !ck.stored.empty()) bad("stored slab contents do not match the case's slabs");
+  if (ck.slab_of.size() != slab_.size()) bad("tracked slabs do not have one entry per particle");
+  if (ck.counts[0] < 1 || ck.counts[1] >= ck.counts[0]) bad("block interval counts out of range");
+  for (std::uint64_t k : ck.slab_of)
+    if (k >= S) bad("a tracked slab is out of range");
+  auto unrow = [&](const double* p, TransportBlock& b) {
+    b.time = p[0];
+    b.slab.assign(p + 1, p + 1 + S * kSlab);
+    b.plane.assign(p + 1 + S * kSlab, p + row);
+  };
+  blocks_.resize(nblocks);
+  for (std::size_t b = 0; b < nblocks; ++b) unrow(ck.blocks.data() + b * row, blocks_[b]);
+  unrow(ck.open.data(), open_);
+  // empty before begin() (a checkpoint from the equilibration)
+  e_prev_.assign(ck.stored.begin(), ck.stored.begin() + (ck.stored.empty() ? 0 : S));
+  pc_prev_.assign(ck.stored.begin() + (ck.stored.empty() ? 0 : S), ck.stored.begin() + (ck.stored.empty() ? 0 : 2 * S));
+  pz_prev_.assign(ck.stored.begin() + (ck.stored.empty() ? 0 : 2 * S), ck.stored.end());
+  for (std::size_t i = 0; i < slab_.size(); ++i) slab_[i] = static_cast<int>(ck.slab_of[i]);
+  block_intervals_ = ck.counts[0];
+  open_intervals_ = ck.counts[1];
+}
+
 TransportBlock SlabTransport::total() const {
   TransportBlock t{0.0, std::vector<double>(open_.slab.size(), 0.0), std::vector<double>(open_.plane.size(), 0.0)};
   for (const auto& b : blocks_) {

@@ -48,6 +48,17 @@ struct TransportBlock {
   std::vector<double> slab, plane;
 };
 
+// Everything SlabTransport carries between sampling intervals, as flat arrays for the EDMD
+// checkpoint (taken at a scheduled rebuild, where every free flight has been cut at the
+// rebuild time in an uninterrupted run as well, so the sums continue bitwise).
+struct TransportCheckpoint {
+  std::vector<double> stored;   // slab contents at the last sample: energy, component momentum, axis momentum (3 S)
+  std::vector<double> blocks;   // closed blocks, rows [time, slab sums (S kSlab), plane sums (S kPlane)]
+  std::vector<double> open;     // the open block, one row alike
+  std::vector<std::uint64_t> slab_of;  // by id: the tracked slab
+  std::vector<std::uint64_t> counts;   // block_intervals, open_intervals, closed blocks
+};
+
 // name, mean, stderr_ per slab or plane (the slab-profile field type)
 using TransportField = ProfileField;
 
@@ -91,6 +102,11 @@ class SlabTransport {
   TransportBlock total() const;
   const std::vector<TransportBlock>& blocks() const { return blocks_; }
   int slab_of_particle(std::uint32_t id) const { return slab_[id]; }
+
+  // Checkpoint: save() the state; load() restores it into a SlabTransport init()-ed from the
+  // same case (throws std::runtime_error if the layout differs: slabs, particles).
+  TransportCheckpoint save() const;
+  void load(const TransportCheckpoint& ck);
 
  private:
   void add_piece(int k, const Vec3& v0, const Vec3& a, double ta, double tb, double Ea, double Eb, double ca,

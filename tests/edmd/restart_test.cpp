@@ -196,6 +196,32 @@ every = 20
 keep = true
 )";
 
+// Bizon transport bookkeeping (Sec. V): the free-flight and collision hooks' slab and plane
+// sums, the tracked slab of every grain and the stored slab contents must all be in the
+// checkpoint; the viscosity layout (shear forcing, bias along x) and the conductivity layout
+// (tent) use the same arrays.
+const char* kTransportTent = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.5
+temperature = 0.05
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "bizon"
+[heating]
+model = "air_table"
+acceleration = 0.3
+profile = "tent"
+axis = "y"
+[transport]
+slabs = 12
+[checkpoint]
+every = 20
+keep = true
+)";
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -217,6 +243,7 @@ TEST(EdmdRestart, HeatedSpheresContinueBitwise) { check_exact_continuation(kHeat
 TEST(EdmdRestart, WallsAndMediumContinueBitwise) { check_exact_continuation(kWallsAndMedium, "walls"); }
 TEST(EdmdRestart, AirTableContinuesBitwise) { check_exact_continuation(kAirTable, "air"); }
 TEST(EdmdRestart, RoughDisksContinueBitwise) { check_exact_continuation(kRoughDisks, "rough"); }
+TEST(EdmdRestart, TransportBookkeepingContinuesBitwise) { check_exact_continuation(kTransportTent, "transport"); }
 TEST(EdmdRestart, DrivingWallsWithProfilesContinueBitwise) {
   check_exact_continuation(kDrivingWallsProfiles, "driven");
 }
