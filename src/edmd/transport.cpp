@@ -259,6 +259,33 @@ void SlabTransport::add_collision(const CollisionRecord& rec) {
   };
   for (long l = 1; l <= d; ++l) add(ki + l, 1.0);    // j above i: lower faces of slabs ki+1..ki+d
   for (long l = 0; l < -d; ++l) add(ki - l, -1.0);   // j below i: lower faces of slabs ki..ki+d+1
+  // Collisional virial r_ij (x) J, split over the slabs ki, ki+sign(d), ..., ki+d by the
+  // fraction of the segment z_i..z_j inside each (in the frame of slab ki, so that the split
+  // agrees with the plane count d); a segment in one slab (d = 0) goes there whole.
+  const int c = setup_.component;
+  const double rc = comp(rec.rij, c), rz = comp(rec.rij, ax);
+  const double w_cc = rc * Jc, w_zz = rz * Jz, w_cz = rc * Jz;
+  auto deposit = [&](long k, double frac) {
+    double* s = &open_.slab[static_cast<std::size_t>(wrap(k, S)) * kSlab];
+    s[20] += frac * w_cc;
+    s[21] += frac * w_zz;
+    s[22] += frac * w_cz;
+  };
+  if (d == 0) {
+    deposit(ki, 1.0);
+    return;
+  }
+  const double a = zi - std::floor(zi / width_) * width_;  // z_i above the lower face of its slab
+  const double len = std::abs(rz);
+  const long n = d > 0 ? d : -d;
+  for (long l = 0; l <= n; ++l) {
+    // the part of the segment inside slab ki + l sign(d), measured from z_i along the segment
+    double lo, hi;
+    if (d > 0) lo = l == 0 ? 0.0 : (l * width_ - a), hi = l == n ? len : ((l + 1) * width_ - a);
+    else lo = l == 0 ? 0.0 : (a - (1 - l) * width_), hi = l == n ? len : (a + l * width_);
+    lo = std::clamp(lo, 0.0, len), hi = std::clamp(hi, 0.0, len);
+    deposit(ki + (d > 0 ? l : -l), len > 0 ? (hi - lo) / len : (l == 0 ? 1.0 : 0.0));
+  }
 }
 
 // ---- analysis ---------------------------------------------------------------------------
@@ -321,6 +348,23 @@ std::vector<TransportField> transport_fields(const SlabTransport& t, const Trans
               (V * time);
       mr[k] = (slab(k, 17) - slab(k, 1) - (plane(k, 2) + plane(k, 3)) + (plane(k + 1, 2) + plane(k + 1, 3))) / (V * time);
       mz[k] = (slab(k, 18) - slab(k, 19) - (plane(k, 4) + plane(k, 5)) + (plane(k + 1, 4) + plane(k + 1, 5))) / (V * time);
+    }
+  }
+  {
+    // volume-averaged pressure tensor per slab (kinetic n T_a + collisional virial / volume):
+    // the second set of planes of Bizon Sec. V B, orthogonal to the first, measures the same
+    // P_cc in a system homogeneous along c; Fig. 15 plots (P_cc - P_zz) / P against 1 - e
+    auto& pcc = field("P_cc_slab");
+    auto& pzz = field("P_zz_slab");
+    auto& pcz = field("P_cz_slab");
+    auto& nsd = field("normal_stress_difference");
+    for (int k = 0; k < S; ++k) {
+      const double occ = slab(k, 3);
+      const double kin_cz = occ > 0 ? (slab(k, 7 + 3 * c + ax) - slab(k, 4 + c) * slab(k, 4 + ax) / occ) : 0.0;
+      pcc[k] = dens[k] * Tc[k] + slab(k, 20) / (V * time);
+      pzz[k] = dens[k] * Tz[k] + slab(k, 21) / (V * time);
+      pcz[k] = kin_cz / (V * time) + slab(k, 22) / (V * time);
+      nsd[k] = (pcc[k] - pzz[k]) / (0.5 * (pcc[k] + pzz[k]));
     }
   }
   std::vector<double> F(S), Fk(S), Fc(S);
@@ -444,6 +488,20 @@ std::vector<TransportScalar> transport_scalars(const SlabTransport& t, const Tra
     out.emplace_back("T_max", *std::max_element(T.begin(), T.end()));
     const double pack_mean = packing_of(D, occ / S);
     out.emplace_back("packing_mean", pack_mean);
+    {
+      // box averages of the pressure tensor (slab volumes equal): Bizon Fig. 15's normal
+      // stress difference over the pressure, and P_zz from the slabs' virial beside P_zz
+      // from the planes' momentum flux (two measurements of the same mean)
+      const auto& pcc = get("P_cc_slab");
+      const auto& pzz = get("P_zz_slab");
+      const auto& pzp = get("P_zz");
+      double sc = 0.0, sz = 0.0, sp = 0.0;
+      for (int k = 0; k < S; ++k) sc += pcc[k], sz += pzz[k], sp += pzp[k];
+      out.emplace_back("P_cc_mean", sc / S);
+      out.emplace_back("P_zz_mean", sz / S);
+      out.emplace_back("P_zz_planes_mean", sp / S);
+      out.emplace_back("normal_stress_difference", (sc - sz) / (0.5 * (sc + sz)));
+    }
     if (an.kind == TransportAnalysis::conductivity) {
       const auto& kr = get("kappa_ratio");
       const auto& ka = get("kappa");

@@ -39,7 +39,10 @@ struct TransportSetup {
 // Per slab (kSlab): [0] work of the forcing, [1] impulse of the forcing (component), [2] the
 // collisional sink (<= 0), [3] Int N dt, [4..6] Int Sum v_a dt, [7..15] Int Sum v_a v_b dt
 // (a*3+b), [16] stored energy change, [17] stored momentum change (component), [18] stored
-// momentum change along the axis, [19] forcing impulse along the axis.
+// momentum change along the axis, [19] forcing impulse along the axis, [20..22] collisional
+// virial Sum r_ij,a J_b for (a, b) = (c, c), (z, z), (c, z), each collision's share split over
+// the slabs by the fraction of the centre-to-centre segment inside them (Irving-Kirkwood),
+// for the volume-averaged pressure tensor (Bizon Fig. 15: normal stress difference).
 // Per plane (kPlane), crossings counted + upward (increasing z): [0] Sum +-E kinetic,
 // [1] Sum +-dE_tr collisional, [2] Sum +-v_c kinetic, [3] Sum +-J_c collisional, [4] Sum +-v_z,
 // [5] Sum +-J_z, [6] net grain crossings.
@@ -73,7 +76,7 @@ struct TransportResult {
 
 class SlabTransport {
  public:
-  static constexpr int kSlab = 20;
+  static constexpr int kSlab = 23;
   static constexpr int kPlane = 7;
   static constexpr std::size_t kMaxBlocks = 32;  // merged pairwise beyond 2 * kMaxBlocks
 
