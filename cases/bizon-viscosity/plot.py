@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Bizon et al. (1999) Sec. V B, Figs. 14, 16, 17: velocity profile, P_xy vs du_x/dy, mu/mu_Enskog.
+"""Bizon et al. (1999) Sec. V B, Figs. 14-17: velocity profile, normal stress difference, P_xy vs du_x/dy,
+mu/mu_Enskog.
 
 Reads every nu*/output/{results.h5,summary.json} of this case; writes viscosity.png and
 viscosity.csv (one row per run). Bizon's (y, z) are grainbath's (x, y) in 2D."""
@@ -18,7 +19,7 @@ from transport_runs import load_runs, write_csv  # noqa: E402
 
 runs = load_runs(here)
 
-fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
+fig, ax = plt.subplots(1, 4, figsize=(21, 4.8))
 markers = "osD^v<>p"
 pick = next((r for r in runs if r[0].endswith("-a1")), runs[0])
 name, s, f = pick
@@ -49,13 +50,18 @@ for m, (name, s, f) in zip(markers, runs):
                    label=f"{name} (forced mode)")
     ax[2].errorbar(t["T_mean"] * 1.08, t["mu_over_enskog"], t["mu_over_enskog_stderr"], fmt=m, mfc="none", color="b",
                    ms=6, label=f"{name} (slope fit)")
+    ax[3].errorbar(1.0 - s["restitution"]["mean_e"], t["normal_stress_difference"],
+                   t["normal_stress_difference_stderr"], fmt=m, color="k", ms=6, label=name)
     rows.append(dict(run=name, packing=t["packing_mean"], T_mean=t["T_mean"], mean_e=s["restitution"]["mean_e"],
                      mu_mode=t["mu_mode"], mu_mode_stderr=t["mu_mode_stderr"], mu_fit=t["mu"], mu_fit_stderr=t["mu_stderr"],
                      mu_enskog=t["mu_enskog"], mu_mode_over_enskog=t["mu_mode_over_enskog"],
                      mu_mode_over_enskog_stderr=t["mu_mode_over_enskog_stderr"], mu_over_enskog=t["mu_over_enskog"],
                      mu_over_enskog_stderr=t["mu_over_enskog_stderr"], mu_from_forcing=t["mu_from_forcing"],
                      mu_from_forcing_stderr=t["mu_from_forcing_stderr"], mach_max=t["mach_max"],
-                     anisotropy=t["anisotropy"], momentum_balance_residual=t["momentum_balance_residual"],
+                     anisotropy=t["anisotropy"], normal_stress_difference=t["normal_stress_difference"],
+                     normal_stress_difference_stderr=t["normal_stress_difference_stderr"],
+                     P_xx=t["P_cc_mean"], P_yy=t["P_zz_mean"], P_yy_planes=t["P_zz_planes_mean"],
+                     momentum_balance_residual=t["momentum_balance_residual"],
                      wall_seconds=s["performance"]["wall_seconds"]))
 ax[2].set_xscale("log")
 ax[2].set_xlim(1e-3, 1e2)
@@ -66,6 +72,12 @@ ax[2].set_xlabel("T  [v0^2]")
 ax[2].set_ylabel("mu / mu_Enskog")
 ax[2].set_title("Bizon Fig. 17 (nu = 0.6)")
 ax[2].legend(fontsize=6)
+ax[3].axhline(0.0, color="k", lw=0.8)
+ax[3].set_xlim(0, 0.35)
+ax[3].set_xlabel("1 - <e>  (mean over collisions)")
+ax[3].set_ylabel("(P_xx - P_yy) / P  (slab virial, box average)")
+ax[3].set_title("normal stress difference (Bizon Fig. 15)")
+ax[3].legend(fontsize=7)
 fig.tight_layout()
 fig.savefig(os.path.join(here, "viscosity.png"), dpi=110)
 write_csv(os.path.join(here, "viscosity.csv"), rows)
