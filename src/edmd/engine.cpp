@@ -513,14 +513,10 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
   const int d[3] = {cj[0] - ci[0], cj[1] - ci[1], cj[2] - ci[2]};
   constexpr int kMax = 320;
   std::uint32_t buf[kMax];
-  // per candidate: 1 = in i's 3^D cells only, 2 = in j's only, 3 = in both. Each grain is
-  // tested only against the candidates of its own 3^D cells (what predict() would scan):
-  // the union is gathered once for the shared loads, not to test every pair twice.
-  std::uint8_t whose[kMax];
   int nb = 0;
   bool overflow = false;
   const int zr = dims_ == 3 ? 1 : 0;
-  auto add_cell = [&](int cell, std::uint8_t who) {
+  auto add_cell = [&](int cell) {
     const std::uint32_t* m = cell_block(cell) + 1;
     const int cnt = static_cast<int>(m[-1]);
     if (nb + cnt > kMax) {
@@ -529,7 +525,6 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
     }
     for (int q = 0; q < cnt; ++q) {
       __builtin_prefetch(&k_[m[q]]);
-      whose[nb] = who;
       buf[nb++] = m[q];
     }
   };
@@ -543,16 +538,13 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);
-      for (int dx = -1; dx <= 1; ++dx) {
-        const bool of_j = std::abs(dx - d[0]) <= 1 && std::abs(dy - d[1]) <= 1 && std::abs(dz - d[2]) <= 1;
-        add_cell(row + dx, of_j ? 3 : 1);
-      }
+      for (int dx = -1; dx <= 1; ++dx) add_cell(row + dx);
     }
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         if (std::abs(d[0] + dx) <= 1 && std::abs(d[1] + dy) <= 1 && std::abs(d[2] + dz) <= 1) continue;
-        add_cell(cell_index(cj[0] + dx, cj[1] + dy, cj[2] + dz), 2);
+        add_cell(cell_index(cj[0] + dx, cj[1] + dy, cj[2] + dz));
       }
   if (overflow) {
     predict(i);
@@ -579,8 +571,8 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
     const std::uint32_t k = buf[q];
     const Kin& kk = k_[k];
     const Vec3 rk = kk.r + (t - kk.t) * kk.v;
-    if ((whose[q] & 1) && k != i) test(ki, rk, kk.v, best_i, k, kk.counter);
-    if ((whose[q] & 2) && k != j) test(kj, rk, kk.v, best_j, k, kk.counter);
+    if (k != i) test(ki, rk, kk.v, best_i, k, kk.counter);
+    if (k != j) test(kj, rk, kk.v, best_j, k, kk.counter);
   }
   store_top2(i, best_i);
   store_top2(j, best_j);
