@@ -119,11 +119,8 @@ fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx,
   for (const auto& [index, path] : all) {
     try {
       H5File h(path.string(), H5File::Mode::read);
-      const CheckpointArrays a = prepare();
-      for (const auto& [n, v] : a.real) *v = h.read_doubles("/" + n);
-      for (const auto& [n, v] : a.integer) *v = h.read_u64("/" + n);
-      const std::string stored = h.read_attribute("/", "checksum");
-      if (stored != hex(a.checksum())) throw std::runtime_error("checksum mismatch");
+      // the case first: a case that changed in what decides the arrays' layout (e.g. a
+      // [transport] section added) must be reported as a changed case, not as corrupt files
       std::string stored_solver = solver;
       try {
         stored_solver = h.read_attribute("/", "solver");
@@ -149,6 +146,18 @@ fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx,
           throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
                                       ", now " + value + " (only " + may_change_text + " may change on --resume)");
       }
+      // ... and a key the checkpoint's case had that the case has no more (a section removed)
+      for (const std::string& key : h.attribute_names("/parameters")) {
+        if (may_change(key) || ctx.resolved.count(key)) continue;
+        throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " +
+                                    h.read_attribute("/parameters", key) + ", now absent (only " + may_change_text +
+                                    " may change on --resume)");
+      }
+      const CheckpointArrays a = prepare();
+      for (const auto& [n, v] : a.real) *v = h.read_doubles("/" + n);
+      for (const auto& [n, v] : a.integer) *v = h.read_u64("/" + n);
+      const std::string stored = h.read_attribute("/", "checksum");
+      if (stored != hex(a.checksum())) throw std::runtime_error("checksum mismatch");
       finish();
       return path;
     } catch (const std::invalid_argument&) {

@@ -234,4 +234,19 @@ std::string H5File::read_attribute(const std::string& object, const std::string&
   return buf;
 }
 
+std::vector<std::string> H5File::attribute_names(const std::string& object) const {
+  Handle obj{H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose};
+  if (obj.id < 0) fail("missing object " + object);
+  std::vector<std::string> names;
+  const herr_t status = H5Aiterate2(
+      obj.id, H5_INDEX_NAME, H5_ITER_INC, nullptr,
+      [](hid_t, const char* name, const H5A_info_t*, void* out) -> herr_t {
+        static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+        return 0;
+      },
+      &names);
+  if (status < 0) fail("cannot list the attributes of " + object);
+  return names;
+}
+
 }  // namespace grainbath

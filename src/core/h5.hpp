@@ -39,6 +39,8 @@ class H5File {
   double read_scalar(const std::string& name) const;
   std::uint64_t read_scalar_u64(const std::string& name) const;
   std::string read_attribute(const std::string& object, const std::string& name) const;
+  // Names of the attributes of `object`, in creation-index or name order.
+  std::vector<std::string> attribute_names(const std::string& object) const;
 
   void flush();
   // Flushes and closes the file, throwing if any write failed (disk full, quota, file-size

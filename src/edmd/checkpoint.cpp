@@ -275,7 +275,8 @@ void unstage(const Staging& g, EngineState& e, RunState& r) {
   if (tails_on && (r.tails.counts.size() != static_cast<std::size_t>(r.tails.slabs * r.tails.dims * r.tails.bins) ||
                    r.tails.samples.size() != static_cast<std::size_t>(r.tails.slabs)))
     throw std::runtime_error("velocity histograms do not match the case's slabs");
-  if (r.transport_on) r.transport.load(g.transport);
+  // the transport sums begin with the measurements: stored contents iff measuring
+  if (r.transport_on) r.transport.load(g.transport, r.phase == RunState::measuring);
 }
 
 // Keys that may change between the checkpoint and the resumed run: the length of the

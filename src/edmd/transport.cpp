@@ -121,14 +121,15 @@ TransportCheckpoint SlabTransport::save() const {
   return ck;
 }
 
-void SlabTransport::load(const TransportCheckpoint& ck) {
+void SlabTransport::load(const TransportCheckpoint& ck, bool begun) {
   const std::size_t S = static_cast<std::size_t>(setup_.slabs), row = 1 + S * kSlab + S * kPlane;
   auto bad = [](const std::string& what) { throw std::runtime_error("transport checkpoint: " + what); };
   if (ck.counts.size() != 3) bad("wrong counter layout");
   const std::uint64_t nblocks = ck.counts[2];
   if (ck.open.size() != row || ck.blocks.size() != nblocks * row || nblocks >= 2 * kMaxBlocks)
     bad("block arrays do not match the case's " + std::to_string(S) + " slabs");
-  if (ck.stored.size() != 3 * S && !ck.stored.empty()) bad("stored slab contents do not match the case's slabs");
+  if (ck.stored.size() != (begun ? 3 * S : 0))
+    bad(begun ? "stored slab contents do not match the case's slabs" : "stored slab contents before the measurements began");
   if (ck.slab_of.size() != slab_.size()) bad("tracked slabs do not have one entry per particle");
   if (ck.counts[0] < 1 || ck.counts[1] >= ck.counts[0]) bad("block interval counts out of range");
   for (std::uint64_t k : ck.slab_of)
@@ -264,7 +265,9 @@ void SlabTransport::add_collision(const CollisionRecord& rec) {
   // agrees with the plane count d); a segment in one slab (d = 0) goes there whole.
   const int c = setup_.component;
   const double rc = comp(rec.rij, c), rz = comp(rec.rij, ax);
-  const double w_cc = rc * Jc, w_zz = rz * Jz, w_cz = rc * Jz;
+  // (c, z): r_z J_c, the flux of c-momentum along z that the planes count (equal to r_c J_z
+  // for central impulses only: rough grains have a tangential part)
+  const double w_cc = rc * Jc, w_zz = rz * Jz, w_cz = rz * Jc;
   auto deposit = [&](long k, double frac) {
     double* s = &open_.slab[static_cast<std::size_t>(wrap(k, S)) * kSlab];
     s[20] += frac * w_cc;
@@ -364,6 +367,7 @@ std::vector<TransportField> transport_fields(const SlabTransport& t, const Trans
       pcc[k] = dens[k] * Tc[k] + slab(k, 20) / (V * time);
       pzz[k] = dens[k] * Tz[k] + slab(k, 21) / (V * time);
       pcz[k] = kin_cz / (V * time) + slab(k, 22) / (V * time);
+      // over the mean of the two (the pressure in 2D); NaN for a slab nobody visited
       nsd[k] = (pcc[k] - pzz[k]) / (0.5 * (pcc[k] + pzz[k]));
     }
   }

@@ -40,7 +40,7 @@ struct TransportSetup {
 // collisional sink (<= 0), [3] Int N dt, [4..6] Int Sum v_a dt, [7..15] Int Sum v_a v_b dt
 // (a*3+b), [16] stored energy change, [17] stored momentum change (component), [18] stored
 // momentum change along the axis, [19] forcing impulse along the axis, [20..22] collisional
-// virial Sum r_ij,a J_b for (a, b) = (c, c), (z, z), (c, z), each collision's share split over
+// virial Sum r_ij,a J_b for (a, b) = (c, c), (z, z), (z, c), each collision's share split over
 // the slabs by the fraction of the centre-to-centre segment inside them (Irving-Kirkwood),
 // for the volume-averaged pressure tensor (Bizon Fig. 15: normal stress difference).
 // Per plane (kPlane), crossings counted + upward (increasing z): [0] Sum +-E kinetic,
@@ -107,9 +107,10 @@ class SlabTransport {
   int slab_of_particle(std::uint32_t id) const { return slab_[id]; }
 
   // Checkpoint: save() the state; load() restores it into a SlabTransport init()-ed from the
-  // same case (throws std::runtime_error if the layout differs: slabs, particles).
+  // same case (throws std::runtime_error if the layout differs: slabs, particles, or the
+  // stored slab contents do not match `begun`, whether begin() had run).
   TransportCheckpoint save() const;
-  void load(const TransportCheckpoint& ck);
+  void load(const TransportCheckpoint& ck, bool begun);
 
  private:
   void add_piece(int k, const Vec3& v0, const Vec3& a, double ta, double tb, double Ea, double Eb, double ca,

@@ -146,9 +146,10 @@ TEST(DsmcPhysics, InitialSlopesMatchCollisionIntegrals) {
   // --- DSMC: replicas, cubic least-squares fit of u(t), T(t) and the cumulative bath input
   //     and inelastic loss per grain over t in [0, 0.2]. A quadratic fit over [0, 0.1] (the
   //     earlier form of this test) is biased by the cubic term: the best quadratic to t^3 on
-  //     [0, h] has slope -(3/5) h^2, and with a fitted cubic coefficient of -3.7 for u(t) that
-  //     moved du/dt by +0.022, the 1.1 % this test used to show. With the cubic the truncation
-  //     (quartic term) is below one standard error (48 replicas: quartic and cubic fits agree).
+  //     [0, h] has slope -(3/5) h^2 (continuous; -0.586 h^2 for 21 uniform samples), and with
+  //     u(t)'s cubic coefficient of -2.7 to -3.7 (closure model; fit) that moved du/dt by
+  //     +0.013 to +0.022, most of the 1.1 % this test used to show. With the cubic the
+  //     truncation (quartic term, about 0.2 %) is below one standard error.
   const int replicas = 24;
   std::vector<double> du_fit, dT_fit, in_fit, loss_fit;
   for (int r = 0; r < replicas; ++r) {

@@ -222,6 +222,32 @@ every = 20
 keep = true
 )";
 
+// the same with the checkpoint inside the equilibration (40 of 50): the transport sums are
+// begun only when the measurements start, after the resume
+const char* kTransportFromEquilibration = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.5
+temperature = 0.05
+equilibrate = 50
+collisions = 20
+[restitution]
+law = "bizon"
+[heating]
+model = "air_table"
+acceleration = 0.3
+profile = "shear"
+axis = "y"
+component = "x"
+bias = 0.2
+[transport]
+slabs = 12
+[checkpoint]
+every = 20
+keep = true
+)";
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -244,6 +270,9 @@ TEST(EdmdRestart, WallsAndMediumContinueBitwise) { check_exact_continuation(kWal
 TEST(EdmdRestart, AirTableContinuesBitwise) { check_exact_continuation(kAirTable, "air"); }
 TEST(EdmdRestart, RoughDisksContinueBitwise) { check_exact_continuation(kRoughDisks, "rough"); }
 TEST(EdmdRestart, TransportBookkeepingContinuesBitwise) { check_exact_continuation(kTransportTent, "transport"); }
+TEST(EdmdRestart, TransportResumedInTheEquilibrationContinuesBitwise) {
+  check_exact_continuation(kTransportFromEquilibration, "transport-eq");
+}
 TEST(EdmdRestart, DrivingWallsWithProfilesContinueBitwise) {
   check_exact_continuation(kDrivingWallsProfiles, "driven");
 }
@@ -323,6 +352,22 @@ TEST(EdmdRestart, FlippedBitIsCaughtByTheChecksum) {
   fs::remove_all(ck);
 }
 
+TEST(EdmdRestart, RemovedSectionIsAChangedCase) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-removed-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  run_edmd(kTransportTent, "removed-full", ck, false);
+  std::string other = kTransportTent;
+  other.erase(other.find("[transport]"), std::string("[transport]\nslabs = 12\n").size());
+  try {
+    run_edmd(other, "removed-resumed", ck, true);
+    FAIL() << "a case without its [transport] section was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("the case changed since the checkpoint: transport."), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("now absent"), std::string::npos) << e.what();
+  }
+  fs::remove_all(ck);
+}
+
 TEST(EdmdRestart, ChangedCaseIsRefused) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-changed-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -334,6 +379,16 @@ TEST(EdmdRestart, ChangedCaseIsRefused) {
     FAIL() << "a changed case was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("heating.acceleration"), std::string::npos) << e.what();
+  }
+  // a section added or removed is a changed case too (the transport arrays exist only with
+  // [transport]): named as such, not reported as corrupt checkpoints
+  other = std::string(kAirTable) + "[transport]\nslabs = 8\n";
+  other.replace(other.find("acceleration = 0.5"), 18, "acceleration = 0.5\nprofile = \"tent\"\naxis = \"y\"");
+  try {
+    run_edmd(other, "changed-added", ck, true);
+    FAIL() << "a case with an added section was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("the case changed"), std::string::npos) << e.what();
   }
   // the run length may change: extending the measurement resumes
   other = kAirTable;
