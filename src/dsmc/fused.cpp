@@ -26,6 +26,73 @@ namespace {
 // from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
 
+// The previous arrays (x, y, z, vx, vy, vz, bath residual) and the new ones.
+struct GatherArrays {
+  const double* from[7];
+  double* to[7];
+};
+
+// The gather of slots [j0, j1) from the previous arrays, streaming the positions on the way
+// (the same expression as the separate-pass streaming). A function with the pointers as
+// restrict locals, not a lambda: through a lambda's captures GCC reloads every pointer after
+// each store (measured slower, see docs/performance/dsmc1.md). Per chunk of 8 slots the
+// leading edge of the window is fetched; per slot the lines of the particle kAhead slots
+// ahead (the last kAhead slots of the block have none: a loop of their own, no test per slot).
+template <int Dim, bool kHazard>
+void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
+                  std::size_t n, std::size_t lead, double dt, const double* length) {
+  const double* __restrict ox = arrays.from[0];
+  const double* __restrict oy = arrays.from[1];
+  const double* __restrict oz = arrays.from[2];
+  const double* __restrict ovx = arrays.from[3];
+  const double* __restrict ovy = arrays.from[4];
+  const double* __restrict ovz = arrays.from[5];
+  const double* __restrict ohz = arrays.from[6];
+  double* __restrict x = arrays.to[0];
+  double* __restrict y = arrays.to[1];
+  double* __restrict z = arrays.to[2];
+  double* __restrict vx = arrays.to[3];
+  double* __restrict vy = arrays.to[4];
+  double* __restrict vz = arrays.to[5];
+  double* __restrict hz = arrays.to[6];
+  const double Lx = length[0], Ly = length[1], Lz = length[2];
+  auto copy = [=](std::size_t j, std::uint32_t i) __attribute__((always_inline)) {
+    x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
+    if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+    if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+    vx[j] = ovx[i];
+    vy[j] = ovy[i];
+    vz[j] = ovz[i];
+    if constexpr (kHazard) hz[j] = ohz[i];
+  };
+  const std::size_t jp = j1 - j0 > kAhead ? j1 - kAhead : j0;
+  for (std::size_t j = j0; j < j1;) {
+    const std::size_t e = std::min(j1, (j | 7) + 1);  // the end of this chunk of 8
+    if ((j & 7) == 0 && j + lead < n) {
+      const std::size_t f = j + lead;
+      __builtin_prefetch(ox + f);
+      if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+      if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+      __builtin_prefetch(ovx + f);
+      __builtin_prefetch(ovy + f);
+      __builtin_prefetch(ovz + f);
+      if constexpr (kHazard) __builtin_prefetch(ohz + f);
+    }
+    for (const std::size_t ep = std::min(e, jp); j < ep; ++j) {
+      const std::uint32_t f = perm[j + kAhead];
+      __builtin_prefetch(ox + f);
+      if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+      if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+      __builtin_prefetch(ovx + f);
+      __builtin_prefetch(ovy + f);
+      __builtin_prefetch(ovz + f);
+      if constexpr (kHazard) __builtin_prefetch(ohz + f);
+      copy(j, perm[j]);
+    }
+    for (; j < e; ++j) copy(j, perm[j]);
+  }
+}
+
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                 std::size_t kCellBlock) {
@@ -87,6 +154,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   double* __restrict hz = hazard ? p.bath_hazard.data() : nullptr;
   const std::uint64_t* __restrict id = p.id.data();
   std::uint64_t* __restrict id_out = w.id.data();
+  const GatherArrays arrays{{ox, oy, oz, ovx, ovy, ovz, ohz}, {x, y, z, vx, vy, vz, hz}};
+  const double length[3] = {Lx, Ly, Lz};
 #pragma omp parallel
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -164,37 +233,10 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
-      const std::size_t j1 = start[k1];
-      for (std::size_t j = start[k0]; j < j1; ++j) {
-        if ((j & 7) == 0 && j + lead < n) {
-          const std::size_t f = j + lead;
-          __builtin_prefetch(ox + f);
-          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-          __builtin_prefetch(ovx + f);
-          __builtin_prefetch(ovy + f);
-          __builtin_prefetch(ovz + f);
-          if (hazard) __builtin_prefetch(ohz + f);
-        }
-        if (j + kAhead < j1) {
-          const std::uint32_t f = perm[j + kAhead];
-          __builtin_prefetch(ox + f);
-          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-          __builtin_prefetch(ovx + f);
-          __builtin_prefetch(ovy + f);
-          __builtin_prefetch(ovz + f);
-          if (hazard) __builtin_prefetch(ohz + f);
-        }
-        const std::uint32_t i = perm[j];
-        x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
-        if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
-        if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
-        vx[j] = ovx[i];
-        vy[j] = ovy[i];
-        vz[j] = ovz[i];
-        if (hazard) hz[j] = ohz[i];
-      }
+      if (hazard)
+        gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+      else
+        gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
         if (b1 - b0 < 2) continue;
