@@ -9,20 +9,30 @@ namespace grainbath::dsmc {
 
 namespace detail {
 // Ranking of m <= 4 Q 32-bit keys (padded to 4 Q with INT32_MAX): Q vectors of four.
+// Transposed: each key in turn is broadcast and compared with all Q vectors, and every
+// element whose key is larger counts it (rank[q] -= key_a < kv[q], true is -1). After m
+// broadcasts rank[q] holds the ranks of four elements at once: no horizontal sum per element
+// (the pads count too, but their ranks are not read; a pad is never below a real key).
 template <std::size_t Q>
 inline void rank_int32(const std::int32_t* __restrict keys, std::size_t m, const std::uint32_t* __restrict slots,
                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0) {
   using Int4 = std::int32_t __attribute__((vector_size(16)));
-  Int4 kv[Q];
-  for (std::size_t q = 0; q < Q; ++q) kv[q] = reinterpret_cast<const Int4*>(keys)[q];
+  Int4 kv[Q], rank[Q];
+  for (std::size_t q = 0; q < Q; ++q) {
+    kv[q] = reinterpret_cast<const Int4*>(keys)[q];
+    rank[q] = Int4{0, 0, 0, 0};
+  }
   for (std::size_t a = 0; a < m; ++a) {
     const std::int32_t k = keys[a];
     const Int4 key = {k, k, k, k};
-    Int4 below = kv[0] < key;  // true is -1
-    for (std::size_t q = 1; q < Q; ++q) below += kv[q] < key;
-    const auto rank = static_cast<std::size_t>(-(below[0] + below[1] + below[2] + below[3]));
-    perm[b0 + rank] = slots[a];
-    id_out[b0 + rank] = static_cast<std::uint32_t>(k) ^ 0x80000000u;
+    for (std::size_t q = 0; q < Q; ++q) rank[q] -= key < kv[q];
+  }
+  alignas(16) std::int32_t ranks[4 * Q];
+  for (std::size_t q = 0; q < Q; ++q) reinterpret_cast<Int4*>(ranks)[q] = rank[q];
+  for (std::size_t a = 0; a < m; ++a) {
+    const auto r = static_cast<std::size_t>(ranks[a]);
+    perm[b0 + r] = slots[a];
+    id_out[b0 + r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
   }
 }
 }  // namespace detail
@@ -41,24 +51,31 @@ inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   using Int4 = std::int32_t __attribute__((vector_size(16)));
   constexpr std::size_t kLocal = 64;
   const std::size_t m = b1 - b0;
+  if (m < 2) return;  // already in order (id_out holds the ids of perm)
   if (m <= kLocal) {
     std::uint32_t slots[kLocal];
+    alignas(64) std::int32_t keys[kLocal + 4];
     std::uint64_t high = 0;  // any bit above 31 of any id
-    for (std::size_t a = 0; a < m; ++a) high |= id_out[b0 + a];
+    for (std::size_t a = 0; a < m; ++a) {
+      const std::uint64_t i = id_out[b0 + a];
+      high |= i;
+      slots[a] = perm[b0 + a];
+      keys[a] = static_cast<std::int32_t>(static_cast<std::uint32_t>(i) ^ 0x80000000u);
+    }
     if ((high >> 32) == 0) {
-      alignas(64) std::int32_t keys[kLocal + 4];
-      for (std::size_t a = 0; a < m; ++a) {
-        slots[a] = perm[b0 + a];
-        keys[a] = static_cast<std::int32_t>(static_cast<std::uint32_t>(id_out[b0 + a]) ^ 0x80000000u);
-      }
-      // the usual cell sizes get a fixed number of vectors (the compare loop unrolled, the keys
-      // in registers): up to 16, 24 and 32 particles
-      const std::size_t quads = m <= 16 ? 4 : m <= 24 ? 6 : m <= 32 ? 8 : (m + 3) / 4;
+      // up to 32 particles, a fixed number of vectors (the compare loop unrolled, the keys in
+      // registers): one per four particles
+      const std::size_t quads = m == 0 ? 1 : (m + 3) / 4;
       // pad: never smaller than a key (the largest key is INT32_MAX itself)
       for (std::size_t a = m; a < 4 * quads; ++a) keys[a] = std::numeric_limits<std::int32_t>::max();
       switch (quads) {
+        case 1: detail::rank_int32<1>(keys, m, slots, perm, id_out, b0); return;
+        case 2: detail::rank_int32<2>(keys, m, slots, perm, id_out, b0); return;
+        case 3: detail::rank_int32<3>(keys, m, slots, perm, id_out, b0); return;
         case 4: detail::rank_int32<4>(keys, m, slots, perm, id_out, b0); return;
+        case 5: detail::rank_int32<5>(keys, m, slots, perm, id_out, b0); return;
         case 6: detail::rank_int32<6>(keys, m, slots, perm, id_out, b0); return;
+        case 7: detail::rank_int32<7>(keys, m, slots, perm, id_out, b0); return;
         case 8: detail::rank_int32<8>(keys, m, slots, perm, id_out, b0); return;
         default: break;
       }
@@ -74,21 +91,18 @@ inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
       }
       return;
     }
-    alignas(64) double keys[kLocal + 2];
-    for (std::size_t a = 0; a < m; ++a) {
-      slots[a] = perm[b0 + a];
-      keys[a] = static_cast<double>(id_out[b0 + a]);
-    }
+    alignas(64) double dkeys[kLocal + 2];  // slots[] is already filled
+    for (std::size_t a = 0; a < m; ++a) dkeys[a] = static_cast<double>(id_out[b0 + a]);
     const std::size_t pairs = (m + 1) / 2;
-    keys[m] = std::numeric_limits<double>::infinity();  // pad: never smaller than a key
-    const auto* kv = reinterpret_cast<const Double2*>(keys);
+    dkeys[m] = std::numeric_limits<double>::infinity();  // pad: never smaller than a key
+    const auto* kv = reinterpret_cast<const Double2*>(dkeys);
     for (std::size_t a = 0; a < m; ++a) {
-      const Double2 key = {keys[a], keys[a]};
+      const Double2 key = {dkeys[a], dkeys[a]};
       Long2 below = {0, 0};
       for (std::size_t b = 0; b < pairs; ++b) below -= (kv[b] < key);  // true is -1
       const auto rank = static_cast<std::size_t>(below[0] + below[1]);
       perm[b0 + rank] = slots[a];
-      id_out[b0 + rank] = static_cast<std::uint64_t>(keys[a]);
+      id_out[b0 + rank] = static_cast<std::uint64_t>(dkeys[a]);
     }
     return;
   }

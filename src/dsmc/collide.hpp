@@ -116,6 +116,21 @@ inline double pair_speed_bound(const double* __restrict vx, const double* __rest
   return std::sqrt(first) + std::sqrt(second);
 }
 
+// Integer uniform on [0, range), range >= 1, exactly, from 32 random bits (Lemire 2019,
+// "Fast random integer generation in an interval": multiply-shift, with a rejection that
+// removes the bias of 2^32 mod range). A rejected value (probability < range / 2^32) is
+// replaced by the low half of a fresh word. The candidate pair takes both halves of one word
+// this way, without CounterRng::bits32's per-draw bookkeeping of the spare half.
+inline std::uint32_t below_from(std::uint32_t bits, std::uint32_t range, CounterRng& rng) {
+  std::uint64_t m = static_cast<std::uint64_t>(bits) * range;
+  if (static_cast<std::uint32_t>(m) < range) [[unlikely]] {
+    const std::uint32_t threshold = (0u - range) % range;
+    while (static_cast<std::uint32_t>(m) < threshold)
+      m = static_cast<std::uint64_t>(static_cast<std::uint32_t>(rng.bits64())) * range;
+  }
+  return static_cast<std::uint32_t>(m >> 32);
+}
+
 // The restitution laws that read the normal impact speed (elastic and constant e do not:
 // no square root for them).
 template <class Law>
@@ -142,12 +157,13 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
   const auto candidates = static_cast<std::uint64_t>(expected);
   remainder = expected - static_cast<double>(candidates);
-  // an ordered pair of distinct grains, uniformly: i from [0, N), j from the other N - 1
-  // (exact integer draws from 32-bit halves of the Philox words, CounterRng::below)
+  // an ordered pair of distinct grains, uniformly: i from [0, N), j from the other N - 1,
+  // from the low and high halves of one Philox word (below_from: exact)
   const auto n32 = static_cast<std::uint32_t>(count);
   for (std::uint64_t k = 0; k < candidates; ++k) {
-    const std::uint32_t i = rng.below(n32);
-    std::uint32_t j = rng.below(n32 - 1);
+    const std::uint64_t word = rng.bits64();
+    const std::uint32_t i = below_from(static_cast<std::uint32_t>(word), n32, rng);
+    std::uint32_t j = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, rng);
     if (j >= i) ++j;
     Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
     const Vec3 g = v - w;

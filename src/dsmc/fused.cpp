@@ -1,5 +1,6 @@
 #include "dsmc/fused.hpp"
 
+#include <emmintrin.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -24,6 +25,73 @@ namespace {
 // the gather asks for the lines of the particle kAhead slots ahead (its old slot is known
 // from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
+
+// The previous arrays (x, y, z, vx, vy, vz, bath residual) and the new ones.
+struct GatherArrays {
+  const double* from[7];
+  double* to[7];
+};
+
+// The gather of slots [j0, j1) from the previous arrays, streaming the positions on the way
+// (the same expression as the separate-pass streaming). A function with the pointers as
+// restrict locals, not a lambda: through a lambda's captures GCC reloads every pointer after
+// each store (measured slower, see docs/performance/dsmc1.md). Per chunk of 8 slots the
+// leading edge of the window is fetched; per slot the lines of the particle kAhead slots
+// ahead (the last kAhead slots of the block have none: a loop of their own, no test per slot).
+template <int Dim, bool kHazard>
+void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
+                  std::size_t n, std::size_t lead, double dt, const double* length) {
+  const double* __restrict ox = arrays.from[0];
+  const double* __restrict oy = arrays.from[1];
+  const double* __restrict oz = arrays.from[2];
+  const double* __restrict ovx = arrays.from[3];
+  const double* __restrict ovy = arrays.from[4];
+  const double* __restrict ovz = arrays.from[5];
+  const double* __restrict ohz = arrays.from[6];
+  double* __restrict x = arrays.to[0];
+  double* __restrict y = arrays.to[1];
+  double* __restrict z = arrays.to[2];
+  double* __restrict vx = arrays.to[3];
+  double* __restrict vy = arrays.to[4];
+  double* __restrict vz = arrays.to[5];
+  double* __restrict hz = arrays.to[6];
+  const double Lx = length[0], Ly = length[1], Lz = length[2];
+  auto copy = [=](std::size_t j, std::uint32_t i) __attribute__((always_inline)) {
+    x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
+    if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+    if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+    vx[j] = ovx[i];
+    vy[j] = ovy[i];
+    vz[j] = ovz[i];
+    if constexpr (kHazard) hz[j] = ohz[i];
+  };
+  const std::size_t jp = j1 - j0 > kAhead ? j1 - kAhead : j0;
+  for (std::size_t j = j0; j < j1;) {
+    const std::size_t e = std::min(j1, (j | 7) + 1);  // the end of this chunk of 8
+    if ((j & 7) == 0 && j + lead < n) {
+      const std::size_t f = j + lead;
+      __builtin_prefetch(ox + f);
+      if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+      if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+      __builtin_prefetch(ovx + f);
+      __builtin_prefetch(ovy + f);
+      __builtin_prefetch(ovz + f);
+      if constexpr (kHazard) __builtin_prefetch(ohz + f);
+    }
+    for (const std::size_t ep = std::min(e, jp); j < ep; ++j) {
+      const std::uint32_t f = perm[j + kAhead];
+      __builtin_prefetch(ox + f);
+      if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+      if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+      __builtin_prefetch(ovx + f);
+      __builtin_prefetch(ovy + f);
+      __builtin_prefetch(ovz + f);
+      if constexpr (kHazard) __builtin_prefetch(ohz + f);
+      copy(j, perm[j]);
+    }
+    for (; j < e; ++j) copy(j, perm[j]);
+  }
+}
 
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
@@ -86,6 +154,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   double* __restrict hz = hazard ? p.bath_hazard.data() : nullptr;
   const std::uint64_t* __restrict id = p.id.data();
   std::uint64_t* __restrict id_out = w.id.data();
+  const GatherArrays arrays{{ox, oy, oz, ovx, ovy, ovz, ohz}, {x, y, z, vx, vy, vz, hz}};
+  const double length[3] = {Lx, Ly, Lz};
 #pragma omp parallel
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -94,7 +164,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     std::fill(cnt, cnt + cells, 0u);
     // cell index after streaming, and the counts: reads the state once, writes 4 bytes
     // (the streamed positions are recomputed by the gather, bitwise the same expression)
-    for (std::size_t i = lo; i < hi; ++i) {
+    auto stream_one = [&](std::size_t i) {
       const double xi = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
       double yi = 0.0, zi = 0.0;
       if constexpr (Dim > 1) yi = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
@@ -102,7 +172,49 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       const std::uint32_t k = grid(xi, yi, zi);
       cell[i] = k;
       ++cnt[k];
+    };
+    std::size_t i = lo;
+    if (cells < 0x80000000u) {
+      // Two particles per SSE2 vector. A pair whose streamed positions all lie in [0, L)
+      // (wrap_periodic leaves them as they are: ~96 % of pairs) gets its cells here; the cell
+      // of an axis is CellGrid::axis as a clamp in doubles, min(max(x / h, 0), n - 1) truncated
+      // (max gives 0 for NaN, as `!(f > 0)` does), and the linear index is formed in doubles
+      // (exact below 2^53), so the cells are those of `grid`. A pair with a coordinate to wrap
+      // goes through the scalar path.
+      const __m128d dt2 = _mm_set1_pd(dt), zero = _mm_setzero_pd();
+      const __m128d len[3] = {_mm_set1_pd(Lx), _mm_set1_pd(Ly), _mm_set1_pd(Lz)};
+      __m128d inv[3], top[3];
+      for (int a = 0; a < 3; ++a) {
+        inv[a] = _mm_set1_pd(grid.inv_size[a]);
+        top[a] = _mm_set1_pd(static_cast<double>(grid.cells[a]) - 1.0);
+      }
+      const __m128d nx = _mm_set1_pd(static_cast<double>(grid.cells[0]));
+      const __m128d ny = _mm_set1_pd(static_cast<double>(grid.cells[1]));
+      const double* const pos[3] = {ox, oy, oz};
+      const double* const vel[3] = {ovx, ovy, ovz};
+      for (; i + 2 <= hi; i += 2) {
+        __m128d k[3], outside = zero;
+        for (int a = 0; a < Dim; ++a) {
+          const __m128d xa = _mm_add_pd(_mm_loadu_pd(pos[a] + i), _mm_mul_pd(_mm_loadu_pd(vel[a] + i), dt2));
+          outside = _mm_or_pd(outside, _mm_or_pd(_mm_cmplt_pd(xa, zero), _mm_cmpge_pd(xa, len[a])));
+          const __m128d f = _mm_min_pd(_mm_max_pd(_mm_mul_pd(xa, inv[a]), zero), top[a]);
+          k[a] = _mm_cvtepi32_pd(_mm_cvttpd_epi32(f));
+        }
+        if (_mm_movemask_pd(outside) != 0) [[unlikely]] {
+          stream_one(i);
+          stream_one(i + 1);
+          continue;
+        }
+        __m128d linear = k[0];
+        if constexpr (Dim == 2) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, k[1]));
+        if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
+        const __m128i kk = _mm_cvttpd_epi32(linear);
+        _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
+        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+      }
     }
+    for (; i < hi; ++i) stream_one(i);
 #pragma omp barrier
 #pragma omp single
     counting_sort_offsets(counts, threads, cells, start);
@@ -121,37 +233,10 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
-      const std::size_t j1 = start[k1];
-      for (std::size_t j = start[k0]; j < j1; ++j) {
-        if ((j & 7) == 0 && j + lead < n) {
-          const std::size_t f = j + lead;
-          __builtin_prefetch(ox + f);
-          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-          __builtin_prefetch(ovx + f);
-          __builtin_prefetch(ovy + f);
-          __builtin_prefetch(ovz + f);
-          if (hazard) __builtin_prefetch(ohz + f);
-        }
-        if (j + kAhead < j1) {
-          const std::uint32_t f = perm[j + kAhead];
-          __builtin_prefetch(ox + f);
-          if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-          if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-          __builtin_prefetch(ovx + f);
-          __builtin_prefetch(ovy + f);
-          __builtin_prefetch(ovz + f);
-          if (hazard) __builtin_prefetch(ohz + f);
-        }
-        const std::uint32_t i = perm[j];
-        x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
-        if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
-        if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
-        vx[j] = ovx[i];
-        vy[j] = ovy[i];
-        vz[j] = ovz[i];
-        if (hazard) hz[j] = ohz[i];
-      }
+      if (hazard)
+        gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+      else
+        gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
         if (b1 - b0 < 2) continue;
