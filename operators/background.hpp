@@ -254,14 +254,72 @@ inline bool bath_direction(std::uint64_t w6, std::uint64_t w7, Vec3& r) {
   return (s1 < 1.0) | (s2 < 1.0);
 }
 
-// Exact variates when a fast path failed (rare): the same words, the slow paths' further
-// numbers from sequence t + 1.
-[[gnu::noinline]] inline void bath_variates_slow(const std::uint64_t* w, BathVariates& x, const BathKey& key,
-                                                 std::uint64_t id, std::uint64_t t) {
+// The bath kernel's ziggurat fast paths with the scalings folded into the tables (Issue #7):
+// the same variates, bit for bit, as CounterRng::normal_ziggurat_fast and
+// exponential_ziggurat_fast, in fewer instructions. With n = w >> 11 (53 bits) the fast path
+// returns (n 2^-53) x[i] with the sign of bit 8 and is taken iff n 2^-53 < ratio[i]. Scaling
+// by a power of two is exact (no value here is near the subnormal range), so
+// (n 2^-53) x[i] = n (x[i] 2^-53) after one rounding either way, and
+// n 2^-53 < ratio[i] iff n < ratio[i] 2^53; the sign (bit 8) is folded into a 512-entry table
+// indexed by the low nine bits (a product with -x is exactly the negated product; n = 0 gives
+// -0 as the xor did). The edge and ratio sit side by side: one cache line per draw.
+struct BathZigguratEntry {
+  double x;      // (+-) x[i] 2^-53
+  double bound;  // ratio[i] 2^53: fast path iff n < bound
+};
+struct BathZiggurat {
+  BathZigguratEntry normal[512];       // index w & 0x1ff: layer (bits 0-7), sign (bit 8)
+  BathZigguratEntry exponential[256];  // index w & 0xff
+};
+inline const BathZiggurat kBathZiggurat = [] {
+  BathZiggurat t{};
+  for (int i = 0; i < 512; ++i) {
+    const int layer = i & 0xff;
+    const double x = std::ldexp(kNormalZiggurat.x[layer], -53);
+    t.normal[i] = {i & 0x100 ? -x : x, std::ldexp(kNormalZiggurat.ratio[layer], 53)};
+  }
+  for (int i = 0; i < 256; ++i)
+    t.exponential[i] = {std::ldexp(kExponentialZiggurat.x[i], -53), std::ldexp(kExponentialZiggurat.ratio[i], 53)};
+  return t;
+}();
+
+// Fast paths: the variate, and 1 if the slow path is needed (0 on the fast path, ~98.5%).
+inline unsigned bath_normal_fast(std::uint64_t w, double& out) {
+  const BathZigguratEntry& e = kBathZiggurat.normal[w & 0x1ffu];
+  const double n = static_cast<double>(static_cast<std::int64_t>(w >> 11));
+  out = n * e.x;
+  return !(n < e.bound);
+}
+inline unsigned bath_exponential_fast(std::uint64_t w, double& out) {
+  const BathZigguratEntry& e = kBathZiggurat.exponential[w & 0xffu];
+  const double n = static_cast<double>(static_cast<std::int64_t>(w >> 11));
+  out = n * e.x;
+  return !(n < e.bound);
+}
+
+// Exact variates when fast paths failed (rare): `fail` has bit j for normal j (0-3), bit 4
+// for the exponential, bit 5 for the direction (both attempts outside the disk). Only those
+// are redrawn, in this order, with their further numbers from sequence t + 1: the same draws
+// as redoing every variate with the *_from functions (a fast path draws nothing).
+[[gnu::noinline]] inline void bath_variates_slow(const std::uint64_t* w, unsigned fail, BathVariates& x,
+                                                 const BathKey& key, std::uint64_t id, std::uint64_t t) {
   CounterRng more(key.seed, key.stream, id, key.step, t + 1);
-  for (int j = 0; j < 4; ++j) x.z[j] = more.normal_ziggurat_from(w[1 + j]);
-  x.e = more.exponential_ziggurat_from(w[5]);
-  if (!bath_direction(w[6], w[7], x.r)) x.r = more.unit_vector();
+  for (int j = 0; j < 4; ++j)
+    if (fail & (1u << j)) x.z[j] = more.normal_ziggurat_from(w[1 + j]);
+  if (fail & 16u) x.e = more.exponential_ziggurat_from(w[5]);
+  if (fail & 32u) x.r = more.unit_vector();
+}
+
+// bath_variates_slow for grain g of the batch kernel's variate arrays.
+[[gnu::noinline]] inline void bath_variates_slow_lane(const std::uint64_t* w, unsigned fail, const BathKey& key,
+                                                      std::uint64_t id, std::uint64_t t, std::size_t g, double* z0,
+                                                      double* z1, double* z2, double* z3, double* e, double* rx,
+                                                      double* ry, double* rz) {
+  BathVariates x{0.0, {z0[g], z1[g], z2[g], z3[g]}, e[g], {rx[g], ry[g], rz[g]}};
+  bath_variates_slow(w, fail, x, key, id, t);
+  z0[g] = x.z[0], z1[g] = x.z[1], z2[g] = x.z[2], z3[g] = x.z[3];
+  e[g] = x.e;
+  rx[g] = x.r.x, ry[g] = x.r.y, rz[g] = x.r.z;
 }
 
 // The counters of a grain's test words: Philox4x32-10 under the 64-bit seed, counter
@@ -284,14 +342,14 @@ inline void bath_words(const BathKey& key, std::uint64_t id, std::uint64_t t, st
 inline void bath_variates(const std::uint64_t* w, const BathKey& key, std::uint64_t id, std::uint64_t t,
                           BathVariates& x) {
   x.u = (static_cast<double>(static_cast<std::int64_t>(w[0] >> 11)) + 0.5) * 0x1.0p-53;
-  bool fast = CounterRng::normal_ziggurat_fast(w[1], x.z[0]);
-  fast &= CounterRng::normal_ziggurat_fast(w[2], x.z[1]);
-  fast &= CounterRng::normal_ziggurat_fast(w[3], x.z[2]);
-  fast &= CounterRng::normal_ziggurat_fast(w[4], x.z[3]);
-  fast &= CounterRng::exponential_ziggurat_fast(w[5], x.e);
-  fast &= bath_direction(w[6], w[7], x.r);
-  if (!fast) [[unlikely]]
-    bath_variates_slow(w, x, key, id, t);
+  unsigned fail = bath_normal_fast(w[1], x.z[0]);
+  fail |= bath_normal_fast(w[2], x.z[1]) << 1;
+  fail |= bath_normal_fast(w[3], x.z[2]) << 2;
+  fail |= bath_normal_fast(w[4], x.z[3]) << 3;
+  fail |= bath_exponential_fast(w[5], x.e) << 4;
+  fail |= static_cast<unsigned>(!bath_direction(w[6], w[7], x.r)) << 5;
+  if (fail) [[unlikely]]
+    bath_variates_slow(w, fail, x, key, id, t);
 }
 
 // One thinning test from its variates (law of background_test). Updates v, c = v - uB,
@@ -423,6 +481,32 @@ inline BathLanes bath_load(const double* p) {
 }
 inline void bath_store(double* p, BathLanes x) { std::memcpy(p, &x, sizeof x); }
 
+// bath_direction for two grains at once, a in lane 0 and b in lane 1, from their words
+// w6, w7: the same IEEE operations per lane as bath_direction (bitwise the same r), with
+// the four 32-bit halves of each word converted two at a time (cvtdq2pd, exact) and one
+// square root for both grains. Stores r to rx, ry, rz [0..1]; returns bit 0 (grain a) and
+// bit 1 (grain b) set when both of that grain's attempts fell outside the disk.
+inline unsigned bath_direction_lanes(std::uint64_t w6a, std::uint64_t w7a, std::uint64_t w6b, std::uint64_t w7b,
+                                     double* rx, double* ry, double* rz) {
+  // (lo a, lo b, hi a, hi b) of each word pair, then the low and high halves as doubles
+  const __m128i h6 = _mm_shuffle_epi32(_mm_set_epi64x(static_cast<long long>(w6b), static_cast<long long>(w6a)),
+                                       _MM_SHUFFLE(3, 1, 2, 0));
+  const __m128i h7 = _mm_shuffle_epi32(_mm_set_epi64x(static_cast<long long>(w7b), static_cast<long long>(w7a)),
+                                       _MM_SHUFFLE(3, 1, 2, 0));
+  const BathLanes half = {0.5, 0.5}, scale = {0x1.0p-31, 0x1.0p-31}, one = {1.0, 1.0}, zero = {0.0, 0.0};
+  const BathLanes u1 = (_mm_cvtepi32_pd(h6) + half) * scale, v1 = (_mm_cvtepi32_pd(_mm_unpackhi_epi64(h6, h6)) + half) * scale;
+  const BathLanes u2 = (_mm_cvtepi32_pd(h7) + half) * scale, v2 = (_mm_cvtepi32_pd(_mm_unpackhi_epi64(h7, h7)) + half) * scale;
+  const BathLanes s1 = u1 * u1 + v1 * v1, s2 = u2 * u2 + v2 * v2;
+  const BathMask first = s1 < one;
+  const BathLanes u = bath_select(first, u1, u2), v = bath_select(first, v1, v2), ss = bath_select(first, s1, s2);
+  const BathLanes q = 2.0 * bath_sqrt(_mm_max_pd(one - ss, zero));
+  bath_store(rx, u * q);
+  bath_store(ry, v * q);
+  bath_store(rz, one - 2.0 * ss);
+  return static_cast<unsigned>(_mm_movemask_pd(reinterpret_cast<BathLanes>(first | (s2 < one)))) ^ 3u;
+}
+
+
 }  // namespace detail
 
 // All grains [0, n) of arrays vx, vy, vz, hazard (ids in `id`) through a bath substep in a
@@ -441,7 +525,7 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
                               const BathKey& key, BackgroundCounters& counters) {
   if (b.rate_scale <= 0.0) return;
   constexpr std::size_t kChunk = 256, L = 2;
-  std::uint32_t index[kChunk], ctr0[kChunk], ctr1[kChunk];
+  std::uint32_t index[kChunk], ctr0[kChunk], ctr1[kChunk], slow[kChunk + 2];
   alignas(64) std::uint64_t words[8 * kChunk];
   // active-grain state and this round's variates, padded to whole lane groups
   alignas(64) double avx[kChunk + L], avy[kChunk + L], avz[kChunk + L], acm[kChunk + L], aleft[kChunk + L],
@@ -452,6 +536,13 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
   std::uint64_t candidates = 0, collisions = 0;
   for (std::size_t lo = 0; lo < n; lo += kChunk) {
     const std::size_t m = std::min(kChunk, n - lo);
+    // the next chunk's grains are fetched from memory while this chunk's rounds run (with 1e6
+    // grains the arrays stream from DRAM; the first loop below otherwise waits for them)
+    for (std::size_t i = lo + kChunk; i < std::min(n, lo + 2 * kChunk); i += 8) {
+      for (const void* q : {static_cast<const void*>(vx + i), static_cast<const void*>(vy + i), static_cast<const void*>(vz + i),
+                            static_cast<const void*>(hazard + i), static_cast<const void*>(id + i)})
+        __builtin_prefetch(q, 1, 3);
+    }
     std::size_t na = 0;
     for (std::size_t k = 0; k < m; ++k) {
       const std::size_t i = lo + k;
@@ -479,19 +570,41 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
       // (1) words
       Philox4x32Lanes::words8(key.seed, ctr0, ctr1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t),
                               na, words);
-      // (2) variates
-      for (std::size_t a = 0; a < na; ++a) {
-        BathVariates x;
-        detail::bath_variates(words + 8 * a, key, id[lo + index[a]], t, x);
-        xu[a] = x.u;
-        xz0[a] = x.z[0];
-        xz1[a] = x.z[1];
-        xz2[a] = x.z[2];
-        xz3[a] = x.z[3];
-        xe[a] = x.e;
-        xrx[a] = x.r.x;
-        xry[a] = x.r.y;
-        xrz[a] = x.r.z;
+      // (2) variates, two grains at a time: the ziggurat fast paths (scalar: table loads),
+      // the directions in SSE2 lanes; the rare slow path per grain. An odd last grain is
+      // paired with a copy of its words (padding, not used).
+      if (na % 2 != 0) std::memcpy(words + 8 * na, words + 8 * (na - 1), 8 * sizeof(std::uint64_t));
+      std::size_t nslow = 0;
+      for (std::size_t a = 0; a < na; a += 2) {
+        const std::uint64_t* wa = words + 8 * a;
+        const std::uint64_t* wb = wa + 8;
+        std::uint32_t fa, fb;
+        xu[a] = (static_cast<double>(static_cast<std::int64_t>(wa[0] >> 11)) + 0.5) * 0x1.0p-53;
+        xu[a + 1] = (static_cast<double>(static_cast<std::int64_t>(wb[0] >> 11)) + 0.5) * 0x1.0p-53;
+        fa = detail::bath_normal_fast(wa[1], xz0[a]);
+        fb = detail::bath_normal_fast(wb[1], xz0[a + 1]);
+        fa |= detail::bath_normal_fast(wa[2], xz1[a]) << 1;
+        fb |= detail::bath_normal_fast(wb[2], xz1[a + 1]) << 1;
+        fa |= detail::bath_normal_fast(wa[3], xz2[a]) << 2;
+        fb |= detail::bath_normal_fast(wb[3], xz2[a + 1]) << 2;
+        fa |= detail::bath_normal_fast(wa[4], xz3[a]) << 3;
+        fb |= detail::bath_normal_fast(wb[4], xz3[a + 1]) << 3;
+        fa |= detail::bath_exponential_fast(wa[5], xe[a]) << 4;
+        fb |= detail::bath_exponential_fast(wb[5], xe[a + 1]) << 4;
+        const unsigned fd = detail::bath_direction_lanes(wa[6], wa[7], wb[6], wb[7], xrx + a, xry + a, xrz + a);
+        fa |= (fd & 1u) << 5;
+        fb |= (fd & 2u) << 4;
+        // grains needing a slow path are listed without a branch and done after the pass
+        // (a branch here was mispredicted on most of the 12% of tests that take one)
+        slow[nslow] = static_cast<std::uint32_t>(a) | fa << 16;
+        nslow += fa != 0;
+        slow[nslow] = static_cast<std::uint32_t>(a + 1) | fb << 16;
+        nslow += (fb != 0) & (a + 1 < na);
+      }
+      for (std::size_t q = 0; q < nslow; ++q) {
+        const std::size_t g = slow[q] & 0xffffu;
+        detail::bath_variates_slow_lane(words + 8 * g, slow[q] >> 16, key, id[lo + index[g]], t, g, xz0, xz1, xz2, xz3, xe,
+                                        xrx, xry, xrz);
       }
       // padding lanes: copies of the last active grain
       for (std::size_t a = na; a % L != 0; ++a) {
