@@ -436,10 +436,9 @@ inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
 // In: the variates, velocities, |c|, remaining time `left`. Out: updated velocities, |c|,
 // gain, the acceptance (1 or 0), the residual, the remaining time, and `more` (1 if the grain
 // has a further candidate in this substep, else 0).
-inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z2, BathLanes z3, BathLanes e,
-                            BathLanes rx, BathLanes ry, BathLanes rz, BathLanes& vx, BathLanes& vy, BathLanes& vz,
-                            BathLanes& cmod, BathLanes& gain, BathLanes& on, BathLanes& hazard, BathLanes& left,
-                            BathLanes& more, const BackgroundState& b, double grain_mass) {
+inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z2, BathLanes z3, BathLanes vx,
+                            BathLanes vy, BathLanes vz, BathLanes cmod, BathLanes& gx, BathLanes& gy, BathLanes& gz,
+                            BathLanes& g2, BathLanes& on, const BackgroundState& b) {
   const BathLanes zero = {0.0, 0.0};
   const BathLanes cx = vx - b.velocity.x, cy = vy - b.velocity.y, cz = vz - b.velocity.z;
   const BathLanes tp = u * (cmod + b.mean_speed);
@@ -447,12 +446,22 @@ inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z
   const BathLanes s3 = z0 * z0 + z1 * z1 + z2 * z2, s4 = s3 + z3 * z3;
   const BathLanes a3 = bath_sqrt(s3), a = bath_sqrt(bath_select(maxw, s3, s4));
   const BathLanes scale = b.sigma * (a / a3);
-  const BathLanes gx = cx - z0 * scale, gy = cy - z1 * scale, gz = cz - z2 * scale;
-  const BathLanes g2 = gx * gx + gy * gy + gz * gz;
+  gx = cx - z0 * scale, gy = cy - z1 * scale, gz = cz - z2 * scale;
+  g2 = gx * gx + gy * gy + gz * gz;
   const BathLanes cw_mod = b.sigma * a;
   const BathLanes tpp = tp - bath_select(maxw, zero, cmod), d = bath_select(maxw, cmod, zero + b.mean_speed);
   const BathLanes lhs = tpp * (cmod + cw_mod);
   on = bath_select(lhs * lhs < g2 * (d * d), zero + 1.0, zero);
+}
+
+// The collision of bath_test_lanes' candidates, applied times `on` (1 or 0): v' = v - alpha
+// (g - |g| r), and the energy change. Separate passes (Issue #7): one test is a chain of
+// about 150 cycles of dependent square roots and divisions, and with the whole test in one
+// loop body only about two iterations fit in the out-of-order window; three shorter loops
+// (acceptance, collision, next candidate) overlap more grains.
+inline void bath_collide_lanes(BathLanes gx, BathLanes gy, BathLanes gz, BathLanes g2, BathLanes on, BathLanes rx,
+                               BathLanes ry, BathLanes rz, BathLanes& vx, BathLanes& vy, BathLanes& vz,
+                               BathLanes& gain, const BackgroundState& b, double grain_mass) {
   const BathLanes gm = bath_sqrt(g2);
   const BathLanes dvx = (gx - rx * gm) * -b.mass_ratio, dvy = (gy - ry * gm) * -b.mass_ratio,
                   dvz = (gz - rz * gm) * -b.mass_ratio;
@@ -462,6 +471,14 @@ inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z
   vy += dvy * on;
   vz += dvz * on;
   gain += de * on;
+}
+
+// The bookkeeping of the next candidate after bath_test_lanes (bath_evolve_keyed per lane):
+// |c| of the new velocity, and the residual `hazard`, the remaining time `left` and `more`
+// (1 if the grain has a further candidate in this substep, else 0) from the exponential e.
+inline void bath_next_lanes(BathLanes e, BathLanes vx, BathLanes vy, BathLanes vz, BathLanes& cmod, BathLanes& hazard,
+                            BathLanes& left, BathLanes& more, const BackgroundState& b) {
+  const BathLanes zero = {0.0, 0.0};
   const BathLanes ex = vx - b.velocity.x, ey = vy - b.velocity.y, ez = vz - b.velocity.z;
   cmod = bath_sqrt(ex * ex + ey * ey + ez * ez);
   // next candidate (bath_evolve_keyed): done if the new residual covers the rest
@@ -544,14 +561,10 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
         __builtin_prefetch(q, 1, 3);
     }
     std::size_t na = 0;
-    for (std::size_t k = 0; k < m; ++k) {
+    // which grains have a candidate in this substep: two grains per SSE2 register (the
+    // operations of bath_evolve_keyed per lane), an odd last grain in scalar code
+    auto enter = [&](std::size_t k, double cmod, double h, double need, double left, bool run) {
       const std::size_t i = lo + k;
-      const Vec3 c = Vec3{vx[i], vy[i], vz[i]} - b.velocity;
-      const double cmod = norm(c);
-      const double rate = b.rate_scale * (cmod + b.mean_speed);
-      const double need = rate * duration;
-      const double h = hazard[i];
-      const bool run = h < need;
       hazard[i] = run ? h : h - need;
       gain[k] = 0.0;
       index[na] = static_cast<std::uint32_t>(k);
@@ -562,8 +575,33 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
       avz[na] = vz[i];
       acm[na] = cmod;
       again[na] = 0.0;
-      aleft[na] = std::max(0.0, duration - h / rate);
+      aleft[na] = left;
       na += run;
+    };
+    std::size_t k = 0;
+    for (; k + 2 <= m; k += 2) {
+      using detail::BathLanes;
+      const std::size_t i = lo + k;
+      const BathLanes zero = {0.0, 0.0};
+      const BathLanes cx = detail::bath_load(vx + i) - b.velocity.x, cy = detail::bath_load(vy + i) - b.velocity.y,
+                      cz = detail::bath_load(vz + i) - b.velocity.z;
+      const BathLanes cmod = detail::bath_sqrt(cx * cx + cy * cy + cz * cz);
+      const BathLanes rate = b.rate_scale * (cmod + b.mean_speed);
+      const BathLanes need = rate * duration;
+      const BathLanes h = detail::bath_load(hazard + i);
+      const BathLanes rest = duration - h / rate;
+      const BathLanes left = detail::bath_select(zero < rest, rest, zero);
+      const int run = _mm_movemask_pd(h < need);
+      enter(k, cmod[0], h[0], need[0], left[0], run & 1);
+      enter(k + 1, cmod[1], h[1], need[1], left[1], run >> 1);
+    }
+    if (k < m) {
+      const std::size_t i = lo + k;
+      const double cmod = norm(Vec3{vx[i], vy[i], vz[i]} - b.velocity);
+      const double rate = b.rate_scale * (cmod + b.mean_speed);
+      const double need = rate * duration;
+      const double h = hazard[i];
+      enter(k, cmod, h, need, std::max(0.0, duration - h / rate), h < need);
     }
     for (std::uint64_t t = 0; na > 0; ++t) {
       candidates += na;
@@ -613,19 +651,37 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
       // (3) tests
       for (std::size_t a = 0; a < na; a += L) {
         using detail::bath_load;
-        detail::BathLanes lvx = bath_load(avx + a), lvy = bath_load(avy + a), lvz = bath_load(avz + a),
-                          lcm = bath_load(acm + a), lg = bath_load(again + a), lleft = bath_load(aleft + a), on, hz, more;
+        detail::BathLanes gx, gy, gz, g2, on;
         detail::bath_test_lanes(bath_load(xu + a), bath_load(xz0 + a), bath_load(xz1 + a), bath_load(xz2 + a),
-                                bath_load(xz3 + a), bath_load(xe + a), bath_load(xrx + a), bath_load(xry + a),
-                                bath_load(xrz + a), lvx, lvy, lvz, lcm, lg, on, hz, lleft, more, b, grain_mass);
+                                bath_load(xz3 + a), bath_load(avx + a), bath_load(avy + a), bath_load(avz + a),
+                                bath_load(acm + a), gx, gy, gz, g2, on, b);
+        // the partner's normals are not needed any more: their arrays take g
+        detail::bath_store(xz0 + a, gx);
+        detail::bath_store(xz1 + a, gy);
+        detail::bath_store(xz2 + a, gz);
+        detail::bath_store(xz3 + a, g2);
+        detail::bath_store(aon + a, on);
+      }
+      for (std::size_t a = 0; a < na; a += L) {
+        using detail::bath_load;
+        detail::BathLanes lvx = bath_load(avx + a), lvy = bath_load(avy + a), lvz = bath_load(avz + a),
+                          lg = bath_load(again + a);
+        detail::bath_collide_lanes(bath_load(xz0 + a), bath_load(xz1 + a), bath_load(xz2 + a), bath_load(xz3 + a),
+                                   bath_load(aon + a), bath_load(xrx + a), bath_load(xry + a), bath_load(xrz + a), lvx,
+                                   lvy, lvz, lg, b, grain_mass);
         detail::bath_store(avx + a, lvx);
         detail::bath_store(avy + a, lvy);
         detail::bath_store(avz + a, lvz);
-        detail::bath_store(acm + a, lcm);
         detail::bath_store(again + a, lg);
+      }
+      for (std::size_t a = 0; a < na; a += L) {
+        using detail::bath_load;
+        detail::BathLanes lcm, lleft = bath_load(aleft + a), hz, more;
+        detail::bath_next_lanes(bath_load(xe + a), bath_load(avx + a), bath_load(avy + a), bath_load(avz + a), lcm, hz,
+                                lleft, more, b);
+        detail::bath_store(acm + a, lcm);
         detail::bath_store(aleft + a, lleft);
         detail::bath_store(ahz + a, hz);
-        detail::bath_store(aon + a, on);
         detail::bath_store(amore + a, more);
       }
       // write back, and keep the grains that go on
