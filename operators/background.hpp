@@ -530,13 +530,15 @@ inline unsigned bath_direction_lanes(std::uint64_t w6a, std::uint64_t w7a, std::
 // uniform medium: bitwise the results of bath_evolve_keyed per grain, with the energy
 // gains added to counters.energy_gain grain by grain in index order. Grains are taken in
 // chunks of 256 whose active grains (those with a candidate left) are kept compacted in
-// structure-of-arrays scratch; in round t every active grain makes its test t, in three
-// passes: (1) the round's Philox4x32 words, all grains at once in integer SIMD; (2) the
-// variates of each test (ziggurat fast paths, direction; the rare slow path), into arrays;
-// (3) the tests four lanes at a time (bath_test_lanes; tests of different grains are
-// independent, so their square roots and divisions overlap, and no branch depends on
-// the acceptance), then the compaction of the grains that go on. A short last group of
-// lanes computes padding (copies of valid lanes) that is not written back.
+// structure-of-arrays scratch; in round t every active grain makes its test t, in passes:
+// (1) the round's Philox4x32 words, all grains at once in integer SIMD; (2) the variates of
+// each test, two grains at a time (ziggurat fast paths, directions in SSE2 lanes), into
+// arrays, the grains needing a slow path listed and done after the pass; (3) the tests two
+// lanes at a time, split in three loops (acceptance, collision, next candidate: shorter
+// dependency chains per loop body, so more grains overlap; tests of different grains are
+// independent and no branch depends on the acceptance), then the write-back and the
+// compaction of the grains that go on. A short last group of lanes computes padding
+// (copies of valid lanes) that is not written back.
 inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx, double* vy, double* vz,
                               double* hazard, const BackgroundState& b, double grain_mass, double duration,
                               const BathKey& key, BackgroundCounters& counters) {
