@@ -555,13 +555,6 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
   std::uint64_t candidates = 0, collisions = 0;
   for (std::size_t lo = 0; lo < n; lo += kChunk) {
     const std::size_t m = std::min(kChunk, n - lo);
-    // the next chunk's grains are fetched from memory while this chunk's rounds run (with 1e6
-    // grains the arrays stream from DRAM; the first loop below otherwise waits for them)
-    for (std::size_t i = lo + kChunk; i < std::min(n, lo + 2 * kChunk); i += 8) {
-      for (const void* q : {static_cast<const void*>(vx + i), static_cast<const void*>(vy + i), static_cast<const void*>(vz + i),
-                            static_cast<const void*>(hazard + i), static_cast<const void*>(id + i)})
-        __builtin_prefetch(q, 1, 3);
-    }
     std::size_t na = 0;
     // which grains have a candidate in this substep: two grains per SSE2 register (the
     // operations of bath_evolve_keyed per lane), an odd last grain in scalar code
