@@ -430,12 +430,12 @@ inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
   return reinterpret_cast<BathLanes>((reinterpret_cast<BathMask>(a) & m) | (reinterpret_cast<BathMask>(b) & ~m));
 }
 
-// bath_test for two grains at once (lanes), plus the bookkeeping of the next candidate:
-// the same operations in the same order as bath_test and bath_evolve_keyed for each lane,
-// so bitwise the same results; the independent lanes' square roots and divisions overlap.
-// In: the variates, velocities, |c|, remaining time `left`. Out: updated velocities, |c|,
-// gain, the acceptance (1 or 0), the residual, the remaining time, and `more` (1 if the grain
-// has a further candidate in this substep, else 0).
+// bath_test for two grains at once (lanes), in three parts run as three passes over the
+// active grains: this one (the partner and the acceptance), bath_collide_lanes (the
+// collision, applied times `on`) and bath_next_lanes (the next candidate's bookkeeping of
+// bath_evolve_keyed). The same operations in the same order as bath_test and
+// bath_evolve_keyed for each lane, so bitwise the same results; the independent lanes'
+// square roots and divisions overlap. Out: g = c - c_w, |g|^2 and on = 1 (accepted) or 0.
 inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z2, BathLanes z3, BathLanes vx,
                             BathLanes vy, BathLanes vz, BathLanes cmod, BathLanes& gx, BathLanes& gy, BathLanes& gz,
                             BathLanes& g2, BathLanes& on, const BackgroundState& b) {
