@@ -370,11 +370,20 @@ struct Philox4x32Lanes {
       k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
     }
     const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
-    const __m256i x2i = _mm256_set1_epi64x(c2);
     const __m256i x3i = _mm256_set_epi64x(base + 3, base + 2, base + 1, base);
+    // Round 0 in scalar code: only the fourth counter word differs between the four blocks
+    // of a group, and it enters round 0 through an xor only, so the round's products
+    // c2 M1 (the same for every group) and c0 M0 (the same for the four blocks) are taken
+    // once, not four times in the lanes (the same bits: integer arithmetic).
+    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
+    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
+    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
     for (std::size_t a = 0; a < n; ++a) {
-      __m256i x0 = _mm256_set1_epi64x(c0[a]), x1 = _mm256_set1_epi64x(c1[a]), x2 = x2i, x3 = x3i;
-      for (int r = 0; r < 10; ++r) {
+      const std::uint64_t p0s = static_cast<std::uint64_t>(c0[a]) * kM0;
+      __m256i x0 = _mm256_set1_epi64x(static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0);
+      __m256i x2 = _mm256_xor_si256(_mm256_set1_epi64x(static_cast<std::uint32_t>(p0s >> 32) ^ k1r0), x3i);
+      __m256i x1 = _mm256_set1_epi64x(x1s), x3 = _mm256_set1_epi64x(static_cast<std::uint32_t>(p0s));
+      for (int r = 1; r < 10; ++r) {
         const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
         x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0[r]);
         x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1[r]);
