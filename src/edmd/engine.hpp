@@ -269,9 +269,15 @@ class Engine {
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
+  template <int D>
+  void predict_pair_d(std::uint32_t i, std::uint32_t j);  // predict_pair for D dimensions
   bool promote_second(std::uint32_t i);  // first candidate stale: take the second if still valid
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
+  template <int D>
+  void schedule_d(std::uint32_t i);  // schedule() for ballistic grains
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
+  template <int D>
+  bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
   // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
   struct Top2 {
     double t1, t2;
