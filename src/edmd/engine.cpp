@@ -128,6 +128,22 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   }
   if (dims_ == 2) nc_[2] = 1, w_.z = 1.0;
   cap_ = 4;  // grows (doubles) on overflow; small keeps the cell arrays cache-friendly
+  // predict_pair's union of cells: for each offset d = c_j - c_i (components -1, 0, 1) the
+  // cells c_j + e (e in [-1, 1]^D, z order then y then x) that are not within one cell of
+  // c_i, as linear index offsets from c_i (valid for interior cells: no wrap)
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        auto& extra = union_extra_[(dx + 1) + 3 * (dy + 1) + 9 * (dz + 1)];
+        const int zr = dims_ == 3 ? 1 : 0;
+        for (int ez = -zr; ez <= zr; ++ez)
+          for (int ey = -1; ey <= 1; ++ey)
+            for (int ex = -1; ex <= 1; ++ex) {
+              const int ox = dx + ex, oy = dy + ey, oz = dz + ez;
+              if (std::abs(ox) <= 1 && std::abs(oy) <= 1 && std::abs(oz) <= 1) continue;
+              extra.push_back((oz * nc_[1] + oy) * nc_[0] + ox);
+            }
+      }
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -639,12 +655,20 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
       const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);
       for (int dx = -1; dx <= 1; ++dx) add_cell(row + dx);
     }
-  for (int dz = -zr; dz <= zr; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        if (std::abs(d[0] + dx) <= 1 && std::abs(d[1] + dy) <= 1 && std::abs(d[2] + dz) <= 1) continue;
-        add_cell(cell_index(cj[0] + dx, cj[1] + dy, cj[2] + dz));
-      }
+  // then j's cells that are not i's, in the order of j's own scan (table: union_extra_)
+  if (std::abs(d[0]) <= 1 && std::abs(d[1]) <= 1 && std::abs(d[2]) <= 1) {
+    const int ci_index = cell_index(ci[0], ci[1], ci[2]);
+    for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) add_cell(ci_index + off);
+  } else {
+    // grains in contact two cells apart: both sit on a cell face up to round-off (cell side
+    // >= sigma); never seen, handled as the table would be
+    for (int dz = -zr; dz <= zr; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (std::abs(d[0] + dx) <= 1 && std::abs(d[1] + dy) <= 1 && std::abs(d[2] + dz) <= 1) continue;
+          add_cell(cell_index(cj[0] + dx, cj[1] + dy, cj[2] + dz));
+        }
+  }
   if (overflow) {
     predict(i);
     predict(j);

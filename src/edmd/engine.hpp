@@ -354,6 +354,8 @@ class Engine {
   // cell c's block at c * (cap_ + 1): [member count, members...]; the count sits next to
   // the members, so a neighbour scan touches one cache line per row of cells, not two
   std::vector<std::uint32_t> members_;
+  // predict_pair: j's cells outside i's 3^D block, by offset c_j - c_i (constructor)
+  std::array<std::vector<int>, 27> union_extra_;
   std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
   const std::uint32_t* cell_block(int c) const { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
 
