@@ -8,6 +8,8 @@
 #include <gsl/gsl_integration.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -361,52 +363,170 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
-// The batch kernel's variates are those of the scalar generators, bit for bit: the ziggurat
-// fast paths with the folded tables (kBathZiggurat: sign and 2^-53 inside the table) against
-// CounterRng's, including the fast/slow decision, and the two-grain SSE2 direction against
-// bath_direction, including the both-attempts-outside flag. Words from Philox, plus words
-// chosen to hit every layer with both signs, u = 0 and the largest u.
-TEST(BathKernel, FoldedZigguratAndLaneDirectionEqualScalarBitwise) {
+// The batch kernel's variates from 32-bit halves, bit for bit against direct formulas:
+// the folded ziggurat fast paths (kBathZiggurat: sign and the 2^-24 / 2^-25 grid inside the
+// table) against u x[i] with u = (n + 1/2) 2^-23 (normal, sign from bit 8) or (n + 1/2) 2^-24
+// (exponential) and the decision u < ratio[i] on ZigguratTable's own arrays, including
+// every layer with both signs, n = 0 and the largest n; the no-rejection direction against
+// z = (k + 1/2) 2^-31 (bitwise) and (rho cos phi, rho sin phi) by libm in long double
+// (within 1e-15), the quadrants' swaps and signs included; lane 1 equals lane 0 bitwise.
+TEST(BathKernel, FoldedZigguratAndDirectionEqualDirectFormulas) {
   auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
-  std::vector<std::uint64_t> words;
+  const ZigguratTable& zn = kNormalZiggurat;
+  const ZigguratTable& ze = kExponentialZiggurat;
+  std::vector<std::uint32_t> halves;
   CounterRng r(3, Stream::background_first_half, 9, 1);
-  for (int i = 0; i < 400000; ++i) words.push_back(r.bits64());
-  for (std::uint64_t low = 0; low < 2048; ++low)  // every layer and sign (and bits 9, 10)
-    for (const std::uint64_t n : {std::uint64_t{0}, std::uint64_t{1}, (std::uint64_t{1} << 53) - 1, std::uint64_t{1} << 52})
-      words.push_back(n << 11 | low);
-  std::size_t slow_normal = 0, slow_exp = 0, slow_dir = 0;
-  for (const std::uint64_t w : words) {
-    double a, b;
-    const bool fast = CounterRng::normal_ziggurat_fast(w, a);
-    ASSERT_EQ(detail::bath_normal_fast(w, b), fast ? 0u : 1u) << w;
-    ASSERT_EQ(bits(a), bits(b)) << w;
-    slow_normal += !fast;
-    const bool efast = CounterRng::exponential_ziggurat_fast(w, a);
-    ASSERT_EQ(detail::bath_exponential_fast(w, b), efast ? 0u : 1u) << w;
-    ASSERT_EQ(bits(a), bits(b)) << w;
-    slow_exp += !efast;
+  for (int i = 0; i < 400000; ++i) halves.push_back(static_cast<std::uint32_t>(r.bits64()));
+  for (std::uint32_t low = 0; low < 512; ++low)  // every layer and sign
+    for (const std::uint32_t hi : {0u, 1u, (1u << 23) - 1, 1u << 22}) halves.push_back(hi << 9 | low);
+  for (std::uint32_t low = 0; low < 256; ++low)
+    for (const std::uint32_t hi : {0u, (1u << 24) - 1}) halves.push_back(hi << 8 | low);
+  std::size_t slow_normal = 0, slow_exp = 0;
+  for (const std::uint32_t h : halves) {
+    const unsigned i = h & 0xffu;
+    const double u = (static_cast<double>(h >> 9) + 0.5) * 0x1.0p-23;
+    const double ref = (h & 0x100u ? -1.0 : 1.0) * (u * zn.x[i]);
+    double got;
+    ASSERT_EQ(detail::bath_normal_fast(h, got), u < zn.ratio[i] ? 0u : 1u) << h;
+    ASSERT_EQ(bits(got), bits(ref)) << h;
+    slow_normal += !(u < zn.ratio[i]);
+    const double ue = (static_cast<double>(h >> 8) + 0.5) * 0x1.0p-24;
+    ASSERT_EQ(detail::bath_exponential_fast(h, got), ue < ze.ratio[i] ? 0u : 1u) << h;
+    ASSERT_EQ(bits(got), bits(ue * ze.x[i])) << h;
+    slow_exp += !(ue < ze.ratio[i]);
   }
-  for (std::size_t k = 0; k + 4 <= words.size(); k += 4) {
-    Vec3 ra, rb;
-    const bool oka = detail::bath_direction(words[k], words[k + 1], ra);
-    const bool okb = detail::bath_direction(words[k + 2], words[k + 3], rb);
-    alignas(16) double rx[2], ry[2], rz[2];
-    const unsigned fail = detail::bath_direction_lanes(words[k], words[k + 1], words[k + 2], words[k + 3], rx, ry, rz);
-    ASSERT_EQ(fail, (oka ? 0u : 1u) | (okb ? 0u : 2u)) << k;
-    slow_dir += !oka;
-    if (oka) {  // (a direction from two failed attempts is redrawn: not compared)
-      ASSERT_EQ(bits(ra.x), bits(rx[0]));
-      ASSERT_EQ(bits(ra.y), bits(ry[0]));
-      ASSERT_EQ(bits(ra.z), bits(rz[0]));
-    }
-    if (okb) {
-      ASSERT_EQ(bits(rb.x), bits(rx[1]));
-      ASSERT_EQ(bits(rb.y), bits(ry[1]));
-      ASSERT_EQ(bits(rb.z), bits(rz[1]));
-    }
-  }
-  // both outcomes of every decision occurred (about 1.5%, 2.2% and 4.6% slow)
+  // both outcomes of every decision occurred (about 1.5% and 2% slow)
   EXPECT_GT(slow_normal, 1000u);
   EXPECT_GT(slow_exp, 1000u);
-  EXPECT_GT(slow_dir, 1000u);
+
+  std::vector<std::uint64_t> words;
+  for (int i = 0; i < 200000; ++i) words.push_back(r.bits64());
+  for (const std::uint64_t q : {0u, 1u, 2u, 3u})  // quadrant edges, z extremes
+    for (const std::uint64_t j : {std::uint64_t{0}, std::uint64_t{0x3fffffff}, std::uint64_t{1} << 29})
+      for (const std::uint64_t lo : {std::uint64_t{0}, std::uint64_t{0x7fffffff}, std::uint64_t{0x80000000}})
+        words.push_back(q << 62 | j << 32 | lo);
+  double worst = 0, worst_norm = 0;
+  for (std::size_t k = 0; k + 2 <= words.size(); k += 2) {
+    alignas(16) double rx[2], ry[2], rz[2], sx[2], sy[2], sz[2];
+    detail::bath_direction_lanes(words[k], words[k + 1], rx, ry, rz);
+    detail::bath_direction_lanes(words[k + 1], words[k + 1], sx, sy, sz);
+    ASSERT_EQ(bits(rx[1]), bits(sx[0]));
+    ASSERT_EQ(bits(ry[1]), bits(sy[0]));
+    ASSERT_EQ(bits(rz[1]), bits(sz[0]));
+    for (int l = 0; l < 2; ++l) {
+      const std::uint64_t w = words[k + l];
+      const double z = (static_cast<double>(static_cast<std::int32_t>(static_cast<std::uint32_t>(w))) + 0.5) * 0x1.0p-31;
+      ASSERT_EQ(bits(rz[l]), bits(z)) << w;
+      const long double pi = std::numbers::pi_v<long double>;
+      const long double a = (static_cast<long double>(static_cast<std::int64_t>((w >> 32) & 0x3fffffff)) - 0x1.0p29L + 0.5L) *
+                            (pi / 2) * 0x1.0p-30L;
+      const long double phi = static_cast<long double>(w >> 62) * (pi / 2) + a;
+      const long double rho = std::sqrt(1.0L - static_cast<long double>(z) * z);
+      worst = std::max({worst, static_cast<double>(std::abs(rx[l] - rho * std::cos(phi))),
+                        static_cast<double>(std::abs(ry[l] - rho * std::sin(phi)))});
+      worst_norm = std::max(worst_norm, std::abs(rx[l] * rx[l] + ry[l] * ry[l] + rz[l] * rz[l] - 1.0));
+    }
+  }
+  std::printf("bath direction: largest error against libm %.2e, largest | |r|^2 - 1 | %.2e\n", worst, worst_norm);
+  EXPECT_LT(worst, 1e-15);
+  EXPECT_LT(worst_norm, 2e-15);
+}
+
+namespace {
+double normal_cdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+// Wilson-Hilferty upper quantile of chi-square with k degrees of freedom at z sigma.
+double chi2_quantile(double k, double z) {
+  const double a = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - a + z * std::sqrt(a), 3.0);
+}
+}  // namespace
+
+// The laws of the bath kernel's variates (bath_words + bath_variates, slow paths included),
+// from 32-bit halves: a million tests of one grain. Each test has a limit at about 5
+// standard errors (p ~ 1e-4 for the chi-squares, 3.72 sigma of Wilson-Hilferty):
+//  - U: mean 1/2, chi-square over 64 equal bins;
+//  - the four normals: moments 1, 2, 4, 6 (pooled), each position's variance, the
+//    correlation of normals from the two halves of one word and of two words, the sign,
+//    and a chi-square over the layer edges in |x| plus the tail (exact probabilities);
+//  - the exponential: mean, second moment, chi-square over its layer edges plus the tail;
+//  - the direction: chi-square over 8 bands of z x 16 sectors of azimuth (equal areas),
+//    <x>, <y>, <z> = 0, <x^2> = <z^2> = 1/3, <xy> = 0.
+TEST(BathKernel, VariatesMatchTheirLaws) {
+  const BathKey key{2024, Stream::background_second_half, 7};
+  const int n = 1'000'000;
+  const ZigguratTable& zn = kNormalZiggurat;
+  const ZigguratTable& ze = kExponentialZiggurat;
+  std::vector<double> nedges, eedges;
+  for (int i = ZigguratTable::kLayers - 1; i >= 1; --i) nedges.push_back(zn.x[i]), eedges.push_back(ze.x[i]);
+  std::vector<double> nh(nedges.size() + 1, 0.0), eh(eedges.size() + 1, 0.0), uh(64, 0.0), dh(8 * 16, 0.0);
+  double u1 = 0, z1 = 0, z2 = 0, z4 = 0, z6 = 0, pos = 0, zz01 = 0, zz12 = 0, e1 = 0, e2 = 0;
+  double zj2[4] = {0, 0, 0, 0}, rx1 = 0, ry1 = 0, rz1 = 0, rx2 = 0, rz2 = 0, rxy = 0;
+  std::uint64_t w[4];
+  BathVariates x;
+  for (int t = 0; t < n; ++t) {
+    detail::bath_words(key, 31337, static_cast<std::uint64_t>(t), w);
+    detail::bath_variates(w, key, 31337, static_cast<std::uint64_t>(t), x);
+    ASSERT_GT(x.u, 0.0);
+    ASSERT_LT(x.u, 1.0);
+    u1 += x.u;
+    uh[static_cast<int>(x.u * 64)] += 1;
+    for (int j = 0; j < 4; ++j) {
+      const double v = x.z[j], v2 = v * v;
+      z1 += v, z2 += v2, z4 += v2 * v2, z6 += v2 * v2 * v2, zj2[j] += v2, pos += v > 0;
+      nh[std::upper_bound(nedges.begin(), nedges.end(), std::abs(v)) - nedges.begin()] += 1;
+    }
+    zz01 += x.z[0] * x.z[1];  // z0 (w0 high half) and z1 (w1 low half): different words
+    zz12 += x.z[1] * x.z[2];  // the two halves of w1
+    ASSERT_GE(x.e, 0.0);
+    e1 += x.e, e2 += x.e * x.e;
+    eh[std::upper_bound(eedges.begin(), eedges.end(), x.e) - eedges.begin()] += 1;
+    rx1 += x.r.x, ry1 += x.r.y, rz1 += x.r.z, rx2 += x.r.x * x.r.x, rz2 += x.r.z * x.r.z, rxy += x.r.x * x.r.y;
+    const double phi = std::atan2(x.r.y, x.r.x) + std::numbers::pi;  // [0, 2 pi]
+    const int band = std::min(7, static_cast<int>((x.r.z + 1.0) * 4));
+    const int sector = std::min(15, static_cast<int>(phi / (2 * std::numbers::pi) * 16));
+    dh[16 * band + sector] += 1;
+  }
+  const double N = n, N4 = 4.0 * n;
+  EXPECT_NEAR(u1 / N, 0.5, 5 * std::sqrt(1.0 / 12 / N));
+  EXPECT_NEAR(z1 / N4, 0.0, 5 * std::sqrt(1.0 / N4));
+  EXPECT_NEAR(z2 / N4, 1.0, 5 * std::sqrt(2.0 / N4));
+  EXPECT_NEAR(z4 / N4, 3.0, 5 * std::sqrt(96.0 / N4));
+  EXPECT_NEAR(z6 / N4, 15.0, 5 * std::sqrt(10170.0 / N4));
+  EXPECT_NEAR(pos / N4, 0.5, 5 * std::sqrt(0.25 / N4));
+  for (int j = 0; j < 4; ++j) EXPECT_NEAR(zj2[j] / N, 1.0, 5 * std::sqrt(2.0 / N)) << "normal " << j;
+  EXPECT_NEAR(zz01 / N, 0.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(zz12 / N, 0.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(e1 / N, 1.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(e2 / N, 2.0, 5 * std::sqrt(20.0 / N));  // Var(e^2) = 24 - 4
+  EXPECT_NEAR(rx1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(ry1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(rz1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(rx2 / N, 1.0 / 3, 5 * std::sqrt(4.0 / 45 / N));  // Var(x^2) = 1/5 - 1/9
+  EXPECT_NEAR(rz2 / N, 1.0 / 3, 5 * std::sqrt(4.0 / 45 / N));
+  EXPECT_NEAR(rxy / N, 0.0, 5 * std::sqrt(1.0 / 15 / N));  // E[x^2 y^2] = 1/15
+  auto chi2 = [](const std::vector<double>& h, auto prob) {
+    double c = 0, total = 0;
+    for (double v : h) total += v;
+    for (std::size_t b = 0; b < h.size(); ++b) {
+      const double e = total * prob(b);
+      c += (h[b] - e) * (h[b] - e) / e;
+    }
+    return c;
+  };
+  const double cu = chi2(uh, [](std::size_t) { return 1.0 / 64; });
+  const double cd = chi2(dh, [](std::size_t) { return 1.0 / 128; });
+  const double cn = chi2(nh, [&](std::size_t b) {
+    const double lo = b == 0 ? 0.0 : nedges[b - 1];
+    return 2.0 * ((b < nedges.size() ? normal_cdf(nedges[b]) : 1.0) - normal_cdf(lo));
+  });
+  const double ce = chi2(eh, [&](std::size_t b) {
+    const double lo = b == 0 ? 0.0 : eedges[b - 1];
+    return std::exp(-lo) - (b < eedges.size() ? std::exp(-eedges[b]) : 0.0);
+  });
+  std::printf("bath variates: chi2 U %.1f (63 dof), normal %.1f (%zu), exponential %.1f (%zu), direction %.1f (127)\n",
+              cu, cn, nh.size() - 1, ce, eh.size() - 1, cd);
+  EXPECT_LT(cu, chi2_quantile(63, 3.72));
+  EXPECT_LT(cd, chi2_quantile(127, 3.72));
+  EXPECT_LT(cn, chi2_quantile(static_cast<double>(nh.size() - 1), 3.72));
+  EXPECT_LT(ce, chi2_quantile(static_cast<double>(eh.size() - 1), 3.72));
 }
