@@ -12,6 +12,7 @@
 // the mixture density (|c| + |c_w|) M_B(w) / (|c| + <|c_w|>), and are accepted with
 // probability |v - w| / (|c| + |c_w|) <= 1. No fixed g_max that could be exceeded.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -377,9 +378,12 @@ inline std::uint32_t bath_half(const std::uint64_t* w, int k) {
 [[gnu::noinline]] inline void bath_variates_slow(const std::uint64_t* w, unsigned fail, BathVariates& x,
                                                  const BathKey& key, std::uint64_t id, std::uint64_t t) {
   CounterRng more(key.seed, key.stream, id, key.step, t + 1);
-  for (int j = 0; j < 4; ++j)
-    if (fail & (1u << j)) x.z[j] = bath_normal_slow(bath_half(w, 1 + j), more);
-  if (fail & 16u) x.e = bath_exponential_slow(bath_half(w, 5), more);
+  // over the set bits in order (one loop branch per failed variate, not one per variate)
+  for (; fail & 15u; fail &= fail - 1) {
+    const int j = std::countr_zero(fail);
+    x.z[j] = bath_normal_slow(bath_half(w, 1 + j), more);
+  }
+  if (fail) x.e = bath_exponential_slow(bath_half(w, 5), more);
 }
 
 // bath_variates_slow for grain g of the batch kernel's variate arrays.
