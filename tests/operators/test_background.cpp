@@ -19,6 +19,9 @@
 #include "operators/random.hpp"
 
 using namespace grainbath;
+using detail::BathZigguratLayers;
+using detail::kBathExponentialLayers;
+using detail::kBathNormalLayers;
 
 namespace {
 
@@ -363,41 +366,75 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
+// The bath kernel's own ziggurat tables (2^B layers) close: every layer has the base
+// layer's area (the bisection for r found the closing ziggurat), their total exceeds the
+// area under the curve by the wedges (under 1%), and r lies beyond the 256-layer r of
+// Marsaglia & Tsang. Prints the slow-path probabilities (1 - the mean of the ratios).
+TEST(BathKernel, ZigguratTablesCloseWithEqualLayerAreas) {
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int L = BathZigguratLayers::kLayers;
+  const double vn = zn.r * std::exp(-0.5 * zn.r * zn.r) + std::sqrt(std::numbers::pi / 2) * std::erfc(zn.r / std::sqrt(2.0));
+  const double ve = (ze.r + 1.0) * std::exp(-ze.r);
+  // the L layers cover the area under the curve and the wedges above it (rejected)
+  EXPECT_GT(vn * L, std::sqrt(std::numbers::pi / 2));
+  EXPECT_LT(vn * L, 1.01 * std::sqrt(std::numbers::pi / 2));
+  EXPECT_GT(ve * L, 1.0);
+  EXPECT_LT(ve * L, 1.01);
+  for (int i = 1; i < L; ++i) {
+    ASSERT_NEAR(zn.x[i] * (zn.f[i + 1] - zn.f[i]), vn, 1e-12 * vn) << i;
+    ASSERT_NEAR(ze.x[i] * (ze.f[i + 1] - ze.f[i]), ve, 1e-12 * ve) << i;
+    ASSERT_LT(zn.x[i + 1], zn.x[i]);
+    ASSERT_LT(ze.x[i + 1], ze.x[i]);
+  }
+  EXPECT_EQ(zn.x[L], 0.0);
+  EXPECT_NEAR(zn.x[0] * std::exp(-0.5 * zn.r * zn.r), vn, 1e-14);
+  EXPECT_GT(zn.r, 3.6541528853610088);
+  EXPECT_GT(ze.r, 7.69711747013104972);
+  double fast_n = 0, fast_e = 0;
+  for (int i = 0; i < L; ++i) fast_n += zn.ratio[i] / L, fast_e += ze.ratio[i] / L;
+  std::printf("bath ziggurat, %d layers: r = %.6f (normal), %.6f (exponential); slow path %.3f%%, %.3f%%\n", L, zn.r,
+              ze.r, 100 * (1 - fast_n), 100 * (1 - fast_e));
+}
+
 // The batch kernel's variates from 32-bit halves, bit for bit against direct formulas:
-// the folded ziggurat fast paths (kBathZiggurat: sign and the 2^-24 / 2^-25 grid inside the
-// table) against u x[i] with u = (n + 1/2) 2^-23 (normal, sign from bit 8) or (n + 1/2) 2^-24
-// (exponential) and the decision u < ratio[i] on ZigguratTable's own arrays, including
-// every layer with both signs, n = 0 and the largest n; the no-rejection direction against
-// z = (k + 1/2) 2^-31 (bitwise) and (rho cos phi, rho sin phi) by libm in long double
-// (within 1e-15), the quadrants' swaps and signs included; lane 1 equals lane 0 bitwise.
+// the folded ziggurat fast paths (kBathZiggurat: sign and the 2^-(32-B) / 2^-(33-B) grid
+// inside the table) against u x[i] with u = (n + 1/2) 2^-(31-B) (normal, sign from bit B)
+// or (n + 1/2) 2^-(32-B) (exponential) and the decision u < ratio[i] on the layers' own
+// arrays, including every layer with both signs, n = 0 and the largest n; the
+// no-rejection direction against z = (k + 1/2) 2^-31 (bitwise) and (rho cos phi, rho sin
+// phi) by libm in long double (within 1e-15), the quadrants' swaps and signs included;
+// lane 1 equals lane 0 bitwise.
 TEST(BathKernel, FoldedZigguratAndDirectionEqualDirectFormulas) {
   auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
-  const ZigguratTable& zn = kNormalZiggurat;
-  const ZigguratTable& ze = kExponentialZiggurat;
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  constexpr std::uint32_t L = BathZigguratLayers::kLayers;
   std::vector<std::uint32_t> halves;
   CounterRng r(3, Stream::background_first_half, 9, 1);
   for (int i = 0; i < 400000; ++i) halves.push_back(static_cast<std::uint32_t>(r.bits64()));
-  for (std::uint32_t low = 0; low < 512; ++low)  // every layer and sign
-    for (const std::uint32_t hi : {0u, 1u, (1u << 23) - 1, 1u << 22}) halves.push_back(hi << 9 | low);
-  for (std::uint32_t low = 0; low < 256; ++low)
-    for (const std::uint32_t hi : {0u, (1u << 24) - 1}) halves.push_back(hi << 8 | low);
+  for (std::uint32_t low = 0; low < 2 * L; ++low)  // every layer and sign
+    for (const std::uint32_t hi : {0u, 1u, (1u << (31 - B)) - 1, 1u << (30 - B)}) halves.push_back(hi << (B + 1) | low);
+  for (std::uint32_t low = 0; low < L; ++low)
+    for (const std::uint32_t hi : {0u, (1u << (32 - B)) - 1}) halves.push_back(hi << B | low);
   std::size_t slow_normal = 0, slow_exp = 0;
   for (const std::uint32_t h : halves) {
-    const unsigned i = h & 0xffu;
-    const double u = (static_cast<double>(h >> 9) + 0.5) * 0x1.0p-23;
-    const double ref = (h & 0x100u ? -1.0 : 1.0) * (u * zn.x[i]);
+    const unsigned i = h & (L - 1);
+    const double u = (static_cast<double>(h >> (B + 1)) + 0.5) * std::ldexp(1.0, -(31 - B));
+    const double ref = (h & L ? -1.0 : 1.0) * (u * zn.x[i]);
     double got;
     ASSERT_EQ(detail::bath_normal_fast(h, got), u < zn.ratio[i] ? 0u : 1u) << h;
     ASSERT_EQ(bits(got), bits(ref)) << h;
     slow_normal += !(u < zn.ratio[i]);
-    const double ue = (static_cast<double>(h >> 8) + 0.5) * 0x1.0p-24;
+    const double ue = (static_cast<double>(h >> B) + 0.5) * std::ldexp(1.0, -(32 - B));
     ASSERT_EQ(detail::bath_exponential_fast(h, got), ue < ze.ratio[i] ? 0u : 1u) << h;
     ASSERT_EQ(bits(got), bits(ue * ze.x[i])) << h;
     slow_exp += !(ue < ze.ratio[i]);
   }
-  // both outcomes of every decision occurred (about 1.5% and 2% slow)
-  EXPECT_GT(slow_normal, 1000u);
-  EXPECT_GT(slow_exp, 1000u);
+  // both outcomes of every decision occurred (slow paths well under 1% to about 1%)
+  EXPECT_GT(slow_normal, 500u);
+  EXPECT_GT(slow_exp, 500u);
 
   std::vector<std::uint64_t> words;
   for (int i = 0; i < 200000; ++i) words.push_back(r.bits64());
@@ -454,10 +491,10 @@ double chi2_quantile(double k, double z) {
 TEST(BathKernel, VariatesMatchTheirLaws) {
   const BathKey key{2024, Stream::background_second_half, 7};
   const int n = 1'000'000;
-  const ZigguratTable& zn = kNormalZiggurat;
-  const ZigguratTable& ze = kExponentialZiggurat;
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
   std::vector<double> nedges, eedges;
-  for (int i = ZigguratTable::kLayers - 1; i >= 1; --i) nedges.push_back(zn.x[i]), eedges.push_back(ze.x[i]);
+  for (int i = BathZigguratLayers::kLayers - 1; i >= 1; --i) nedges.push_back(zn.x[i]), eedges.push_back(ze.x[i]);
   std::vector<double> nh(nedges.size() + 1, 0.0), eh(eedges.size() + 1, 0.0), uh(64, 0.0), dh(8 * 16, 0.0);
   double u1 = 0, z1 = 0, z2 = 0, z4 = 0, z6 = 0, pos = 0, zz01 = 0, zz12 = 0, e1 = 0, e2 = 0;
   double zj2[4] = {0, 0, 0, 0}, rx1 = 0, ry1 = 0, rz1 = 0, rx2 = 0, rz2 = 0, rxy = 0;
