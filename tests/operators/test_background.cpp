@@ -567,3 +567,78 @@ TEST(BathKernel, VariatesMatchTheirLaws) {
   EXPECT_LT(cn, chi2_quantile(static_cast<double>(nh.size() - 1), 3.72));
   EXPECT_LT(ce, chi2_quantile(static_cast<double>(eh.size() - 1), 3.72));
 }
+
+namespace {
+// Simpson's rule on [a, b] with n (even) intervals.
+template <class F>
+double simpson(F f, double a, double b, int n) {
+  const double h = (b - a) / n;
+  double s = f(a) + f(b);
+  for (int k = 1; k < n; ++k) s += (k % 2 ? 4.0 : 2.0) * f(a + k * h);
+  return s * h / 3;
+}
+}  // namespace
+
+// The bath kernel's slow paths, which the variates' laws above exercise too rarely (0.43%
+// and 0.64% of draws) to see an error in them: driven directly with halves that fail the
+// fast path. In a wedge of layer i >= 1 (u x[i] beyond x[i+1]) the point is kept with
+// probability (area under the density in the wedge) / (wedge rectangle): by quadrature,
+// against the kept fraction of 200,000 wedge points (a kept point returns +-u x[i] itself,
+// a rejected one a fresh draw), within 5 binomial standard errors; for layers near the
+// tail, in the middle and near the mode, both signs. In the base layer beyond r the
+// normal's tail must have the mean excess phi(r)/Q(r) - r and the exponential's r + Exp(1)
+// the mean excess 1 (5 standard errors, the excess's standard deviation bounded by its mean).
+TEST(BathKernel, SlowPathsKeepWedgeAndTailLaws) {
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  constexpr std::uint32_t L = BathZigguratLayers::kLayers;
+  const BathKey key{5, Stream::background_first_half, 1};
+  CounterRng pick(8, Stream::initial_positions, 0, 0);
+  const int n = 200'000;
+  for (const bool normal : {true, false}) {
+    const BathZigguratLayers& z = normal ? zn : ze;
+    auto f = [normal](double x) { return normal ? std::exp(-0.5 * x * x) : std::exp(-x); };
+    const int ubits = normal ? 31 - B : 32 - B;  // bits of u above the layer (and sign)
+    for (const std::uint32_t i : {1u, 2u, 17u, 300u, 700u, L - 2, L - 1}) {
+      SCOPED_TRACE(std::to_string(i) + (normal ? " normal" : " exponential"));
+      // the wedge: u in [ratio[i], 1), i.e. n from ceil(ratio 2^ubits - 1/2) to 2^ubits - 1
+      const double lo_n = std::ceil(z.ratio[i] * std::ldexp(1.0, ubits) - 0.5);
+      const double span = std::ldexp(1.0, ubits) - lo_n;
+      double kept = 0;
+      for (int k = 0; k < n; ++k) {
+        const auto nn = static_cast<std::uint32_t>(lo_n + std::floor(pick.uniform() * span));
+        const std::uint32_t sign = normal ? static_cast<std::uint32_t>(k & 1) << B : 0u;
+        const std::uint32_t h = nn << (normal ? B + 1 : B) | sign | i;
+        double fast;
+        const unsigned slow = normal ? detail::bath_normal_fast(h, fast) : detail::bath_exponential_fast(h, fast);
+        ASSERT_EQ(slow, 1u) << h;
+        CounterRng more(key.seed, key.stream, 1000 + i, key.step, static_cast<std::uint64_t>(k));
+        const double x = normal ? detail::bath_normal_slow(h, more) : detail::bath_exponential_slow(h, more);
+        kept += x == fast;
+      }
+      const double x0 = z.x[i + 1], x1 = z.x[i];
+      const double under = simpson([&](double x) { return f(x) - z.f[i]; }, x0, x1, 2000);
+      const double p = under / ((x1 - x0) * (z.f[i + 1] - z.f[i]));
+      EXPECT_NEAR(kept / n, p, 5 * std::sqrt(p * (1 - p) / n) + 1e-9) << "kept fraction of the wedge";
+    }
+    // the base layer beyond r: u x[0] >= r
+    const double lo_n = std::ceil(z.ratio[0] * std::ldexp(1.0, ubits) - 0.5);
+    const double span = std::ldexp(1.0, ubits) - lo_n;
+    double excess = 0;
+    for (int k = 0; k < n; ++k) {
+      const auto nn = static_cast<std::uint32_t>(lo_n + std::floor(pick.uniform() * span));
+      const std::uint32_t h = nn << (normal ? B + 1 : B);
+      double fast;
+      ASSERT_EQ(normal ? detail::bath_normal_fast(h, fast) : detail::bath_exponential_fast(h, fast), 1u);
+      CounterRng more(key.seed, key.stream, 7, key.step, static_cast<std::uint64_t>(k));
+      const double x = normal ? detail::bath_normal_slow(h, more) : detail::bath_exponential_slow(h, more);
+      ASSERT_GT(x, z.r);
+      excess += x - z.r;
+    }
+    const double q = 0.5 * std::erfc(zn.r / std::sqrt(2.0));
+    const double expected = normal ? std::exp(-0.5 * zn.r * zn.r) / std::sqrt(2 * std::numbers::pi) / q - zn.r : 1.0;
+    std::printf("bath %s tail: mean excess %.5f (exact %.5f)\n", normal ? "normal" : "exponential", excess / n, expected);
+    EXPECT_NEAR(excess / n, expected, 5 * expected / std::sqrt(n));
+  }
+}
