@@ -202,12 +202,16 @@ inline void evolve_in_background(Vec3& v, const BackgroundState& b, double grain
 //    its layer from 10 bits, its sign from 1 and the uniform across the layer from 21 (the
 //    midpoints (n + 1/2) 2^-21), the exponential its layer from 10 and the uniform from 22;
 //    z and the azimuth are midpoints of 2^-31 and 2^-30 (per quadrant) grids. Each variate
-//    is its exact law applied to a uniform rounded to the midpoint of a grid cell: on the
-//    fast path each of the 2^32 values of a half is one cell of probability 2^-32 (the
-//    layers have equal areas), so the distribution function is off by at most ~2^-32
-//    anywhere, and a smooth average (a moment, a collision integral) by O(cell width^2)
-//    (midpoint rule), far below any statistical error of a run
-//    (tests/operators BathKernel.VariatesMatchTheirLaws checks the laws);
+//    is its exact law applied to a uniform rounded to the midpoint of a grid cell. Within
+//    a layer the discrete uniform's distribution function is off by at most half a cell,
+//    so the variate's is off by at most half a cell summed over the layers' probabilities:
+//    2^-22 ~ 2.4e-7 (normal), 2^-23 (exponential), 2^-33 (U) and 2^-32 (z), and in practice
+//    far less (the layers' grids differ, so their errors do not add up in sign); a smooth
+//    average (a moment, a collision integral) is off by O(cell width^2) ~ 2^-42 relative
+//    (midpoint rule). A Kolmogorov-Smirnov test would need ~1e13 draws to see 2.4e-7,
+//    a moment ~1e26: far below any statistical error of a run (tests/operators
+//    BathKernel.VariatesMatchTheirLaws checks the laws, and
+//    BathKernel.FoldedZigguratAndDirectionEqualDirectFormulas pins the grids);
 //  - one uniform for two decisions: with t' = U (|c| + <|c_w|>), the Maxwellian component
 //    is chosen iff t' < |c|, and given the choice, t'/|c| (Maxwellian) or (t' - |c|)/<|c_w|>
 //    (speed-weighted) is again uniform on [0, 1) and independent of the choice, so the
@@ -303,8 +307,8 @@ inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx,
 // 0.43% per draw with 1024 layers instead of 1.5% with 256, the exponential's 0.64% instead
 // of 2.2%) at the price of table size (48 KB with the sign folded in: measured faster than
 // 512 layers in the kernel alone, 38.3 vs 39.6 ns per test, and the same in the whole run)
-// and of bits of the uniform across the layer (not of resolution: each of the 2^32 values
-// of a half is still one cell of probability 2^-32). The tables are built at
+// and of two bits of the uniform across the layer (21 instead of 23 for the normal: the
+// distribution function's bound goes from 2^-24 to 2^-22, see above). The tables are built at
 // program start from the same closure condition as ZigguratTable (bisection on r so that
 // the equal-area layers close at the mode), for the densities exp(-x^2/2) and exp(-x).
 struct BathZigguratLayers {

@@ -435,6 +435,21 @@ TEST(BathKernel, FoldedZigguratAndDirectionEqualDirectFormulas) {
   // both outcomes of every decision occurred (slow paths well under 1% to about 1%)
   EXPECT_GT(slow_normal, 500u);
   EXPECT_GT(slow_exp, 500u);
+  // the resolution the comments state (operators/background.hpp, "resolution"): 1024
+  // layers, the normal's uniform on the 2^21 midpoints (n + 1/2) 2^-21, the exponential's
+  // on the 2^22 midpoints (n + 1/2) 2^-22: the first and last points of every layer
+  ASSERT_EQ(B, 10);
+  for (std::uint32_t i = 0; i < L; ++i) {
+    double got;
+    detail::bath_normal_fast(i, got);
+    ASSERT_EQ(got, std::ldexp(zn.x[i], -22)) << i;
+    detail::bath_normal_fast(0xffffffffu << (B + 1) | L | i, got);
+    ASSERT_EQ(got, -(std::ldexp(1.0, 22) - 1) * std::ldexp(zn.x[i], -22)) << i;
+    detail::bath_exponential_fast(i, got);
+    ASSERT_EQ(got, std::ldexp(ze.x[i], -23)) << i;
+    detail::bath_exponential_fast(0xffffffffu << B | i, got);
+    ASSERT_EQ(got, (std::ldexp(1.0, 23) - 1) * std::ldexp(ze.x[i], -23)) << i;
+  }
 
   std::vector<std::uint64_t> words;
   for (int i = 0; i < 200000; ++i) words.push_back(r.bits64());
