@@ -12,6 +12,7 @@
 // the mixture density (|c| + |c_w|) M_B(w) / (|c| + <|c_w|>), and are accepted with
 // probability |v - w| / (|c| + |c_w|) <= 1. No fixed g_max that could be exceeded.
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -184,28 +185,40 @@ inline void evolve_in_background(Vec3& v, const BackgroundState& b, double grain
 // The same candidate process, partner law, acceptance and post-collision rule as
 // evolve_in_background / background_test, with the random numbers laid out so that many
 // grains can be processed together:
-//  - test t (t = 0, 1, ...) of a grain in a substep takes exactly eight 64-bit words: four
-//    Philox4x32-10 blocks under the seed with counters (id, stream, step, 4t + j)
-//    (bath_words; computed for many grains at once in integer SIMD, Philox4x32Lanes):
-//      w0      one uniform U for both the mixture choice and the acceptance (below),
-//      w1..w4  the four ziggurat normals of the partner,
-//      w5      the unit exponential of the next candidate (the carried residual),
-//      w6, w7  the direction r: two polar-method attempts, one per word (32-bit halves);
-//    the rare slow paths (a ziggurat wedge or tail, ~1% per normal or exponential, or both
-//    direction attempts outside the disk, (1 - pi/4)^2 = 4.6%) draw their further numbers
-//    from sequence t + 1 of CounterRng(seed, stream, id, step) (Philox4x64, fourth counter
-//    word), so a test's numbers never depend on another test's: still counter-based on
-//    (seed, stream; id, step, draw);
+//  - test t (t = 0, 1, ...) of a grain in a substep takes exactly four 64-bit words: two
+//    Philox4x32-10 blocks under the seed with counters (id, stream, step, 2t + j)
+//    (bath_words; computed for many grains at once in integer SIMD, Philox4x32Lanes::words4),
+//    read as eight 32-bit halves (lo, hi of w0 .. w3):
+//      w0 lo   one uniform U for both the mixture choice and the acceptance (below),
+//      w0 hi, w1 lo, w1 hi, w2 lo   the four ziggurat normals of the partner,
+//      w2 hi   the unit exponential of the next candidate (the carried residual),
+//      w3      the direction r: z = cos(theta) from the low half, the azimuth from the high
+//              half (no rejection);
+//    the rare slow paths (a ziggurat wedge or tail, 0.43% per normal, 0.64% per
+//    exponential with the 1024-layer ziggurats; 2.3% of tests) draw their further numbers from sequence t + 1 of CounterRng(seed, stream, id, step)
+//    (Philox4x64, fourth counter word), so a test's numbers never depend on another
+//    test's: still counter-based on (seed, stream; id, step, draw);
+//  - resolution (why 32 bits suffice): U is a midpoint of a 2^-32 grid; a normal takes
+//    its layer from 10 bits, its sign from 1 and the uniform across the layer from 21 (the
+//    midpoints (n + 1/2) 2^-21), the exponential its layer from 10 and the uniform from 22;
+//    z and the azimuth are midpoints of 2^-31 and 2^-30 (per quadrant) grids. Each variate
+//    is its exact law applied to a uniform rounded to the midpoint of a grid cell. Within
+//    a layer the discrete uniform's distribution function is off by at most half a cell,
+//    so the variate's is off by at most half a cell summed over the layers' probabilities:
+//    2^-22 ~ 2.4e-7 (normal), 2^-23 (exponential), 2^-33 (U) and 2^-32 (z), and in practice
+//    far less (the layers' grids differ, so their errors do not add up in sign); a smooth
+//    average (a moment, a collision integral) is off by O(cell width^2) ~ 2^-42 relative
+//    (midpoint rule). A Kolmogorov-Smirnov test would need ~1e13 draws to see 2.4e-7,
+//    a moment ~1e26: far below any statistical error of a run (tests/operators
+//    BathKernel.VariatesMatchTheirLaws checks the laws, and
+//    BathKernel.FoldedZigguratAndDirectionEqualDirectFormulas pins the grids);
 //  - one uniform for two decisions: with t' = U (|c| + <|c_w|>), the Maxwellian component
 //    is chosen iff t' < |c|, and given the choice, t'/|c| (Maxwellian) or (t' - |c|)/<|c_w|>
 //    (speed-weighted) is again uniform on [0, 1) and independent of the choice, so the
 //    acceptance u (|c| + |c_w|) < |g| becomes, on squares and without a division,
 //    (t'' (|c| + |c_w|))^2 < |g|^2 d^2 with t'' = t' or t' - |c| and d = |c| or <|c_w|>;
 //  - no branch on the acceptance: the collision is computed for every test and applied
-//    times 1 or 0 (v + 0 dv = v), and |c| is recomputed after every test;
-//  - the direction coordinates are 32-bit uniforms on (-1, 1) (spacing 2^-31): the
-//    direction is uniform on the grid points inside the unit disk, mapped to the sphere
-//    exactly (Marsaglia 1972); the other variates keep 53 bits.
+//    times 1 or 0 (v + 0 dv = v), and |c| is recomputed after every test.
 // bath_evolve_keyed (one grain) and bath_evolve_batch (many grains, tests of different
 // grains interleaved) run the same code per test and give bitwise the same velocities,
 // residuals and counters (tests/operators).
@@ -227,127 +240,266 @@ struct BathVariates {
 
 namespace detail {
 
-// Uniform on (-1, 1) from 32 bits, read as a signed integer: odd multiples of 2^-32,
-// symmetric about 0 (one signed conversion, exact).
-inline double bath_half_uniform(std::uint32_t h) {
-  return (static_cast<double>(static_cast<std::int32_t>(h)) + 0.5) * 0x1.0p-31;
+// Two lanes of doubles (GCC vector extension, one SSE2 register on baseline x86-64): the
+// element-wise IEEE operations are those of the scalar code, so each lane gets bitwise the
+// scalar result.
+typedef double BathLanes __attribute__((vector_size(16)));
+typedef long long BathMask __attribute__((vector_size(16)));
+
+inline BathLanes bath_sqrt(BathLanes x) { return _mm_sqrt_pd(x); }
+inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
+  return reinterpret_cast<BathLanes>((reinterpret_cast<BathMask>(a) & m) | (reinterpret_cast<BathMask>(b) & ~m));
+}
+inline BathLanes bath_load(const double* p) {
+  BathLanes x;
+  std::memcpy(&x, p, sizeof x);
+  return x;
+}
+inline void bath_store(double* p, BathLanes x) { std::memcpy(p, &x, sizeof x); }
+
+// Uniform directions of two grains (lane 0 from word wa, lane 1 from wb), without rejection
+// (Archimedes: z = cos(theta) uniform on (-1, 1) and an independent uniform azimuth phi give
+// a uniform direction): z from the low 32 bits read as a signed integer, (k + 1/2) 2^-31
+// (odd multiples of 2^-32, symmetric about 0, |z| < 1); phi = q pi/2 + a with the quadrant
+// q from bits 62-63 and a = (j - 2^29 + 1/2) (pi/2) 2^-30 in (-pi/4, pi/4) from bits 32-61.
+// cos a and sin a by their Taylor series to a^16 and a^15 (polynomials in a^2): the truncation
+// is below (pi/4)^17/17! = 5e-17, so each is within a few ulp of the true value; the
+// rotation by q quarter turns is exact (swap and sign flips):
+//   (cos phi, sin phi) = (c, s), (-s, c), (-c, -s), (s, -c) for q = 0, 1, 2, 3.
+// r = (rho cos phi, rho sin phi, z) with rho = sqrt((1 - z)(1 + z)) (1 - z, 1 + z exact).
+// Plain IEEE operations in SSE2 lanes (no FMA, no libm): the same bits on every x86-64,
+// and bath_evolve_keyed calls this very function (lane 0) so both kernels agree bitwise.
+inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx, double* ry, double* rz) {
+  const __m128i w = _mm_set_epi64x(static_cast<long long>(wb), static_cast<long long>(wa));
+  // low halves (z) and high halves (azimuth) of the two words as int32 pairs
+  const __m128i lo = _mm_shuffle_epi32(w, _MM_SHUFFLE(3, 1, 2, 0));   // (lo a, lo b, hi a, hi b)
+  const __m128i hi = _mm_unpackhi_epi64(lo, lo);
+  const BathLanes half = {0.5, 0.5}, one = {1.0, 1.0};
+  const BathLanes z = (_mm_cvtepi32_pd(lo) + half) * 0x1.0p-31;
+  const __m128i j = _mm_sub_epi32(_mm_and_si128(hi, _mm_set1_epi32(0x3fffffff)), _mm_set1_epi32(1 << 29));
+  const BathLanes a = (_mm_cvtepi32_pd(j) + half) * (std::numbers::pi * 0x1.0p-31);
+  const BathLanes t = a * a;
+  // Estrin's scheme in t (pairs of terms, then t^2, t^4): a dependency chain of 6
+  // operations instead of 16 by Horner's rule, so the variates pass keeps more grains in
+  // flight; every term is added in the same fixed order on every machine
+  const BathLanes t2 = t * t, t4 = t2 * t2;
+  const BathLanes sp = ((-1.0 / 6 + t * (1.0 / 120)) + t2 * (-1.0 / 5040 + t * (1.0 / 362880))) +
+                       t4 * ((-1.0 / 39916800 + t * (1.0 / 6227020800.0)) + t2 * (-1.0 / 1307674368000.0));
+  const BathLanes cp = ((-1.0 / 2 + t * (1.0 / 24)) + t2 * (-1.0 / 720 + t * (1.0 / 40320))) +
+                       t4 * ((-1.0 / 3628800 + t * (1.0 / 479001600)) + t2 * (-1.0 / 87178291200.0 + t * (1.0 / 20922789888000.0)));
+  const BathLanes s = a + (a * t) * sp;
+  const BathLanes c = one + t * cp;
+  // q odd: swap; x negated for q = 1, 2 (bit 62 xor bit 63), y for q = 2, 3 (bit 63)
+  const BathMask odd = reinterpret_cast<BathMask>(_mm_shuffle_epi32(_mm_srai_epi32(_mm_slli_epi32(w, 1), 31), _MM_SHUFFLE(3, 3, 1, 1)));
+  const BathMask sign = {static_cast<long long>(0x8000000000000000ull), static_cast<long long>(0x8000000000000000ull)};
+  const BathMask wm = reinterpret_cast<BathMask>(w);
+  const BathMask neg_x = (wm ^ (wm << 1)) & sign, neg_y = wm & sign;
+  const BathLanes x = reinterpret_cast<BathLanes>(reinterpret_cast<BathMask>(bath_select(odd, s, c)) ^ neg_x);
+  const BathLanes y = reinterpret_cast<BathLanes>(reinterpret_cast<BathMask>(bath_select(odd, c, s)) ^ neg_y);
+  const BathLanes rho = bath_sqrt((one - z) * (one + z));
+  bath_store(rx, rho * x);
+  bath_store(ry, rho * y);
+  bath_store(rz, z);
 }
 
-// Polar-method direction from the two direction words; false if both attempts fell outside
-// the unit disk. The first attempt inside the disk is taken by a select in SSE2 registers
-// (a branch here was mispredicted on the 21% of first attempts that fall outside).
-inline bool bath_direction(std::uint64_t w6, std::uint64_t w7, Vec3& r) {
-  typedef double D2 __attribute__((vector_size(16)));
-  typedef long long M2 __attribute__((vector_size(16)));
-  const D2 uv1 = {bath_half_uniform(static_cast<std::uint32_t>(w6)), bath_half_uniform(static_cast<std::uint32_t>(w6 >> 32))};
-  const D2 uv2 = {bath_half_uniform(static_cast<std::uint32_t>(w7)), bath_half_uniform(static_cast<std::uint32_t>(w7 >> 32))};
-  const D2 q1 = uv1 * uv1, q2 = uv2 * uv2;
-  const double s1 = q1[0] + q1[1], s2 = q2[0] + q2[1];
-  const D2 ss1 = {s1, s1}, ss2 = {s2, s2}, one = {1.0, 1.0};
-  const M2 first = ss1 < one;
-  const D2 uv = reinterpret_cast<D2>((reinterpret_cast<M2>(uv1) & first) | (reinterpret_cast<M2>(uv2) & ~first));
-  const D2 ss = reinterpret_cast<D2>((reinterpret_cast<M2>(ss1) & first) | (reinterpret_cast<M2>(ss2) & ~first));
-  // 2 sqrt(max(0, 1 - s)): the max only guards the case of both attempts outside (redrawn)
-  const D2 rest = _mm_max_sd(one - ss, D2{0.0, 0.0});
-  const double q = 2.0 * _mm_cvtsd_f64(_mm_sqrt_sd(rest, rest));
-  r = Vec3{uv[0] * q, uv[1] * q, 1.0 - 2.0 * ss[0]};
-  return (s1 < 1.0) | (s2 < 1.0);
-}
+// The bath kernel's own ziggurats (Marsaglia & Tsang 2000, as ZigguratTable, here with
+// 2^kBits layers): more layers make the fast path more likely (the normal's slow path
+// 0.43% per draw with 1024 layers instead of 1.5% with 256, the exponential's 0.64% instead
+// of 2.2%) at the price of table size (48 KB with the sign folded in: measured faster than
+// 512 layers in the kernel alone, 38.3 vs 39.6 ns per test, and the same in the whole run)
+// and of two bits of the uniform across the layer (21 instead of 23 for the normal: the
+// distribution function's bound goes from 2^-24 to 2^-22, see above). The tables are built at
+// program start from the same closure condition as ZigguratTable (bisection on r so that
+// the equal-area layers close at the mode), for the densities exp(-x^2/2) and exp(-x).
+struct BathZigguratLayers {
+  static constexpr int kBits = 10, kLayers = 1 << kBits;
+  double x[kLayers + 1];  // layer edges, x[0] virtual base width v / f(r), x[1] = r, x[kLayers] = 0
+  double ratio[kLayers];  // x[i+1] / x[i]
+  double f[kLayers + 1];  // f(x[i])
+  double r = 0.0;         // start of the tail
 
-// The bath kernel's ziggurat fast paths with the scalings folded into the tables (Issue #7):
-// the same variates, bit for bit, as CounterRng::normal_ziggurat_fast and
-// exponential_ziggurat_fast, in fewer instructions. With n = w >> 11 (53 bits) the fast path
-// returns (n 2^-53) x[i] with the sign of bit 8 and is taken iff n 2^-53 < ratio[i]. Scaling
-// by a power of two is exact (no value here is near the subnormal range), so
-// (n 2^-53) x[i] = n (x[i] 2^-53) after one rounding either way, and
-// n 2^-53 < ratio[i] iff n < ratio[i] 2^53; the sign (bit 8) is folded into a 512-entry table
-// indexed by the low nine bits (a product with -x is exactly the negated product; n = 0 gives
-// -0 as the xor did). The edge and ratio sit side by side: one cache line per draw.
+  template <class F, class FInv, class Tail>
+  static BathZigguratLayers build(F f, FInv finv, Tail tail, long double lo, long double hi) {
+    BathZigguratLayers t{};
+    auto defect = [&](long double r, BathZigguratLayers* out) -> long double {
+      const long double v = r * f(r) + tail(r);
+      long double x = r;
+      if (out) {
+        out->x[0] = static_cast<double>(v / f(r));
+        out->x[1] = static_cast<double>(r);
+      }
+      for (int i = 1; i < kLayers - 1; ++i) {
+        const long double y = v / x + f(x);
+        if (y >= 1.0L) return 1.0L + (kLayers - i);  // closed too early: r too small
+        x = finv(y);
+        if (out) out->x[i + 1] = static_cast<double>(x);
+      }
+      return v / x + f(x) - 1.0L;
+    };
+    // bisection to the last bit of long double (~66 halvings; each costs kLayers inverse
+    // densities, and the tables are built at the start of every process)
+    long double a = lo, b = hi;
+    for (;;) {
+      const long double m = 0.5L * (a + b);
+      if (!(a < m && m < b)) break;
+      (defect(m, nullptr) > 0 ? a : b) = m;
+    }
+    t.r = static_cast<double>(b);
+    defect(b, &t);
+    t.x[kLayers] = 0.0;
+    for (int i = 0; i <= kLayers; ++i) t.f[i] = static_cast<double>(f(static_cast<long double>(t.x[i])));
+    for (int i = 0; i < kLayers; ++i) t.ratio[i] = t.x[i + 1] / t.x[i];
+    return t;
+  }
+};
+inline const BathZigguratLayers kBathNormalLayers = BathZigguratLayers::build(
+    [](long double x) { return std::exp(-0.5L * x * x); }, [](long double y) { return std::sqrt(-2.0L * std::log(y)); },
+    [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0L,
+    6.0L);
+inline const BathZigguratLayers kBathExponentialLayers = BathZigguratLayers::build(
+    [](long double x) { return std::exp(-x); }, [](long double y) { return -std::log(y); },
+    [](long double r) { return std::exp(-r); }, 6.0L, 14.0L);
+
+// The fast paths on 32-bit halves h, with the scalings folded into the tables (Issue #7),
+// B = kBits. Normal: layer i = bits 0..B-1, sign bit B, uniform u = (n + 1/2) 2^-(31-B)
+// with n = the 31 - B bits above; exponential: layer bits 0..B-1, u = (n + 1/2) 2^-(32-B)
+// with n = the 32 - B bits above. In both, m = (h >> B or B - 1) | 1 = 2n + 1 is u in units
+// of 2^-(32-B) or 2^-(33-B), one exact conversion; the fast path returns u x[i] (with the
+// sign) and is taken iff u < ratio[i]. Scaling by a power of two is exact, so
+// u x[i] = m (x[i] 2^-(32-B)) after one rounding either way, and u < ratio[i] iff
+// m < ratio[i] 2^(32-B); the sign is folded into a table of 2^(B+1) entries indexed by the
+// low B + 1 bits (a product with -x is exactly the negated product). The edge and the
+// bound sit side by side: one cache line per draw.
 struct BathZigguratEntry {
-  double x;      // (+-) x[i] 2^-53
-  double bound;  // ratio[i] 2^53: fast path iff n < bound
+  double x;      // (+-) x[i] 2^-(32-B) (normal) or x[i] 2^-(33-B) (exponential)
+  double bound;  // ratio[i] 2^(32-B) or ratio[i] 2^(33-B): fast path iff m < bound
 };
 struct BathZiggurat {
-  BathZigguratEntry normal[512];       // index w & 0x1ff: layer (bits 0-7), sign (bit 8)
-  BathZigguratEntry exponential[256];  // index w & 0xff
+  static constexpr int B = BathZigguratLayers::kBits, L = BathZigguratLayers::kLayers;
+  BathZigguratEntry normal[2 * L];  // index h & (2L - 1): layer (bits 0..B-1), sign (bit B)
+  BathZigguratEntry exponential[L];  // index h & (L - 1)
 };
 inline const BathZiggurat kBathZiggurat = [] {
+  constexpr int B = BathZiggurat::B, L = BathZiggurat::L;
   BathZiggurat t{};
-  for (int i = 0; i < 512; ++i) {
-    const int layer = i & 0xff;
-    const double x = std::ldexp(kNormalZiggurat.x[layer], -53);
-    t.normal[i] = {i & 0x100 ? -x : x, std::ldexp(kNormalZiggurat.ratio[layer], 53)};
+  for (int i = 0; i < 2 * L; ++i) {
+    const int layer = i & (L - 1);
+    const double x = std::ldexp(kBathNormalLayers.x[layer], -(32 - B));
+    t.normal[i] = {i & L ? -x : x, std::ldexp(kBathNormalLayers.ratio[layer], 32 - B)};
   }
-  for (int i = 0; i < 256; ++i)
-    t.exponential[i] = {std::ldexp(kExponentialZiggurat.x[i], -53), std::ldexp(kExponentialZiggurat.ratio[i], 53)};
+  for (int i = 0; i < L; ++i)
+    t.exponential[i] = {std::ldexp(kBathExponentialLayers.x[i], -(33 - B)),
+                        std::ldexp(kBathExponentialLayers.ratio[i], 33 - B)};
   return t;
 }();
 
-// Fast paths: the variate, and 1 if the slow path is needed (0 on the fast path, ~98.5%).
-inline unsigned bath_normal_fast(std::uint64_t w, double& out) {
-  const BathZigguratEntry& e = kBathZiggurat.normal[w & 0x1ffu];
-  const double n = static_cast<double>(static_cast<std::int64_t>(w >> 11));
-  out = n * e.x;
-  return !(n < e.bound);
+// Fast paths: the variate, and 1 if the slow path is needed (0 on the fast path).
+inline unsigned bath_normal_fast(std::uint32_t h, double& out) {
+  const BathZigguratEntry& e = kBathZiggurat.normal[h & (2u * BathZiggurat::L - 1)];
+  const double m = static_cast<double>(static_cast<std::int32_t>((h >> BathZiggurat::B) | 1u));
+  out = m * e.x;
+  return !(m < e.bound);
 }
-inline unsigned bath_exponential_fast(std::uint64_t w, double& out) {
-  const BathZigguratEntry& e = kBathZiggurat.exponential[w & 0xffu];
-  const double n = static_cast<double>(static_cast<std::int64_t>(w >> 11));
-  out = n * e.x;
-  return !(n < e.bound);
+inline unsigned bath_exponential_fast(std::uint32_t h, double& out) {
+  const BathZigguratEntry& e = kBathZiggurat.exponential[h & (BathZiggurat::L - 1u)];
+  const double m = static_cast<double>(static_cast<std::int32_t>((h >> (BathZiggurat::B - 1)) | 1u));
+  out = m * e.x;
+  return !(m < e.bound);
+}
+// The uniform of the mixture choice and the acceptance: (h + 1/2) 2^-32 in (0, 1).
+inline double bath_uniform(std::uint32_t h) {
+  return (static_cast<double>(static_cast<std::int64_t>(h)) + 0.5) * 0x1.0p-32;
+}
+
+// The exact completions when a fast path failed: the wedge of layer i >= 1 at the point
+// x = u x[i] (accepted iff a uniform height in the layer falls under the density, else a
+// fresh complete draw), or the tail beyond r for layer 0 (normal: Marsaglia 1964, r + a
+// with a ~ Exp(r) accepted with exp(-a^2/2); exponential: r + Exp(1) by memorylessness).
+// Further numbers from `more` (Philox4x64).
+inline double bath_normal_slow(std::uint32_t h, CounterRng& more) {
+  const BathZigguratLayers& zt = kBathNormalLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  const unsigned i = h & (BathZigguratLayers::kLayers - 1u);
+  const double sign = (h & (1u << B)) ? -1.0 : 1.0;
+  const double x = (static_cast<double>((h >> B) | 1u) * std::ldexp(1.0, -(32 - B))) * zt.x[i];
+  if (i == 0) {
+    double a, b;
+    do {
+      a = -std::log(more.uniform()) / zt.r;
+      b = -std::log(more.uniform());
+    } while (b + b < a * a);
+    return sign * (zt.r + a);
+  }
+  if (zt.f[i] + more.uniform() * (zt.f[i + 1] - zt.f[i]) < std::exp(-0.5 * x * x)) return sign * x;
+  return more.normal_ziggurat();
+}
+inline double bath_exponential_slow(std::uint32_t h, CounterRng& more) {
+  const BathZigguratLayers& zt = kBathExponentialLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  const unsigned i = h & (BathZigguratLayers::kLayers - 1u);
+  const double x = (static_cast<double>((h >> (B - 1)) | 1u) * std::ldexp(1.0, -(33 - B))) * zt.x[i];
+  if (i == 0) return zt.r + more.exponential_ziggurat();
+  if (zt.f[i] + more.uniform() * (zt.f[i + 1] - zt.f[i]) < std::exp(-x)) return x;
+  return more.exponential_ziggurat();
+}
+
+// The 32-bit half k (0-7) of a test's four words: lo, hi of w0, then of w1, ...
+inline std::uint32_t bath_half(const std::uint64_t* w, int k) {
+  return static_cast<std::uint32_t>(w[k >> 1] >> (32 * (k & 1)));
 }
 
 // Exact variates when fast paths failed (rare): `fail` has bit j for normal j (0-3), bit 4
-// for the exponential, bit 5 for the direction (both attempts outside the disk). Only those
-// are redrawn, in this order, with their further numbers from sequence t + 1: the same draws
-// as redoing every variate with the *_from functions (a fast path draws nothing).
+// for the exponential. Only those are redrawn, in this order, with their further numbers
+// from sequence t + 1.
 [[gnu::noinline]] inline void bath_variates_slow(const std::uint64_t* w, unsigned fail, BathVariates& x,
                                                  const BathKey& key, std::uint64_t id, std::uint64_t t) {
   CounterRng more(key.seed, key.stream, id, key.step, t + 1);
-  for (int j = 0; j < 4; ++j)
-    if (fail & (1u << j)) x.z[j] = more.normal_ziggurat_from(w[1 + j]);
-  if (fail & 16u) x.e = more.exponential_ziggurat_from(w[5]);
-  if (fail & 32u) x.r = more.unit_vector();
+  // over the set bits in order (one loop branch per failed variate, not one per variate)
+  for (; fail & 15u; fail &= fail - 1) {
+    const int j = std::countr_zero(fail);
+    x.z[j] = bath_normal_slow(bath_half(w, 1 + j), more);
+  }
+  if (fail) x.e = bath_exponential_slow(bath_half(w, 5), more);
 }
 
 // bath_variates_slow for grain g of the batch kernel's variate arrays.
 [[gnu::noinline]] inline void bath_variates_slow_lane(const std::uint64_t* w, unsigned fail, const BathKey& key,
                                                       std::uint64_t id, std::uint64_t t, std::size_t g, double* z0,
-                                                      double* z1, double* z2, double* z3, double* e, double* rx,
-                                                      double* ry, double* rz) {
-  BathVariates x{0.0, {z0[g], z1[g], z2[g], z3[g]}, e[g], {rx[g], ry[g], rz[g]}};
+                                                      double* z1, double* z2, double* z3, double* e) {
+  BathVariates x{0.0, {z0[g], z1[g], z2[g], z3[g]}, e[g], {}};
   bath_variates_slow(w, fail, x, key, id, t);
   z0[g] = x.z[0], z1[g] = x.z[1], z2[g] = x.z[2], z3[g] = x.z[3];
   e[g] = x.e;
-  rx[g] = x.r.x, ry[g] = x.r.y, rz[g] = x.r.z;
 }
 
 // The counters of a grain's test words: Philox4x32-10 under the 64-bit seed, counter
-// (id low 32 bits, id high bits | stream << 24, step, 4t + j), j = 0..3 (Philox4x32Lanes:
-// four blocks, eight 64-bit words per test). Injective for ids < 2^56, streams < 256 and
-// steps < 2^32 (checked by the DSMC driver) and tests t < 2^30 per grain and substep.
+// (id low 32 bits, id high bits | stream << 24, step, 2t + j), j = 0, 1 (Philox4x32Lanes::
+// words4: two blocks, four 64-bit words per test). Injective for ids < 2^56, streams < 256
+// and steps < 2^32 (checked by the DSMC driver) and tests t < 2^31 per grain and substep.
 inline std::uint32_t bath_ctr0(std::uint64_t id) { return static_cast<std::uint32_t>(id); }
 inline std::uint32_t bath_ctr1(std::uint64_t id, Stream stream) {
   return static_cast<std::uint32_t>(id >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24);
 }
 
-// The 8 words of test t of grain `id` (the four blocks in one SIMD call; the same bits on
+// The 4 words of test t of grain `id` (the two blocks in one SIMD call; the same bits on
 // every path, tests/operators/test_random.cpp).
 inline void bath_words(const BathKey& key, std::uint64_t id, std::uint64_t t, std::uint64_t* w) {
   const std::uint32_t c0 = bath_ctr0(id), c1 = bath_ctr1(id, key.stream);
-  Philox4x32Lanes::words8(key.seed, &c0, &c1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t), 1, w);
+  Philox4x32Lanes::words4(key.seed, &c0, &c1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(2 * t), 1, w);
 }
 
-// The variates of test t of grain `id` from its 8 words.
+// The variates of test t of grain `id` from its 4 words.
 inline void bath_variates(const std::uint64_t* w, const BathKey& key, std::uint64_t id, std::uint64_t t,
                           BathVariates& x) {
-  x.u = (static_cast<double>(static_cast<std::int64_t>(w[0] >> 11)) + 0.5) * 0x1.0p-53;
-  unsigned fail = bath_normal_fast(w[1], x.z[0]);
-  fail |= bath_normal_fast(w[2], x.z[1]) << 1;
-  fail |= bath_normal_fast(w[3], x.z[2]) << 2;
-  fail |= bath_normal_fast(w[4], x.z[3]) << 3;
-  fail |= bath_exponential_fast(w[5], x.e) << 4;
-  fail |= static_cast<unsigned>(!bath_direction(w[6], w[7], x.r)) << 5;
+  x.u = bath_uniform(bath_half(w, 0));
+  unsigned fail = bath_normal_fast(bath_half(w, 1), x.z[0]);
+  fail |= bath_normal_fast(bath_half(w, 2), x.z[1]) << 1;
+  fail |= bath_normal_fast(bath_half(w, 3), x.z[2]) << 2;
+  fail |= bath_normal_fast(bath_half(w, 4), x.z[3]) << 3;
+  fail |= bath_exponential_fast(bath_half(w, 5), x.e) << 4;
+  alignas(16) double rx[2], ry[2], rz[2];
+  bath_direction_lanes(w[3], w[3], rx, ry, rz);
+  x.r = Vec3{rx[0], ry[0], rz[0]};
   if (fail) [[unlikely]]
     bath_variates_slow(w, fail, x, key, id, t);
 }
@@ -419,17 +571,6 @@ inline void bath_evolve_keyed(Vec3& v, double& hazard, const BackgroundState& b,
 
 namespace detail {
 
-// Two lanes of doubles (GCC vector extension, one SSE2 register on baseline x86-64): the
-// element-wise IEEE operations are those of the scalar code, so each lane gets bitwise the
-// scalar result.
-typedef double BathLanes __attribute__((vector_size(16)));
-typedef long long BathMask __attribute__((vector_size(16)));
-
-inline BathLanes bath_sqrt(BathLanes x) { return _mm_sqrt_pd(x); }
-inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
-  return reinterpret_cast<BathLanes>((reinterpret_cast<BathMask>(a) & m) | (reinterpret_cast<BathMask>(b) & ~m));
-}
-
 // bath_test for two grains at once (lanes), in three parts run as three passes over the
 // active grains: this one (the partner and the acceptance), bath_collide_lanes (the
 // collision, applied times `on`) and bath_next_lanes (the next candidate's bookkeeping of
@@ -491,38 +632,6 @@ inline void bath_next_lanes(BathLanes e, BathLanes vx, BathLanes vy, BathLanes v
   left = bath_select(zero < rest, rest, zero);
 }
 
-inline BathLanes bath_load(const double* p) {
-  BathLanes x;
-  std::memcpy(&x, p, sizeof x);
-  return x;
-}
-inline void bath_store(double* p, BathLanes x) { std::memcpy(p, &x, sizeof x); }
-
-// bath_direction for two grains at once, a in lane 0 and b in lane 1, from their words
-// w6, w7: the same IEEE operations per lane as bath_direction (bitwise the same r), with
-// the four 32-bit halves of each word converted two at a time (cvtdq2pd, exact) and one
-// square root for both grains. Stores r to rx, ry, rz [0..1]; returns bit 0 (grain a) and
-// bit 1 (grain b) set when both of that grain's attempts fell outside the disk.
-inline unsigned bath_direction_lanes(std::uint64_t w6a, std::uint64_t w7a, std::uint64_t w6b, std::uint64_t w7b,
-                                     double* rx, double* ry, double* rz) {
-  // (lo a, lo b, hi a, hi b) of each word pair, then the low and high halves as doubles
-  const __m128i h6 = _mm_shuffle_epi32(_mm_set_epi64x(static_cast<long long>(w6b), static_cast<long long>(w6a)),
-                                       _MM_SHUFFLE(3, 1, 2, 0));
-  const __m128i h7 = _mm_shuffle_epi32(_mm_set_epi64x(static_cast<long long>(w7b), static_cast<long long>(w7a)),
-                                       _MM_SHUFFLE(3, 1, 2, 0));
-  const BathLanes half = {0.5, 0.5}, scale = {0x1.0p-31, 0x1.0p-31}, one = {1.0, 1.0}, zero = {0.0, 0.0};
-  const BathLanes u1 = (_mm_cvtepi32_pd(h6) + half) * scale, v1 = (_mm_cvtepi32_pd(_mm_unpackhi_epi64(h6, h6)) + half) * scale;
-  const BathLanes u2 = (_mm_cvtepi32_pd(h7) + half) * scale, v2 = (_mm_cvtepi32_pd(_mm_unpackhi_epi64(h7, h7)) + half) * scale;
-  const BathLanes s1 = u1 * u1 + v1 * v1, s2 = u2 * u2 + v2 * v2;
-  const BathMask first = s1 < one;
-  const BathLanes u = bath_select(first, u1, u2), v = bath_select(first, v1, v2), ss = bath_select(first, s1, s2);
-  const BathLanes q = 2.0 * bath_sqrt(_mm_max_pd(one - ss, zero));
-  bath_store(rx, u * q);
-  bath_store(ry, v * q);
-  bath_store(rz, one - 2.0 * ss);
-  return static_cast<unsigned>(_mm_movemask_pd(reinterpret_cast<BathLanes>(first | (s2 < one)))) ^ 3u;
-}
-
 
 }  // namespace detail
 
@@ -545,7 +654,7 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
   if (b.rate_scale <= 0.0) return;
   constexpr std::size_t kChunk = 256, L = 2;
   std::uint32_t index[kChunk], ctr0[kChunk], ctr1[kChunk], slow[kChunk + 2];
-  alignas(64) std::uint64_t words[8 * kChunk];
+  alignas(64) std::uint64_t words[4 * (kChunk + 1)];
   // active-grain state and this round's variates, padded to whole lane groups
   alignas(64) double avx[kChunk + L], avy[kChunk + L], avz[kChunk + L], acm[kChunk + L], aleft[kChunk + L],
       again[kChunk + L], ahz[kChunk + L], aon[kChunk + L], amore[kChunk + L];
@@ -601,34 +710,33 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
     for (std::uint64_t t = 0; na > 0; ++t) {
       candidates += na;
       // (1) words
-      Philox4x32Lanes::words8(key.seed, ctr0, ctr1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(4 * t),
+      Philox4x32Lanes::words4(key.seed, ctr0, ctr1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(2 * t),
                               na, words);
       // (2) variates, two grains at a time: the ziggurat fast paths (scalar: table loads),
       // the directions in SSE2 lanes; the rare slow path per grain. An odd last grain is
       // paired with a copy of its words (padding, not used).
-      if (na % 2 != 0) std::memcpy(words + 8 * na, words + 8 * (na - 1), 8 * sizeof(std::uint64_t));
+      if (na % 2 != 0) std::memcpy(words + 4 * na, words + 4 * (na - 1), 4 * sizeof(std::uint64_t));
       std::size_t nslow = 0;
       for (std::size_t a = 0; a < na; a += 2) {
-        const std::uint64_t* wa = words + 8 * a;
-        const std::uint64_t* wb = wa + 8;
+        using detail::bath_half;
+        const std::uint64_t* wa = words + 4 * a;
+        const std::uint64_t* wb = wa + 4;
         std::uint32_t fa, fb;
-        xu[a] = (static_cast<double>(static_cast<std::int64_t>(wa[0] >> 11)) + 0.5) * 0x1.0p-53;
-        xu[a + 1] = (static_cast<double>(static_cast<std::int64_t>(wb[0] >> 11)) + 0.5) * 0x1.0p-53;
-        fa = detail::bath_normal_fast(wa[1], xz0[a]);
-        fb = detail::bath_normal_fast(wb[1], xz0[a + 1]);
-        fa |= detail::bath_normal_fast(wa[2], xz1[a]) << 1;
-        fb |= detail::bath_normal_fast(wb[2], xz1[a + 1]) << 1;
-        fa |= detail::bath_normal_fast(wa[3], xz2[a]) << 2;
-        fb |= detail::bath_normal_fast(wb[3], xz2[a + 1]) << 2;
-        fa |= detail::bath_normal_fast(wa[4], xz3[a]) << 3;
-        fb |= detail::bath_normal_fast(wb[4], xz3[a + 1]) << 3;
-        fa |= detail::bath_exponential_fast(wa[5], xe[a]) << 4;
-        fb |= detail::bath_exponential_fast(wb[5], xe[a + 1]) << 4;
-        const unsigned fd = detail::bath_direction_lanes(wa[6], wa[7], wb[6], wb[7], xrx + a, xry + a, xrz + a);
-        fa |= (fd & 1u) << 5;
-        fb |= (fd & 2u) << 4;
+        xu[a] = detail::bath_uniform(bath_half(wa, 0));
+        xu[a + 1] = detail::bath_uniform(bath_half(wb, 0));
+        fa = detail::bath_normal_fast(bath_half(wa, 1), xz0[a]);
+        fb = detail::bath_normal_fast(bath_half(wb, 1), xz0[a + 1]);
+        fa |= detail::bath_normal_fast(bath_half(wa, 2), xz1[a]) << 1;
+        fb |= detail::bath_normal_fast(bath_half(wb, 2), xz1[a + 1]) << 1;
+        fa |= detail::bath_normal_fast(bath_half(wa, 3), xz2[a]) << 2;
+        fb |= detail::bath_normal_fast(bath_half(wb, 3), xz2[a + 1]) << 2;
+        fa |= detail::bath_normal_fast(bath_half(wa, 4), xz3[a]) << 3;
+        fb |= detail::bath_normal_fast(bath_half(wb, 4), xz3[a + 1]) << 3;
+        fa |= detail::bath_exponential_fast(bath_half(wa, 5), xe[a]) << 4;
+        fb |= detail::bath_exponential_fast(bath_half(wb, 5), xe[a + 1]) << 4;
+        detail::bath_direction_lanes(wa[3], wb[3], xrx + a, xry + a, xrz + a);
         // grains needing a slow path are listed without a branch and done after the pass
-        // (a branch here was mispredicted on most of the 12% of tests that take one)
+        // (a branch here was mispredicted on most of the tests that take one)
         slow[nslow] = static_cast<std::uint32_t>(a) | fa << 16;
         nslow += fa != 0;
         slow[nslow] = static_cast<std::uint32_t>(a + 1) | fb << 16;
@@ -636,8 +744,7 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
       }
       for (std::size_t q = 0; q < nslow; ++q) {
         const std::size_t g = slow[q] & 0xffffu;
-        detail::bath_variates_slow_lane(words + 8 * g, slow[q] >> 16, key, id[lo + index[g]], t, g, xz0, xz1, xz2, xz3, xe,
-                                        xrx, xry, xrz);
+        detail::bath_variates_slow_lane(words + 4 * g, slow[q] >> 16, key, id[lo + index[g]], t, g, xz0, xz1, xz2, xz3, xe);
       }
       // padding lanes: copies of the last active grain
       for (std::size_t a = na; a % L != 0; ++a) {

@@ -405,6 +405,102 @@ struct Philox4x32Lanes {
     return avx2;
   }
 
+  // The block "words4" of (key; c0, c1, c2, base): the two Philox4x32 blocks with counters
+  // (c0, c1, c2, base + j), j = 0, 1, packed as four 64-bit words (the layout of words8):
+  //   word j = out_j[0] | out_j[1] << 32,   word 2 + j = out_j[2] | out_j[3] << 32.
+  // The DSMC bath kernel's test budget since it takes its variates from 32-bit halves.
+  static void words4_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
+                            std::uint32_t base, std::uint64_t* w) {
+    const r123::Philox4x32::key_type k{{static_cast<std::uint32_t>(key), static_cast<std::uint32_t>(key >> 32)}};
+    for (std::uint32_t j = 0; j < 2; ++j) {
+      const r123::Philox4x32::ctr_type c{{c0, c1, c2, base + j}};
+      const auto o = r123::Philox4x32{}(c, k);
+      w[j] = o.v[0] | static_cast<std::uint64_t>(o.v[1]) << 32;
+      w[2 + j] = o.v[2] | static_cast<std::uint64_t>(o.v[3]) << 32;
+    }
+  }
+
+  // n groups of four words, group a with counters (c0[a], c1[a], c2, base): SSE2, the two
+  // blocks of a group in one vector (round 0 in scalar code, as in words8_avx2).
+  static void words4_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    __m128i k0[10], k1[10];
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
+    }
+    const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
+    const __m128i x3i = _mm_set_epi64x(base + 1, base);
+    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
+    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
+    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
+    for (std::size_t a = 0; a < n; ++a) {
+      const std::uint64_t p0s = static_cast<std::uint64_t>(c0[a]) * kM0;
+      __m128i x0 = _mm_set1_epi64x(static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0);
+      __m128i x2 = _mm_xor_si128(_mm_set1_epi64x(static_cast<std::uint32_t>(p0s >> 32) ^ k1r0), x3i);
+      __m128i x1 = _mm_set1_epi64x(x1s), x3 = _mm_set1_epi64x(static_cast<std::uint32_t>(p0s));
+      for (int r = 1; r < 10; ++r) {
+        const __m128i p0 = _mm_mul_epu32(x0, m0), p1 = _mm_mul_epu32(x2, m1);
+        x0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p1, 32), x1), k0[r]);
+        x2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p0, 32), x3), k1[r]);
+        x1 = p1;
+        x3 = p0;
+      }
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4 * a), _mm_or_si128(_mm_and_si128(x0, lo), _mm_slli_epi64(x1, 32)));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4 * a + 2),
+                       _mm_or_si128(_mm_and_si128(x2, lo), _mm_slli_epi64(x3, 32)));
+    }
+  }
+
+  // The same with AVX2, two groups (grains) per vector; an odd last group by words4_sse2.
+  // Integer instructions only.
+  [[gnu::target("avx2")]] static void words4_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
+                                                  std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    __m256i k0[10], k1[10];
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
+    }
+    const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
+    const __m256i x3i = _mm256_set_epi64x(base + 1, base, base + 1, base);
+    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
+    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
+    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
+    std::size_t a = 0;
+    for (; a + 2 <= n; a += 2) {
+      // lanes (grain a block 0, block 1, grain a + 1 block 0, block 1); round 0 in scalar code
+      const std::uint64_t pa = static_cast<std::uint64_t>(c0[a]) * kM0, pb = static_cast<std::uint64_t>(c0[a + 1]) * kM0;
+      const long long x0a = static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0,
+                      x0b = static_cast<std::uint32_t>(p1s >> 32) ^ c1[a + 1] ^ k0r0;
+      const long long x2a = static_cast<std::uint32_t>(pa >> 32) ^ k1r0, x2b = static_cast<std::uint32_t>(pb >> 32) ^ k1r0;
+      const long long x3a = static_cast<std::uint32_t>(pa), x3b = static_cast<std::uint32_t>(pb);
+      __m256i x0 = _mm256_set_epi64x(x0b, x0b, x0a, x0a);
+      __m256i x2 = _mm256_xor_si256(_mm256_set_epi64x(x2b, x2b, x2a, x2a), x3i);
+      __m256i x1 = _mm256_set1_epi64x(x1s), x3 = _mm256_set_epi64x(x3b, x3b, x3a, x3a);
+      for (int r = 1; r < 10; ++r) {
+        const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
+        x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0[r]);
+        x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1[r]);
+        x1 = p1;
+        x3 = p0;
+      }
+      // (a w0, a w1, b w0, b w1) and (a w2, a w3, b w2, b w3) -> a's four words, b's four
+      const __m256i first = _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32));
+      const __m256i second = _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4 * a), _mm256_permute2x128_si256(first, second, 0x20));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4 * a + 4), _mm256_permute2x128_si256(first, second, 0x31));
+    }
+    if (a < n) words4_sse2(key, c0 + a, c1 + a, c2, base, n - a, w + 4 * a);
+  }
+
+  static void words4(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                     std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    if (have_avx2())
+      words4_avx2(key, c0, c1, c2, base, n, w);
+    else
+      words4_sse2(key, c0, c1, c2, base, n, w);
+  }
+
   // The fastest path this CPU has (the same bits on every path).
   static void words8(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                      std::uint32_t base, std::size_t n, std::uint64_t* w) {

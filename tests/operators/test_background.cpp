@@ -8,6 +8,8 @@
 #include <gsl/gsl_integration.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -17,6 +19,9 @@
 #include "operators/random.hpp"
 
 using namespace grainbath;
+using detail::BathZigguratLayers;
+using detail::kBathExponentialLayers;
+using detail::kBathNormalLayers;
 
 namespace {
 
@@ -361,52 +366,294 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
-// The batch kernel's variates are those of the scalar generators, bit for bit: the ziggurat
-// fast paths with the folded tables (kBathZiggurat: sign and 2^-53 inside the table) against
-// CounterRng's, including the fast/slow decision, and the two-grain SSE2 direction against
-// bath_direction, including the both-attempts-outside flag. Words from Philox, plus words
-// chosen to hit every layer with both signs, u = 0 and the largest u.
-TEST(BathKernel, FoldedZigguratAndLaneDirectionEqualScalarBitwise) {
+// The bath kernel's own ziggurat tables (2^B layers) close: every layer has the base
+// layer's area (the bisection for r found the closing ziggurat), their total exceeds the
+// area under the curve by the wedges (under 1%), and r lies beyond the 256-layer r of
+// Marsaglia & Tsang. Prints the slow-path probabilities (1 - the mean of the ratios).
+TEST(BathKernel, ZigguratTablesCloseWithEqualLayerAreas) {
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int L = BathZigguratLayers::kLayers;
+  const double vn = zn.r * std::exp(-0.5 * zn.r * zn.r) + std::sqrt(std::numbers::pi / 2) * std::erfc(zn.r / std::sqrt(2.0));
+  const double ve = (ze.r + 1.0) * std::exp(-ze.r);
+  // the L layers cover the area under the curve and the wedges above it (rejected)
+  EXPECT_GT(vn * L, std::sqrt(std::numbers::pi / 2));
+  EXPECT_LT(vn * L, 1.01 * std::sqrt(std::numbers::pi / 2));
+  EXPECT_GT(ve * L, 1.0);
+  EXPECT_LT(ve * L, 1.01);
+  for (int i = 1; i < L; ++i) {
+    ASSERT_NEAR(zn.x[i] * (zn.f[i + 1] - zn.f[i]), vn, 1e-12 * vn) << i;
+    ASSERT_NEAR(ze.x[i] * (ze.f[i + 1] - ze.f[i]), ve, 1e-12 * ve) << i;
+    ASSERT_LT(zn.x[i + 1], zn.x[i]);
+    ASSERT_LT(ze.x[i + 1], ze.x[i]);
+  }
+  EXPECT_EQ(zn.x[L], 0.0);
+  EXPECT_NEAR(zn.x[0] * std::exp(-0.5 * zn.r * zn.r), vn, 1e-14);
+  EXPECT_GT(zn.r, 3.6541528853610088);
+  EXPECT_GT(ze.r, 7.69711747013104972);
+  double fast_n = 0, fast_e = 0;
+  for (int i = 0; i < L; ++i) fast_n += zn.ratio[i] / L, fast_e += ze.ratio[i] / L;
+  std::printf("bath ziggurat, %d layers: r = %.6f (normal), %.6f (exponential); slow path %.3f%%, %.3f%%\n", L, zn.r,
+              ze.r, 100 * (1 - fast_n), 100 * (1 - fast_e));
+}
+
+// The batch kernel's variates from 32-bit halves, bit for bit against direct formulas:
+// the folded ziggurat fast paths (kBathZiggurat: sign and the 2^-(32-B) / 2^-(33-B) grid
+// inside the table) against u x[i] with u = (n + 1/2) 2^-(31-B) (normal, sign from bit B)
+// or (n + 1/2) 2^-(32-B) (exponential) and the decision u < ratio[i] on the layers' own
+// arrays, including every layer with both signs, n = 0 and the largest n; the
+// no-rejection direction against z = (k + 1/2) 2^-31 (bitwise) and (rho cos phi, rho sin
+// phi) by libm in long double (within 1e-15), the quadrants' swaps and signs included;
+// lane 1 equals lane 0 bitwise.
+TEST(BathKernel, FoldedZigguratAndDirectionEqualDirectFormulas) {
   auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
-  std::vector<std::uint64_t> words;
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  constexpr std::uint32_t L = BathZigguratLayers::kLayers;
+  std::vector<std::uint32_t> halves;
   CounterRng r(3, Stream::background_first_half, 9, 1);
-  for (int i = 0; i < 400000; ++i) words.push_back(r.bits64());
-  for (std::uint64_t low = 0; low < 2048; ++low)  // every layer and sign (and bits 9, 10)
-    for (const std::uint64_t n : {std::uint64_t{0}, std::uint64_t{1}, (std::uint64_t{1} << 53) - 1, std::uint64_t{1} << 52})
-      words.push_back(n << 11 | low);
-  std::size_t slow_normal = 0, slow_exp = 0, slow_dir = 0;
-  for (const std::uint64_t w : words) {
-    double a, b;
-    const bool fast = CounterRng::normal_ziggurat_fast(w, a);
-    ASSERT_EQ(detail::bath_normal_fast(w, b), fast ? 0u : 1u) << w;
-    ASSERT_EQ(bits(a), bits(b)) << w;
-    slow_normal += !fast;
-    const bool efast = CounterRng::exponential_ziggurat_fast(w, a);
-    ASSERT_EQ(detail::bath_exponential_fast(w, b), efast ? 0u : 1u) << w;
-    ASSERT_EQ(bits(a), bits(b)) << w;
-    slow_exp += !efast;
+  for (int i = 0; i < 400000; ++i) halves.push_back(static_cast<std::uint32_t>(r.bits64()));
+  for (std::uint32_t low = 0; low < 2 * L; ++low)  // every layer and sign
+    for (const std::uint32_t hi : {0u, 1u, (1u << (31 - B)) - 1, 1u << (30 - B)}) halves.push_back(hi << (B + 1) | low);
+  for (std::uint32_t low = 0; low < L; ++low)
+    for (const std::uint32_t hi : {0u, (1u << (32 - B)) - 1}) halves.push_back(hi << B | low);
+  std::size_t slow_normal = 0, slow_exp = 0;
+  for (const std::uint32_t h : halves) {
+    const unsigned i = h & (L - 1);
+    const double u = (static_cast<double>(h >> (B + 1)) + 0.5) * std::ldexp(1.0, -(31 - B));
+    const double ref = (h & L ? -1.0 : 1.0) * (u * zn.x[i]);
+    double got;
+    ASSERT_EQ(detail::bath_normal_fast(h, got), u < zn.ratio[i] ? 0u : 1u) << h;
+    ASSERT_EQ(bits(got), bits(ref)) << h;
+    slow_normal += !(u < zn.ratio[i]);
+    const double ue = (static_cast<double>(h >> B) + 0.5) * std::ldexp(1.0, -(32 - B));
+    ASSERT_EQ(detail::bath_exponential_fast(h, got), ue < ze.ratio[i] ? 0u : 1u) << h;
+    ASSERT_EQ(bits(got), bits(ue * ze.x[i])) << h;
+    slow_exp += !(ue < ze.ratio[i]);
   }
-  for (std::size_t k = 0; k + 4 <= words.size(); k += 4) {
-    Vec3 ra, rb;
-    const bool oka = detail::bath_direction(words[k], words[k + 1], ra);
-    const bool okb = detail::bath_direction(words[k + 2], words[k + 3], rb);
-    alignas(16) double rx[2], ry[2], rz[2];
-    const unsigned fail = detail::bath_direction_lanes(words[k], words[k + 1], words[k + 2], words[k + 3], rx, ry, rz);
-    ASSERT_EQ(fail, (oka ? 0u : 1u) | (okb ? 0u : 2u)) << k;
-    slow_dir += !oka;
-    if (oka) {  // (a direction from two failed attempts is redrawn: not compared)
-      ASSERT_EQ(bits(ra.x), bits(rx[0]));
-      ASSERT_EQ(bits(ra.y), bits(ry[0]));
-      ASSERT_EQ(bits(ra.z), bits(rz[0]));
-    }
-    if (okb) {
-      ASSERT_EQ(bits(rb.x), bits(rx[1]));
-      ASSERT_EQ(bits(rb.y), bits(ry[1]));
-      ASSERT_EQ(bits(rb.z), bits(rz[1]));
+  // both outcomes of every decision occurred (slow paths well under 1% to about 1%)
+  EXPECT_GT(slow_normal, 500u);
+  EXPECT_GT(slow_exp, 500u);
+  // the resolution the comments state (operators/background.hpp, "resolution"): 1024
+  // layers, the normal's uniform on the 2^21 midpoints (n + 1/2) 2^-21, the exponential's
+  // on the 2^22 midpoints (n + 1/2) 2^-22: the first and last points of every layer
+  ASSERT_EQ(B, 10);
+  for (std::uint32_t i = 0; i < L; ++i) {
+    double got;
+    detail::bath_normal_fast(i, got);
+    ASSERT_EQ(got, std::ldexp(zn.x[i], -22)) << i;
+    detail::bath_normal_fast(0xffffffffu << (B + 1) | L | i, got);
+    ASSERT_EQ(got, -(std::ldexp(1.0, 22) - 1) * std::ldexp(zn.x[i], -22)) << i;
+    detail::bath_exponential_fast(i, got);
+    ASSERT_EQ(got, std::ldexp(ze.x[i], -23)) << i;
+    detail::bath_exponential_fast(0xffffffffu << B | i, got);
+    ASSERT_EQ(got, (std::ldexp(1.0, 23) - 1) * std::ldexp(ze.x[i], -23)) << i;
+  }
+
+  std::vector<std::uint64_t> words;
+  for (int i = 0; i < 200000; ++i) words.push_back(r.bits64());
+  for (const std::uint64_t q : {0u, 1u, 2u, 3u})  // quadrant edges, z extremes
+    for (const std::uint64_t j : {std::uint64_t{0}, std::uint64_t{0x3fffffff}, std::uint64_t{1} << 29})
+      for (const std::uint64_t lo : {std::uint64_t{0}, std::uint64_t{0x7fffffff}, std::uint64_t{0x80000000}})
+        words.push_back(q << 62 | j << 32 | lo);
+  double worst = 0, worst_norm = 0;
+  for (std::size_t k = 0; k + 2 <= words.size(); k += 2) {
+    alignas(16) double rx[2], ry[2], rz[2], sx[2], sy[2], sz[2];
+    detail::bath_direction_lanes(words[k], words[k + 1], rx, ry, rz);
+    detail::bath_direction_lanes(words[k + 1], words[k + 1], sx, sy, sz);
+    ASSERT_EQ(bits(rx[1]), bits(sx[0]));
+    ASSERT_EQ(bits(ry[1]), bits(sy[0]));
+    ASSERT_EQ(bits(rz[1]), bits(sz[0]));
+    for (int l = 0; l < 2; ++l) {
+      const std::uint64_t w = words[k + l];
+      const double z = (static_cast<double>(static_cast<std::int32_t>(static_cast<std::uint32_t>(w))) + 0.5) * 0x1.0p-31;
+      ASSERT_EQ(bits(rz[l]), bits(z)) << w;
+      const long double pi = std::numbers::pi_v<long double>;
+      const long double a = (static_cast<long double>(static_cast<std::int64_t>((w >> 32) & 0x3fffffff)) - 0x1.0p29L + 0.5L) *
+                            (pi / 2) * 0x1.0p-30L;
+      const long double phi = static_cast<long double>(w >> 62) * (pi / 2) + a;
+      const long double rho = std::sqrt(1.0L - static_cast<long double>(z) * z);
+      worst = std::max({worst, static_cast<double>(std::abs(rx[l] - rho * std::cos(phi))),
+                        static_cast<double>(std::abs(ry[l] - rho * std::sin(phi)))});
+      worst_norm = std::max(worst_norm, std::abs(rx[l] * rx[l] + ry[l] * ry[l] + rz[l] * rz[l] - 1.0));
     }
   }
-  // both outcomes of every decision occurred (about 1.5%, 2.2% and 4.6% slow)
-  EXPECT_GT(slow_normal, 1000u);
-  EXPECT_GT(slow_exp, 1000u);
-  EXPECT_GT(slow_dir, 1000u);
+  std::printf("bath direction: largest error against libm %.2e, largest | |r|^2 - 1 | %.2e\n", worst, worst_norm);
+  EXPECT_LT(worst, 1e-15);
+  EXPECT_LT(worst_norm, 2e-15);
+}
+
+namespace {
+double normal_cdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+// Wilson-Hilferty upper quantile of chi-square with k degrees of freedom at z sigma.
+double chi2_quantile(double k, double z) {
+  const double a = 2.0 / (9.0 * k);
+  return k * std::pow(1.0 - a + z * std::sqrt(a), 3.0);
+}
+}  // namespace
+
+// The laws of the bath kernel's variates (bath_words + bath_variates, slow paths included),
+// from 32-bit halves: a million tests of one grain. Each test has a limit at about 5
+// standard errors (p ~ 1e-4 for the chi-squares, 3.72 sigma of Wilson-Hilferty):
+//  - U: mean 1/2, chi-square over 64 equal bins;
+//  - the four normals: moments 1, 2, 4, 6 (pooled), each position's variance, the
+//    correlation of normals from the two halves of one word and of two words, the sign,
+//    and a chi-square over the layer edges in |x| plus the tail (exact probabilities);
+//  - the exponential: mean, second moment, chi-square over its layer edges plus the tail;
+//  - the direction: chi-square over 8 bands of z x 16 sectors of azimuth (equal areas),
+//    <x>, <y>, <z> = 0, <x^2> = <z^2> = 1/3, <xy> = 0.
+TEST(BathKernel, VariatesMatchTheirLaws) {
+  const BathKey key{2024, Stream::background_second_half, 7};
+  const int n = 1'000'000;
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  std::vector<double> nedges, eedges;
+  for (int i = BathZigguratLayers::kLayers - 1; i >= 1; --i) nedges.push_back(zn.x[i]), eedges.push_back(ze.x[i]);
+  std::vector<double> nh(nedges.size() + 1, 0.0), eh(eedges.size() + 1, 0.0), uh(64, 0.0), dh(8 * 16, 0.0);
+  double u1 = 0, z1 = 0, z2 = 0, z4 = 0, z6 = 0, pos = 0, zz01 = 0, zz12 = 0, e1 = 0, e2 = 0;
+  double zj2[4] = {0, 0, 0, 0}, rx1 = 0, ry1 = 0, rz1 = 0, rx2 = 0, rz2 = 0, rxy = 0;
+  std::uint64_t w[4];
+  BathVariates x;
+  for (int t = 0; t < n; ++t) {
+    detail::bath_words(key, 31337, static_cast<std::uint64_t>(t), w);
+    detail::bath_variates(w, key, 31337, static_cast<std::uint64_t>(t), x);
+    ASSERT_GT(x.u, 0.0);
+    ASSERT_LT(x.u, 1.0);
+    u1 += x.u;
+    uh[static_cast<int>(x.u * 64)] += 1;
+    for (int j = 0; j < 4; ++j) {
+      const double v = x.z[j], v2 = v * v;
+      z1 += v, z2 += v2, z4 += v2 * v2, z6 += v2 * v2 * v2, zj2[j] += v2, pos += v > 0;
+      nh[std::upper_bound(nedges.begin(), nedges.end(), std::abs(v)) - nedges.begin()] += 1;
+    }
+    zz01 += x.z[0] * x.z[1];  // z0 (w0 high half) and z1 (w1 low half): different words
+    zz12 += x.z[1] * x.z[2];  // the two halves of w1
+    ASSERT_GE(x.e, 0.0);
+    e1 += x.e, e2 += x.e * x.e;
+    eh[std::upper_bound(eedges.begin(), eedges.end(), x.e) - eedges.begin()] += 1;
+    rx1 += x.r.x, ry1 += x.r.y, rz1 += x.r.z, rx2 += x.r.x * x.r.x, rz2 += x.r.z * x.r.z, rxy += x.r.x * x.r.y;
+    const double phi = std::atan2(x.r.y, x.r.x) + std::numbers::pi;  // [0, 2 pi]
+    const int band = std::min(7, static_cast<int>((x.r.z + 1.0) * 4));
+    const int sector = std::min(15, static_cast<int>(phi / (2 * std::numbers::pi) * 16));
+    dh[16 * band + sector] += 1;
+  }
+  const double N = n, N4 = 4.0 * n;
+  EXPECT_NEAR(u1 / N, 0.5, 5 * std::sqrt(1.0 / 12 / N));
+  EXPECT_NEAR(z1 / N4, 0.0, 5 * std::sqrt(1.0 / N4));
+  EXPECT_NEAR(z2 / N4, 1.0, 5 * std::sqrt(2.0 / N4));
+  EXPECT_NEAR(z4 / N4, 3.0, 5 * std::sqrt(96.0 / N4));
+  EXPECT_NEAR(z6 / N4, 15.0, 5 * std::sqrt(10170.0 / N4));
+  EXPECT_NEAR(pos / N4, 0.5, 5 * std::sqrt(0.25 / N4));
+  for (int j = 0; j < 4; ++j) EXPECT_NEAR(zj2[j] / N, 1.0, 5 * std::sqrt(2.0 / N)) << "normal " << j;
+  EXPECT_NEAR(zz01 / N, 0.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(zz12 / N, 0.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(e1 / N, 1.0, 5 * std::sqrt(1.0 / N));
+  EXPECT_NEAR(e2 / N, 2.0, 5 * std::sqrt(20.0 / N));  // Var(e^2) = 24 - 4
+  EXPECT_NEAR(rx1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(ry1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(rz1 / N, 0.0, 5 * std::sqrt(1.0 / 3 / N));
+  EXPECT_NEAR(rx2 / N, 1.0 / 3, 5 * std::sqrt(4.0 / 45 / N));  // Var(x^2) = 1/5 - 1/9
+  EXPECT_NEAR(rz2 / N, 1.0 / 3, 5 * std::sqrt(4.0 / 45 / N));
+  EXPECT_NEAR(rxy / N, 0.0, 5 * std::sqrt(1.0 / 15 / N));  // E[x^2 y^2] = 1/15
+  auto chi2 = [](const std::vector<double>& h, auto prob) {
+    double c = 0, total = 0;
+    for (double v : h) total += v;
+    for (std::size_t b = 0; b < h.size(); ++b) {
+      const double e = total * prob(b);
+      c += (h[b] - e) * (h[b] - e) / e;
+    }
+    return c;
+  };
+  const double cu = chi2(uh, [](std::size_t) { return 1.0 / 64; });
+  const double cd = chi2(dh, [](std::size_t) { return 1.0 / 128; });
+  const double cn = chi2(nh, [&](std::size_t b) {
+    const double lo = b == 0 ? 0.0 : nedges[b - 1];
+    return 2.0 * ((b < nedges.size() ? normal_cdf(nedges[b]) : 1.0) - normal_cdf(lo));
+  });
+  const double ce = chi2(eh, [&](std::size_t b) {
+    const double lo = b == 0 ? 0.0 : eedges[b - 1];
+    return std::exp(-lo) - (b < eedges.size() ? std::exp(-eedges[b]) : 0.0);
+  });
+  std::printf("bath variates: chi2 U %.1f (63 dof), normal %.1f (%zu), exponential %.1f (%zu), direction %.1f (127)\n",
+              cu, cn, nh.size() - 1, ce, eh.size() - 1, cd);
+  EXPECT_LT(cu, chi2_quantile(63, 3.72));
+  EXPECT_LT(cd, chi2_quantile(127, 3.72));
+  EXPECT_LT(cn, chi2_quantile(static_cast<double>(nh.size() - 1), 3.72));
+  EXPECT_LT(ce, chi2_quantile(static_cast<double>(eh.size() - 1), 3.72));
+}
+
+namespace {
+// Simpson's rule on [a, b] with n (even) intervals.
+template <class F>
+double simpson(F f, double a, double b, int n) {
+  const double h = (b - a) / n;
+  double s = f(a) + f(b);
+  for (int k = 1; k < n; ++k) s += (k % 2 ? 4.0 : 2.0) * f(a + k * h);
+  return s * h / 3;
+}
+}  // namespace
+
+// The bath kernel's slow paths, which the variates' laws above exercise too rarely (0.43%
+// and 0.64% of draws) to see an error in them: driven directly with halves that fail the
+// fast path. In a wedge of layer i >= 1 (u x[i] beyond x[i+1]) the point is kept with
+// probability (area under the density in the wedge) / (wedge rectangle): by quadrature,
+// against the kept fraction of 200,000 wedge points (a kept point returns +-u x[i] itself,
+// a rejected one a fresh draw), within 5 binomial standard errors; for layers near the
+// tail, in the middle and near the mode, both signs. In the base layer beyond r the
+// normal's tail must have the mean excess phi(r)/Q(r) - r and the exponential's r + Exp(1)
+// the mean excess 1 (5 standard errors, the excess's standard deviation bounded by its mean).
+TEST(BathKernel, SlowPathsKeepWedgeAndTailLaws) {
+  const BathZigguratLayers& zn = kBathNormalLayers;
+  const BathZigguratLayers& ze = kBathExponentialLayers;
+  constexpr int B = BathZigguratLayers::kBits;
+  constexpr std::uint32_t L = BathZigguratLayers::kLayers;
+  const BathKey key{5, Stream::background_first_half, 1};
+  CounterRng pick(8, Stream::initial_positions, 0, 0);
+  const int n = 200'000;
+  for (const bool normal : {true, false}) {
+    const BathZigguratLayers& z = normal ? zn : ze;
+    auto f = [normal](double x) { return normal ? std::exp(-0.5 * x * x) : std::exp(-x); };
+    const int ubits = normal ? 31 - B : 32 - B;  // bits of u above the layer (and sign)
+    for (const std::uint32_t i : {1u, 2u, 17u, 300u, 700u, L - 2, L - 1}) {
+      SCOPED_TRACE(std::to_string(i) + (normal ? " normal" : " exponential"));
+      // the wedge: u in [ratio[i], 1), i.e. n from ceil(ratio 2^ubits - 1/2) to 2^ubits - 1
+      const double lo_n = std::ceil(z.ratio[i] * std::ldexp(1.0, ubits) - 0.5);
+      const double span = std::ldexp(1.0, ubits) - lo_n;
+      double kept = 0;
+      for (int k = 0; k < n; ++k) {
+        const auto nn = static_cast<std::uint32_t>(lo_n + std::floor(pick.uniform() * span));
+        const std::uint32_t sign = normal ? static_cast<std::uint32_t>(k & 1) << B : 0u;
+        const std::uint32_t h = nn << (normal ? B + 1 : B) | sign | i;
+        double fast;
+        const unsigned slow = normal ? detail::bath_normal_fast(h, fast) : detail::bath_exponential_fast(h, fast);
+        ASSERT_EQ(slow, 1u) << h;
+        CounterRng more(key.seed, key.stream, 1000 + i, key.step, static_cast<std::uint64_t>(k));
+        const double x = normal ? detail::bath_normal_slow(h, more) : detail::bath_exponential_slow(h, more);
+        kept += x == fast;
+      }
+      const double x0 = z.x[i + 1], x1 = z.x[i];
+      const double under = simpson([&](double x) { return f(x) - z.f[i]; }, x0, x1, 2000);
+      const double p = under / ((x1 - x0) * (z.f[i + 1] - z.f[i]));
+      EXPECT_NEAR(kept / n, p, 5 * std::sqrt(p * (1 - p) / n) + 1e-9) << "kept fraction of the wedge";
+    }
+    // the base layer beyond r: u x[0] >= r
+    const double lo_n = std::ceil(z.ratio[0] * std::ldexp(1.0, ubits) - 0.5);
+    const double span = std::ldexp(1.0, ubits) - lo_n;
+    double excess = 0;
+    for (int k = 0; k < n; ++k) {
+      const auto nn = static_cast<std::uint32_t>(lo_n + std::floor(pick.uniform() * span));
+      const std::uint32_t h = nn << (normal ? B + 1 : B);
+      double fast;
+      ASSERT_EQ(normal ? detail::bath_normal_fast(h, fast) : detail::bath_exponential_fast(h, fast), 1u);
+      CounterRng more(key.seed, key.stream, 7, key.step, static_cast<std::uint64_t>(k));
+      const double x = normal ? detail::bath_normal_slow(h, more) : detail::bath_exponential_slow(h, more);
+      ASSERT_GT(x, z.r);
+      excess += x - z.r;
+    }
+    const double q = 0.5 * std::erfc(zn.r / std::sqrt(2.0));
+    const double expected = normal ? std::exp(-0.5 * zn.r * zn.r) / std::sqrt(2 * std::numbers::pi) / q - zn.r : 1.0;
+    std::printf("bath %s tail: mean excess %.5f (exact %.5f)\n", normal ? "normal" : "exponential", excess / n, expected);
+    EXPECT_NEAR(excess / n, expected, 5 * expected / std::sqrt(n));
+  }
 }

@@ -285,6 +285,28 @@ TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
       std::vector<std::uint64_t> best(8 * n, 0);
       Philox4x32Lanes::words8(key, c0.data(), c1.data(), 123456789u, base, n, best.data());
       EXPECT_EQ(best, ref);
+      // words4 (two blocks per group, the bath kernel's budget), for every group count up to
+      // 9 (odd counts take the AVX2 path's single-group tail) and for all n groups
+      for (const std::size_t m : {std::size_t{1}, std::size_t{2}, std::size_t{3}, std::size_t{4}, std::size_t{5},
+                                  std::size_t{8}, std::size_t{9}, n}) {
+        std::vector<std::uint64_t> ref4(4 * m + 4, 7), sse4(4 * m + 4, 7), avx4(4 * m + 4, 7), best4(4 * m + 4, 7);
+        for (std::size_t a = 0; a < m; ++a)
+          Philox4x32Lanes::words4_scalar(key, c0[a], c1[a], 123456789u, base, &ref4[4 * a]);
+        for (std::size_t a = 0; a < m; ++a) {  // words4's blocks are words8's first two
+          ASSERT_EQ(ref4[4 * a], ref[8 * a]);
+          ASSERT_EQ(ref4[4 * a + 1], ref[8 * a + 1]);
+          ASSERT_EQ(ref4[4 * a + 2], ref[8 * a + 4]);
+          ASSERT_EQ(ref4[4 * a + 3], ref[8 * a + 5]);
+        }
+        Philox4x32Lanes::words4_sse2(key, c0.data(), c1.data(), 123456789u, base, m, sse4.data());
+        EXPECT_EQ(sse4, ref4) << m;  // (including the untouched words after the last group)
+        if (Philox4x32Lanes::have_avx2()) {
+          Philox4x32Lanes::words4_avx2(key, c0.data(), c1.data(), 123456789u, base, m, avx4.data());
+          EXPECT_EQ(avx4, ref4) << m;
+        }
+        Philox4x32Lanes::words4(key, c0.data(), c1.data(), 123456789u, base, m, best4.data());
+        EXPECT_EQ(best4, ref4) << m;
+      }
     }
   }
   if (!Philox4x32Lanes::have_avx2()) GTEST_SKIP() << "no AVX2 on this CPU: only the SSE2 path was compared";
