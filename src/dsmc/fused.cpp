@@ -241,7 +241,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         const std::size_t b0 = start[k], b1 = start[k + 1];
         if (b1 - b0 < 2) continue;
         const double density = static_cast<double>(b1 - b0) * weight / cell_volume;
-        CounterRng rng(seed, Stream::grain_collisions, k, step);
+        CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
         collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters);
       }
       per_block[blk] = counters;
