@@ -113,6 +113,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   w.id.resize(n);
   w.cell.resize(n);
   w.perm.resize(n);
+  w.stable.resize(n + kKey32Padding);  // order_cell_by_key32 reads up to 3 slots past a cell
+  w.key32.resize(n + kKey32Padding);
   const bool hazard = !p.bath_hazard.empty();
   const int max_threads = omp_get_max_threads();
   if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
@@ -137,6 +139,11 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::size_t* start = s.cell_start.data();
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict perm = w.perm.data();
+  std::uint32_t* __restrict stable = w.stable.data();
+  std::int32_t* __restrict key32 = w.key32.data();
+  // per thread: an id of this thread's particles has a bit above 31 (then the cells are
+  // ordered through the 64-bit ids, order_cell_by_id)
+  std::vector<unsigned char> wide_ids(static_cast<std::size_t>(max_threads), 0);
   std::uint32_t* counts = w.counts.data();
   const double* __restrict ox = previous[0];
   const double* __restrict oy = previous[1];
@@ -218,13 +225,20 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
 #pragma omp barrier
 #pragma omp single
     counting_sort_offsets(counts, threads, cells, start);
-    // scatter: the id travels with the index, so the in-cell order reads contiguous keys
+    // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
+    // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
+    std::uint64_t any_id = 0;
     for (std::size_t i = lo; i < hi; ++i) {
       const std::uint32_t slot = cnt[cell[i]]++;
-      perm[slot] = static_cast<std::uint32_t>(i);
-      id_out[slot] = id[i];
+      stable[slot] = static_cast<std::uint32_t>(i);
+      const std::uint64_t d = id[i];
+      any_id |= d;
+      key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
     }
+    wide_ids[static_cast<std::size_t>(t)] = (any_id >> 32) != 0;
 #pragma omp barrier
+    bool wide = false;
+    for (int u = 0; u < threads; ++u) wide = wide || wide_ids[static_cast<std::size_t>(u)] != 0;
     // per block of cells: order each cell by id, gather the block from the previous arrays
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2
@@ -232,7 +246,15 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     for (std::size_t blk = 0; blk < blocks; ++blk) {
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
-      for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
+      if (!wide) {
+        for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
+      } else {
+        for (std::size_t j = start[k0]; j < start[k1]; ++j) {
+          perm[j] = stable[j];
+          id_out[j] = id[stable[j]];
+        }
+        for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
+      }
       if (hazard)
         gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
       else
