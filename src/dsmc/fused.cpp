@@ -182,44 +182,19 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     };
     std::size_t i = lo;
     if (cells < 0x80000000u) {
-      // Two particles per SSE2 vector. A pair whose streamed positions all lie in [0, L)
-      // (wrap_periodic leaves them as they are: ~96 % of pairs) gets its cells here; the cell
-      // of an axis is CellGrid::axis as a clamp in doubles, min(max(x / h, 0), n - 1) truncated
-      // (max gives 0 for NaN, as `!(f > 0)` does), and the linear index is formed in doubles
-      // (exact below 2^53), so the cells are those of `grid`. A pair with a coordinate to wrap
-      // goes through the scalar path.
-      const __m128d dt2 = _mm_set1_pd(dt), zero = _mm_setzero_pd();
-      const __m128d len[3] = {_mm_set1_pd(Lx), _mm_set1_pd(Ly), _mm_set1_pd(Lz)};
-      __m128d inv[3], top[3];
-      for (int a = 0; a < 3; ++a) {
-        inv[a] = _mm_set1_pd(grid.inv_size[a]);
-        top[a] = _mm_set1_pd(static_cast<double>(grid.cells[a]) - 1.0);
-      }
-      const __m128d nx = _mm_set1_pd(static_cast<double>(grid.cells[0]));
-      const __m128d ny = _mm_set1_pd(static_cast<double>(grid.cells[1]));
-      const double* const pos[3] = {ox, oy, oz};
-      const double* const vel[3] = {ovx, ovy, ovz};
-      for (; i + 2 <= hi; i += 2) {
-        __m128d k[3], outside = zero;
-        for (int a = 0; a < Dim; ++a) {
-          const __m128d xa = _mm_add_pd(_mm_loadu_pd(pos[a] + i), _mm_mul_pd(_mm_loadu_pd(vel[a] + i), dt2));
-          outside = _mm_or_pd(outside, _mm_or_pd(_mm_cmplt_pd(xa, zero), _mm_cmpge_pd(xa, len[a])));
-          const __m128d f = _mm_min_pd(_mm_max_pd(_mm_mul_pd(xa, inv[a]), zero), top[a]);
-          k[a] = _mm_cvtepi32_pd(_mm_cvttpd_epi32(f));
-        }
-        if (_mm_movemask_pd(outside) != 0) [[unlikely]] {
-          stream_one(i);
-          stream_one(i + 1);
-          continue;
-        }
-        __m128d linear = k[0];
-        if constexpr (Dim == 2) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, k[1]));
-        if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
-        const __m128i kk = _mm_cvttpd_epi32(linear);
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
-        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
-      }
+      // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
+      // AVX2 where the CPU has it, else SSE2; the same cells on both
+      const detail::StreamCellsArgs g{{ox, oy, oz},
+                                      {ovx, ovy, ovz},
+                                      dt,
+                                      {Lx, Ly, Lz},
+                                      {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+                                      {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+                                       static_cast<double>(grid.cells[2]) - 1.0},
+                                      static_cast<double>(grid.cells[0]),
+                                      static_cast<double>(grid.cells[1])};
+      i = Philox4x32Lanes::have_avx2() ? detail::stream_cells_avx2<Dim>(g, i, hi, cell, cnt, stream_one)
+                                       : detail::stream_cells_sse2<Dim>(g, i, hi, cell, cnt, stream_one);
     }
     for (; i < hi; ++i) stream_one(i);
 #pragma omp barrier
