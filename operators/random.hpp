@@ -511,4 +511,124 @@ struct Philox4x32Lanes {
   }
 };
 
+// A counter-based generator of 64-bit words from Philox4x32-10, eight words (four blocks) per
+// SIMD call (Philox4x32Lanes::words8), for kernels that draw an unknown but small number of
+// words per entity and step: the DSMC grain collisions of one cell (src/dsmc/collide.hpp;
+// ~12 words per cell and step in DSMC-1, where the scalar Philox4x64 cost ~45 instructions
+// a word and words8 ~15 including the key schedule, Issue #7). Keyed as the bath's test words
+// (operators/background.hpp bath_ctr0/bath_ctr1): Philox4x32-10 under the 64-bit seed,
+// counter (entity low 32 bits, entity high bits | stream << 24, step, 4 b + j) for the b-th
+// group of eight words, j = 0..3. Injective for entities < 2^56, streams < 256, steps < 2^32
+// (the DSMC config allows at most 2e9 steps) and fewer than 2^30 groups per (entity, step),
+// so a draw is a pure function of (seed, stream; entity, step, draw index) and the same on
+// the SSE2 and AVX2 paths (integer arithmetic; tests/operators/test_random.cpp).
+// The distributions use the same formulas as CounterRng's.
+class Philox4x32Words {
+ public:
+  Philox4x32Words(std::uint64_t seed, Stream stream, std::uint64_t entity, std::uint64_t step)
+      : seed_(seed),
+        c0_(static_cast<std::uint32_t>(entity)),
+        c1_(static_cast<std::uint32_t>(entity >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24)),
+        c2_(static_cast<std::uint32_t>(step)) {}
+
+  // 64 random bits: word `draw` of the sequence, group draw / 8, word draw % 8 of words8.
+  std::uint64_t bits64() {
+    if (used_ == 8) refill();
+    return words_[used_++];
+  }
+
+  // Uniform on the open interval (0, 1), as CounterRng::uniform.
+  double uniform() { return (static_cast<double>(bits64() >> 11) + 0.5) * 0x1.0p-53; }
+
+  // Uniform direction on the unit sphere, as CounterRng::unit_vector (Marsaglia 1972).
+  Vec3 unit_vector() {
+    double u, v, s;
+    do {
+      u = 2.0 * uniform() - 1.0;
+      v = 2.0 * uniform() - 1.0;
+      s = u * u + v * v;
+    } while (s >= 1.0);
+    const double r = 2.0 * std::sqrt(1.0 - s);
+    return {u * r, v * r, 1.0 - 2.0 * s};
+  }
+
+  // How many groups of eight words this generator has computed (for tests).
+  std::uint32_t groups_used() const { return group_; }
+
+  // One group of eight words, the same bits as Philox4x32Lanes::words8 with n = 1, for a
+  // single call: the round keys are advanced in a register (k + r W, one add per round)
+  // instead of words8's table of ten broadcast keys, which cost more than the rounds
+  // themselves when only four blocks are wanted (~230 instructions per call measured).
+  // Integer arithmetic only: the SSE2 and AVX2 paths give the same bits
+  // (tests/operators/test_random.cpp checks them against words8_scalar).
+  static void group_sse2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
+                         std::uint64_t* w) {
+    using L = Philox4x32Lanes;
+    const __m128i m0 = _mm_set1_epi64x(L::kM0), m1 = _mm_set1_epi64x(L::kM1), lo = _mm_set1_epi64x(0xffffffffll);
+    const __m128i w0 = _mm_set1_epi64x(L::kW0), w1 = _mm_set1_epi64x(L::kW1);
+    __m128i k0 = _mm_set1_epi64x(static_cast<std::uint32_t>(key)), k1 = _mm_set1_epi64x(static_cast<std::uint32_t>(key >> 32));
+    // blocks base, base + 1 (a) and base + 2, base + 3 (b), interleaved
+    __m128i a0 = _mm_set1_epi64x(c0), a1 = _mm_set1_epi64x(c1), a2 = _mm_set1_epi64x(c2);
+    __m128i a3 = _mm_set_epi64x(static_cast<std::uint32_t>(base + 1), base);
+    __m128i b0 = a0, b1 = a1, b2 = a2, b3 = _mm_set_epi64x(static_cast<std::uint32_t>(base + 3), static_cast<std::uint32_t>(base + 2));
+    for (int r = 0; r < 10; ++r) {
+      const __m128i pa0 = _mm_mul_epu32(a0, m0), pa1 = _mm_mul_epu32(a2, m1);
+      const __m128i pb0 = _mm_mul_epu32(b0, m0), pb1 = _mm_mul_epu32(b2, m1);
+      a0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pa1, 32), a1), k0);
+      a2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pa0, 32), a3), k1);
+      b0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pb1, 32), b1), k0);
+      b2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pb0, 32), b3), k1);
+      a1 = pa1;
+      a3 = pa0;
+      b1 = pb1;
+      b3 = pb0;
+      k0 = _mm_add_epi32(k0, w0);  // the high halves stay 0: W sits in the low 32 bits
+      k1 = _mm_add_epi32(k1, w1);
+    }
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(w), _mm_or_si128(_mm_and_si128(a0, lo), _mm_slli_epi64(a1, 32)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 2), _mm_or_si128(_mm_and_si128(b0, lo), _mm_slli_epi64(b1, 32)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4), _mm_or_si128(_mm_and_si128(a2, lo), _mm_slli_epi64(a3, 32)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 6), _mm_or_si128(_mm_and_si128(b2, lo), _mm_slli_epi64(b3, 32)));
+  }
+
+  [[gnu::target("avx2")]] static void group_avx2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
+                                                 std::uint32_t base, std::uint64_t* w) {
+    using L = Philox4x32Lanes;
+    const __m256i m0 = _mm256_set1_epi64x(L::kM0), m1 = _mm256_set1_epi64x(L::kM1), lo = _mm256_set1_epi64x(0xffffffffll);
+    const __m256i w0 = _mm256_set1_epi64x(L::kW0), w1 = _mm256_set1_epi64x(L::kW1);
+    __m256i k0 = _mm256_set1_epi64x(static_cast<std::uint32_t>(key));
+    __m256i k1 = _mm256_set1_epi64x(static_cast<std::uint32_t>(key >> 32));
+    __m256i x0 = _mm256_set1_epi64x(c0), x1 = _mm256_set1_epi64x(c1), x2 = _mm256_set1_epi64x(c2);
+    __m256i x3 = _mm256_set_epi64x(static_cast<std::uint32_t>(base + 3), static_cast<std::uint32_t>(base + 2),
+                                   static_cast<std::uint32_t>(base + 1), base);
+    for (int r = 0; r < 10; ++r) {
+      const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
+      x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0);
+      x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1);
+      x1 = p1;
+      x3 = p0;
+      k0 = _mm256_add_epi32(k0, w0);
+      k1 = _mm256_add_epi32(k1, w1);
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w), _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4), _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32)));
+  }
+
+ private:
+  [[gnu::noinline]] void refill() {
+    if (Philox4x32Lanes::have_avx2())
+      group_avx2(seed_, c0_, c1_, c2_, 4u * group_, words_);
+    else
+      group_sse2(seed_, c0_, c1_, c2_, 4u * group_, words_);
+    ++group_;
+    used_ = 0;
+  }
+
+  std::uint64_t seed_;
+  std::uint32_t c0_, c1_, c2_;
+  std::uint32_t group_ = 0;
+  int used_ = 8;
+  std::uint64_t words_[8];
+};
+
 }  // namespace grainbath

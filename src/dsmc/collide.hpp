@@ -120,8 +120,10 @@ inline double pair_speed_bound(const double* __restrict vx, const double* __rest
 // "Fast random integer generation in an interval": multiply-shift, with a rejection that
 // removes the bias of 2^32 mod range). A rejected value (probability < range / 2^32) is
 // replaced by the low half of a fresh word. The candidate pair takes both halves of one word
-// this way, without CounterRng::bits32's per-draw bookkeeping of the spare half.
-inline std::uint32_t below_from(std::uint32_t bits, std::uint32_t range, CounterRng& rng) {
+// this way, without CounterRng::bits32's per-draw bookkeeping of the spare half. `Rng` is
+// CounterRng or Philox4x32Words (anything with bits64()).
+template <class Rng>
+inline std::uint32_t below_from(std::uint32_t bits, std::uint32_t range, Rng& rng) {
   std::uint64_t m = static_cast<std::uint64_t>(bits) * range;
   if (static_cast<std::uint32_t>(m) < range) [[unlikely]] {
     const std::uint32_t threshold = (0u - range) % range;
@@ -130,6 +132,13 @@ inline std::uint32_t below_from(std::uint32_t bits, std::uint32_t range, Counter
   }
   return static_cast<std::uint32_t>(m >> 32);
 }
+
+// The generator of a cell's collision words: Philox4x32-10 eight words per SIMD call
+// (operators/random.hpp), keyed (seed, Stream::grain_collisions; cell, step, draw). A cell
+// draws ~0.75 words per grain and step in DSMC-1 (two per candidate, ~2.5 per collision for
+// the direction); the scalar Philox4x64 of CounterRng cost ~45 instructions a word
+// (docs/performance/dsmc1.md).
+using CellCollisionRng = Philox4x32Words;
 
 // The restitution laws that read the normal impact speed (elastic and constant e do not:
 // no square root for them).
@@ -142,9 +151,12 @@ inline constexpr bool uses_normal_speed = !std::is_same_v<Law, ElasticRestitutio
 // (n / (N - 1)) |g|, so each grain sees exactly n <|g|> over its N - 1 partners. Candidates
 // per step: N (N - 1)/2 * n/(N - 1) * g_max dt = N n g_max dt / 2, accepted with |g|/g_max.
 // `remainder` carries the fractional candidate across steps (part of the checkpoint).
-template <class Law>
+// The random words come from `rng`, one generator per (cell, step): CellCollisionRng below
+// in every caller (fused step, separate passes, MPI, homogeneous runs), so that the fused
+// and the separate-pass paths draw the same numbers.
+template <class Law, class Rng>
 inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, double density, double dt,
-                         double mass, const Law& law, CounterRng& rng, double& remainder,
+                         double mass, const Law& law, Rng& rng, double& remainder,
                          GrainCounters& counters) {
   const std::size_t count = end - begin;
   if (count < 2 || density <= 0.0) return;

@@ -167,7 +167,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
             if (e - b < 2) continue;
             // homogeneous: the case density; spatial: the cell's simulated density
             const double density = c.spatial() ? static_cast<double>(e - b) * weight / cell_volume : c.grains.density;
-            CounterRng rng(seed, Stream::grain_collisions, k, step);
+            CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
             collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], cnt);
           }
           per_block[blk] = cnt;

@@ -1,6 +1,7 @@
 #include "dsmc/fused.hpp"
 
 #include <emmintrin.h>
+#include <immintrin.h>
 #include <omp.h>
 
 #include <algorithm>
@@ -93,6 +94,87 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
   }
 }
 
+// The same gather with AVX2, four slots at a time: the four old indices' values are loaded
+// one by one into a vector (the loads are random), the positions x + v dt of the four and the
+// test 0 <= x < L are computed in vectors and the new arrays stored four slots at a time
+// (contiguous). A group with a coordinate to wrap takes wrap_periodic per slot for that
+// axis. Only add, mul and ordered compares (no FMA): bitwise the positions of gather_slots
+// and of the separate-pass streaming (DsmcReproducibility compares the fused step, on this
+// path where the CPU has AVX2, with the separate passes). The prefetches are those of
+// gather_slots: the leading edge once per 8 slots, the lines of the slot kAhead ahead.
+// the values of four old indices in one vector (lane q from index q)
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
+                                                                 std::uint32_t i2, std::uint32_t i3) {
+  return _mm256_set_pd(a[i3], a[i2], a[i1], a[i0]);
+}
+
+template <int Dim, bool kHazard>
+[[gnu::target("avx2")]] void gather_slots_avx2(const GatherArrays& arrays, const std::uint32_t* __restrict perm,
+                                               std::size_t j0, std::size_t j1, std::size_t n, std::size_t lead, double dt,
+                                               const double* length) {
+  const double* __restrict ox = arrays.from[0];
+  const double* __restrict oy = arrays.from[1];
+  const double* __restrict oz = arrays.from[2];
+  const double* __restrict ovx = arrays.from[3];
+  const double* __restrict ovy = arrays.from[4];
+  const double* __restrict ovz = arrays.from[5];
+  const double* __restrict ohz = arrays.from[6];
+  double* __restrict x = arrays.to[0];
+  double* __restrict y = arrays.to[1];
+  double* __restrict z = arrays.to[2];
+  double* __restrict vx = arrays.to[3];
+  double* __restrict vy = arrays.to[4];
+  double* __restrict vz = arrays.to[5];
+  double* __restrict hz = arrays.to[6];
+  const double* const from_pos[3] = {ox, oy, oz};
+  const double* const from_vel[3] = {ovx, ovy, ovz};
+  double* const to_pos[3] = {x, y, z};
+  double* const to_vel[3] = {vx, vy, vz};
+  const __m256d dt4 = _mm256_set1_pd(dt), zero = _mm256_setzero_pd();
+  auto fetch = [&](std::size_t f) __attribute__((always_inline)) {
+    __builtin_prefetch(ox + f);
+    if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+    if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+    __builtin_prefetch(ovx + f);
+    __builtin_prefetch(ovy + f);
+    __builtin_prefetch(ovz + f);
+    if constexpr (kHazard) __builtin_prefetch(ohz + f);
+  };
+  std::size_t j = j0;
+  for (; j + 4 <= j1; j += 4) {
+    const std::size_t c8 = (j + 7) & ~std::size_t{7};  // the multiple of 8 in [j, j + 4), if any
+    if (c8 < j + 4 && c8 + lead < n) fetch(c8 + lead);
+    for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q) fetch(perm[j + q + kAhead]);
+    const std::uint32_t i0 = perm[j], i1 = perm[j + 1], i2 = perm[j + 2], i3 = perm[j + 3];
+    for (int a = 0; a < 3; ++a) {
+      const __m256d v = lanes(from_vel[a], i0, i1, i2, i3);
+      _mm256_storeu_pd(to_vel[a] + j, v);
+      if (a >= Dim) continue;
+      const __m256d p = _mm256_add_pd(lanes(from_pos[a], i0, i1, i2, i3), _mm256_mul_pd(v, dt4));
+      const __m256d outside =
+          _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, _mm256_set1_pd(length[a]), _CMP_GE_OQ));
+      if (_mm256_movemask_pd(outside) == 0) [[likely]] {
+        _mm256_storeu_pd(to_pos[a] + j, p);
+      } else {
+        alignas(32) double lane[4];
+        _mm256_store_pd(lane, p);
+        for (int q = 0; q < 4; ++q) to_pos[a][j + q] = wrap_periodic(lane[q], length[a]);
+      }
+    }
+    if constexpr (kHazard) _mm256_storeu_pd(hz + j, lanes(ohz, i0, i1, i2, i3));
+  }
+  for (; j < j1; ++j) {  // the last 0-3 slots of the block, as gather_slots
+    const std::uint32_t i = perm[j];
+    x[j] = wrap_periodic(ox[i] + ovx[i] * dt, length[0]);
+    if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, length[1]);
+    if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, length[2]);
+    vx[j] = ovx[i];
+    vy[j] = ovy[i];
+    vz[j] = ovz[i];
+    if constexpr (kHazard) hz[j] = ohz[i];
+  }
+}
+
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                 std::size_t kCellBlock) {
@@ -113,6 +195,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   w.id.resize(n);
   w.cell.resize(n);
   w.perm.resize(n);
+  w.stable.resize(n + kKey32Padding);  // order_cell_by_key32 reads up to 3 slots past a cell
+  w.key32.resize(n + kKey32Padding);
   const bool hazard = !p.bath_hazard.empty();
   const int max_threads = omp_get_max_threads();
   if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
@@ -137,6 +221,11 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::size_t* start = s.cell_start.data();
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict perm = w.perm.data();
+  std::uint32_t* __restrict stable = w.stable.data();
+  std::int32_t* __restrict key32 = w.key32.data();
+  // per thread: an id of this thread's particles has a bit above 31 (then the cells are
+  // ordered through the 64-bit ids, order_cell_by_id)
+  std::vector<unsigned char> wide_ids(static_cast<std::size_t>(max_threads), 0);
   std::uint32_t* counts = w.counts.data();
   const double* __restrict ox = previous[0];
   const double* __restrict oy = previous[1];
@@ -156,6 +245,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::uint64_t* __restrict id_out = w.id.data();
   const GatherArrays arrays{{ox, oy, oz, ovx, ovy, ovz, ohz}, {x, y, z, vx, vy, vz, hz}};
   const double length[3] = {Lx, Ly, Lz};
+  const bool avx2 = Philox4x32Lanes::have_avx2();
 #pragma omp parallel
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -175,56 +265,38 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     };
     std::size_t i = lo;
     if (cells < 0x80000000u) {
-      // Two particles per SSE2 vector. A pair whose streamed positions all lie in [0, L)
-      // (wrap_periodic leaves them as they are: ~96 % of pairs) gets its cells here; the cell
-      // of an axis is CellGrid::axis as a clamp in doubles, min(max(x / h, 0), n - 1) truncated
-      // (max gives 0 for NaN, as `!(f > 0)` does), and the linear index is formed in doubles
-      // (exact below 2^53), so the cells are those of `grid`. A pair with a coordinate to wrap
-      // goes through the scalar path.
-      const __m128d dt2 = _mm_set1_pd(dt), zero = _mm_setzero_pd();
-      const __m128d len[3] = {_mm_set1_pd(Lx), _mm_set1_pd(Ly), _mm_set1_pd(Lz)};
-      __m128d inv[3], top[3];
-      for (int a = 0; a < 3; ++a) {
-        inv[a] = _mm_set1_pd(grid.inv_size[a]);
-        top[a] = _mm_set1_pd(static_cast<double>(grid.cells[a]) - 1.0);
-      }
-      const __m128d nx = _mm_set1_pd(static_cast<double>(grid.cells[0]));
-      const __m128d ny = _mm_set1_pd(static_cast<double>(grid.cells[1]));
-      const double* const pos[3] = {ox, oy, oz};
-      const double* const vel[3] = {ovx, ovy, ovz};
-      for (; i + 2 <= hi; i += 2) {
-        __m128d k[3], outside = zero;
-        for (int a = 0; a < Dim; ++a) {
-          const __m128d xa = _mm_add_pd(_mm_loadu_pd(pos[a] + i), _mm_mul_pd(_mm_loadu_pd(vel[a] + i), dt2));
-          outside = _mm_or_pd(outside, _mm_or_pd(_mm_cmplt_pd(xa, zero), _mm_cmpge_pd(xa, len[a])));
-          const __m128d f = _mm_min_pd(_mm_max_pd(_mm_mul_pd(xa, inv[a]), zero), top[a]);
-          k[a] = _mm_cvtepi32_pd(_mm_cvttpd_epi32(f));
-        }
-        if (_mm_movemask_pd(outside) != 0) [[unlikely]] {
-          stream_one(i);
-          stream_one(i + 1);
-          continue;
-        }
-        __m128d linear = k[0];
-        if constexpr (Dim == 2) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, k[1]));
-        if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
-        const __m128i kk = _mm_cvttpd_epi32(linear);
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
-        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-        ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
-      }
+      // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
+      // AVX2 where the CPU has it, else SSE2; the same cells on both
+      const detail::StreamCellsArgs g{{ox, oy, oz},
+                                      {ovx, ovy, ovz},
+                                      dt,
+                                      {Lx, Ly, Lz},
+                                      {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+                                      {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+                                       static_cast<double>(grid.cells[2]) - 1.0},
+                                      static_cast<double>(grid.cells[0]),
+                                      static_cast<double>(grid.cells[1])};
+      i = Philox4x32Lanes::have_avx2() ? detail::stream_cells_avx2<Dim>(g, i, hi, cell, cnt, stream_one)
+                                       : detail::stream_cells_sse2<Dim>(g, i, hi, cell, cnt, stream_one);
     }
     for (; i < hi; ++i) stream_one(i);
 #pragma omp barrier
 #pragma omp single
     counting_sort_offsets(counts, threads, cells, start);
-    // scatter: the id travels with the index, so the in-cell order reads contiguous keys
+    // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
+    // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
+    std::uint64_t any_id = 0;
     for (std::size_t i = lo; i < hi; ++i) {
       const std::uint32_t slot = cnt[cell[i]]++;
-      perm[slot] = static_cast<std::uint32_t>(i);
-      id_out[slot] = id[i];
+      stable[slot] = static_cast<std::uint32_t>(i);
+      const std::uint64_t d = id[i];
+      any_id |= d;
+      key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
     }
+    wide_ids[static_cast<std::size_t>(t)] = (any_id >> 32) != 0;
 #pragma omp barrier
+    bool wide = false;
+    for (int u = 0; u < threads; ++u) wide = wide || wide_ids[static_cast<std::size_t>(u)] != 0;
     // per block of cells: order each cell by id, gather the block from the previous arrays
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2
@@ -232,16 +304,30 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     for (std::size_t blk = 0; blk < blocks; ++blk) {
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
-      for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
-      if (hazard)
+      if (!wide) {
+        for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
+      } else {
+        for (std::size_t j = start[k0]; j < start[k1]; ++j) {
+          perm[j] = stable[j];
+          id_out[j] = id[stable[j]];
+        }
+        for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
+      }
+      if (avx2) {
+        if (hazard)
+          gather_slots_avx2<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+        else
+          gather_slots_avx2<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+      } else if (hazard) {
         gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
-      else
+      } else {
         gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+      }
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
         if (b1 - b0 < 2) continue;
         const double density = static_cast<double>(b1 - b0) * weight / cell_volume;
-        CounterRng rng(seed, Stream::grain_collisions, k, step);
+        CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
         collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters);
       }
       per_block[blk] = counters;

@@ -4,6 +4,10 @@
 // scatter, then per cell the order by id, the gather into the new order and the grain-grain
 // collisions while the cell is in L1. The same particle order, random streams and counter
 // sums as stream + sort_by_cell + the per-cell collisions, hence bitwise the same results.
+#include <emmintrin.h>
+#include <immintrin.h>
+
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -23,5 +27,107 @@ bool fused_step_applies(const Config& c);
 // at any thread or rank count).
 void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                          std::size_t block_cells);
+
+namespace detail {
+
+// The cell index of the streaming pass in SIMD. A group of particles whose streamed
+// positions x + v dt all lie in [0, L) (wrap_periodic leaves them as they are: ~96 % of pairs
+// in DSMC-1) gets its cells here; the cell of an axis is CellGrid::axis as a clamp in
+// doubles, min(max(x / h, 0), n - 1) truncated (max gives 0 for NaN, as `!(f > 0)` does),
+// and the linear index is formed in doubles (exact below 2^53; the caller takes this path
+// below 2^31 cells only), so the cells are those of CellGrid. A group with a coordinate to
+// wrap is handed to `scalar(i)` particle by particle. Only correctly rounded operations
+// (add, mul, compare, min, max, truncation; no FMA, the AVX2 function does not enable it):
+// the SSE2 path (two particles per vector) and the AVX2 path (four) give the same cells
+// (tests/dsmc/test_dsmc_cell_order.cpp, DsmcStreamCells.*). Both return the first index
+// they did not process (hi - i < the group size remain).
+struct StreamCellsArgs {
+  const double* pos[3];
+  const double* vel[3];
+  double dt;
+  double length[3];
+  double inv_size[3];  // CellGrid::inv_size
+  double top[3];       // cells per axis - 1
+  double nx, ny;       // cells along x and y
+};
+
+template <int Dim, class Scalar>
+inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, std::size_t hi, std::uint32_t* cell,
+                                     std::uint32_t* cnt, Scalar&& scalar) {
+  const __m128d dt2 = _mm_set1_pd(g.dt), zero = _mm_setzero_pd();
+  __m128d len[3], inv[3], top[3];
+  for (int a = 0; a < 3; ++a) {
+    len[a] = _mm_set1_pd(g.length[a]);
+    inv[a] = _mm_set1_pd(g.inv_size[a]);
+    top[a] = _mm_set1_pd(g.top[a]);
+  }
+  const __m128d nx = _mm_set1_pd(g.nx), ny = _mm_set1_pd(g.ny);
+  for (; i + 2 <= hi; i += 2) {
+    __m128d k[3], outside = zero;
+    for (int a = 0; a < Dim; ++a) {
+      const __m128d xa = _mm_add_pd(_mm_loadu_pd(g.pos[a] + i), _mm_mul_pd(_mm_loadu_pd(g.vel[a] + i), dt2));
+      outside = _mm_or_pd(outside, _mm_or_pd(_mm_cmplt_pd(xa, zero), _mm_cmpge_pd(xa, len[a])));
+      const __m128d f = _mm_min_pd(_mm_max_pd(_mm_mul_pd(xa, inv[a]), zero), top[a]);
+      k[a] = _mm_cvtepi32_pd(_mm_cvttpd_epi32(f));
+    }
+    if (_mm_movemask_pd(outside) != 0) [[unlikely]] {
+      scalar(i);
+      scalar(i + 1);
+      continue;
+    }
+    __m128d linear = k[0];
+    if constexpr (Dim == 2) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, k[1]));
+    if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
+    const __m128i kk = _mm_cvttpd_epi32(linear);
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
+    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+  }
+  return i;
+}
+
+// The same with AVX2, four particles per vector and three-operand instructions: ~40 % of the
+// SSE2 path's instructions per particle (docs/performance/dsmc1.md).
+template <int Dim, class Scalar>
+[[gnu::target("avx2")]] inline std::size_t stream_cells_avx2(const StreamCellsArgs& g, std::size_t i, std::size_t hi,
+                                                             std::uint32_t* cell, std::uint32_t* cnt, Scalar&& scalar) {
+  const __m256d dt4 = _mm256_set1_pd(g.dt), zero = _mm256_setzero_pd();
+  __m256d len[3], inv[3], top[3];
+  for (int a = 0; a < 3; ++a) {
+    len[a] = _mm256_set1_pd(g.length[a]);
+    inv[a] = _mm256_set1_pd(g.inv_size[a]);
+    top[a] = _mm256_set1_pd(g.top[a]);
+  }
+  const __m256d nx = _mm256_set1_pd(g.nx), ny = _mm256_set1_pd(g.ny);
+  for (; i + 4 <= hi; i += 4) {
+    __m256d k[3], outside = zero;
+    for (int a = 0; a < Dim; ++a) {
+      const __m256d xa = _mm256_add_pd(_mm256_loadu_pd(g.pos[a] + i), _mm256_mul_pd(_mm256_loadu_pd(g.vel[a] + i), dt4));
+      // ordered, quiet compares: false for NaN, as SSE2's cmplt/cmpge
+      outside = _mm256_or_pd(outside, _mm256_or_pd(_mm256_cmp_pd(xa, zero, _CMP_LT_OQ), _mm256_cmp_pd(xa, len[a], _CMP_GE_OQ)));
+      const __m256d f = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xa, inv[a]), zero), top[a]);
+      k[a] = _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(f));
+    }
+    if (_mm256_movemask_pd(outside) != 0) [[unlikely]] {
+      scalar(i);
+      scalar(i + 1);
+      scalar(i + 2);
+      scalar(i + 3);
+      continue;
+    }
+    __m256d linear = k[0];
+    if constexpr (Dim == 2) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, k[1]));
+    if constexpr (Dim == 3) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, _mm256_add_pd(k[1], _mm256_mul_pd(ny, k[2]))));
+    const __m128i kk = _mm256_cvttpd_epi32(linear);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + i), kk);
+    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 1))];
+    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 2))];
+    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 3))];
+  }
+  return i;
+}
+
+}  // namespace detail
 
 }  // namespace grainbath::dsmc

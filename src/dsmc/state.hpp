@@ -55,7 +55,12 @@ struct SortScratch {
   // Particles so that the gather into cell order writes the new arrays while it reads these
   // (replaces `gather`): x, y, z, vx, vy, vz, bath residual
   std::vector<double> previous[7];
-  static constexpr std::size_t fused_bytes_per_particle = 2 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
+  // fused step: the stable counting-sort order (new slot -> old index) and the ids as
+  // 32-bit keys in that order (id ^ 2^31), from which each cell is put in id order into
+  // `perm` and `id` (order_cell_by_key32, src/dsmc/cell_order.hpp)
+  std::vector<std::uint32_t> stable;
+  std::vector<std::int32_t> key32;
+  static constexpr std::size_t fused_bytes_per_particle = 4 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
 struct State {

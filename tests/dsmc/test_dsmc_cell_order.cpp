@@ -5,12 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <cstdint>
 #include <numeric>
 #include <random>
 #include <vector>
 
 #include "dsmc/cell_order.hpp"
+#include "dsmc/fused.hpp"
+#include "dsmc/spatial.hpp"
+#include "operators/random.hpp"
 
 namespace {
 
@@ -53,6 +58,57 @@ TEST(DsmcCellOrder, OrdersByIdInEveryBranch) {
   }
 }
 
+// The fused step's variant (order_cell_by_key32): the cell's old indices in `stable` and its
+// 32-bit keys id ^ 2^31 in `keys`, read in place with other cells' entries (random junk)
+// before and after it, up to the padding at the array end; the same order and ids as
+// std::sort by id, and nothing written outside the cell.
+void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
+  using grainbath::dsmc::kKey32Padding;
+  using grainbath::dsmc::order_cell_by_key32;
+  std::mt19937_64 gen(seed);
+  const std::size_t b0 = 3, b1 = b0 + m, n = b1 + after;
+  std::vector<std::uint64_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) id[i] = gen() % 0x100000000ull;  // any 32-bit id, 0 and 2^32 - 1 below
+  if (m >= 2) {
+    id[b0] = 0xffffffffull;
+    id[b0 + 1] = 0;
+  }
+  std::sort(id.begin(), id.end());
+  if (std::unique(id.begin(), id.end()) != id.end()) return;  // distinct ids only (never fails at these sizes)
+  std::shuffle(id.begin(), id.end(), gen);
+  std::vector<std::uint32_t> stable(n + kKey32Padding);
+  std::vector<std::int32_t> keys(n + kKey32Padding);
+  for (auto& k : keys) k = static_cast<std::int32_t>(gen());  // junk in the padding
+  for (auto& v : stable) v = static_cast<std::uint32_t>(gen());
+  std::vector<std::uint32_t> old(n);
+  std::iota(old.begin(), old.end(), 0u);
+  std::shuffle(old.begin(), old.end(), gen);
+  for (std::size_t j = 0; j < n; ++j) {
+    stable[j] = old[j];
+    keys[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(id[old[j]]) ^ 0x80000000u);
+  }
+  std::vector<std::uint32_t> expected(stable.begin() + static_cast<long>(b0), stable.begin() + static_cast<long>(b1));
+  std::sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; });
+  std::vector<std::uint32_t> perm(n, 0xdeadbeefu);
+  std::vector<std::uint64_t> id_out(n, 0xdeadbeefull);
+  order_cell_by_key32(stable.data(), keys.data(), perm.data(), id_out.data(), id.data(), b0, b1);
+  for (std::size_t j = b0; j < b1; ++j) {
+    EXPECT_EQ(perm[j], expected[j - b0]) << "m " << m << " slot " << j;
+    EXPECT_EQ(id_out[j], id[perm[j]]) << "m " << m << " slot " << j;
+  }
+  for (std::size_t j = 0; j < n; ++j)
+    if (j < b0 || j >= b1) {
+      EXPECT_EQ(perm[j], 0xdeadbeefu) << "m " << m << " slot " << j;
+      EXPECT_EQ(id_out[j], 0xdeadbeefull) << "m " << m << " slot " << j;
+    }
+}
+
+TEST(DsmcCellOrder, Key32VariantOrdersByIdInPlace) {
+  for (std::size_t m : {0u, 1u, 2u, 3u, 4u, 5u, 7u, 8u, 9u, 15u, 16u, 17u, 23u, 24u, 25u, 31u, 32u, 33u, 64u, 65u, 200u})
+    for (std::size_t after : {0u, 1u, 2u, 3u, 40u})
+      for (std::uint32_t rep = 0; rep < 3; ++rep) check_key32_cell(m, after, 1000u * rep + 17u * static_cast<std::uint32_t>(m + after));
+}
+
 TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {
   // 0 and 2^32 - 1 (the key that equals the pad) in one cell
   std::vector<std::uint64_t> id = {0xffffffffull, 0, 0x80000000ull, 0x7fffffffull, 1};
@@ -61,6 +117,96 @@ TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {
   order_cell_by_id(perm.data(), id_out.data(), id.data(), 0, 5);
   EXPECT_EQ(perm, (std::vector<std::uint32_t>{1, 4, 3, 2, 0}));
   EXPECT_EQ(id_out, (std::vector<std::uint64_t>{0, 1, 0x7fffffffull, 0x80000000ull, 0xffffffffull}));
+}
+
+// The fused step's cell index in SIMD (detail::stream_cells_sse2 / _avx2, src/dsmc/fused.hpp):
+// both paths must give the cells of the scalar path, CellGrid(wrap_periodic(x + v dt)),
+// particle by particle, and the same counts, for particles that stay inside, leave through a
+// face, land on a cell face or on the upper box face, and a NaN velocity. Fails if a clamp,
+// a compare or the linear index differs in one path.
+template <int Dim>
+void check_stream_cells(std::uint32_t seed) {
+  using namespace grainbath::dsmc;
+  std::mt19937_64 gen(seed);
+  // (5.7 - ulp) * 33 / 5.7 and (3.1 - ulp) * 9 / 3.1 round to 33 and 9: the top clamp is needed
+  const double length[3] = {10.0, 5.7, 3.1};
+  const std::uint32_t ncell[3] = {40, Dim > 1 ? 33u : 1u, Dim > 2 ? 9u : 1u};
+  const std::uint32_t cells = ncell[0] * (Dim > 1 ? ncell[1] : 1u) * (Dim > 2 ? ncell[2] : 1u);
+  const double dt = 0.08862;
+  const std::size_t n = 4099;  // not a multiple of 2 or 4: the scalar tail too
+  std::vector<double> pos[3], vel[3];
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int a = 0; a < 3; ++a) {
+    pos[a].resize(n);
+    vel[a].resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      pos[a][i] = unit(gen) * length[a];
+      vel[a][i] = normal(gen);
+      const std::uint64_t r = gen() % 50;
+      if (r == 0) {  // on a cell face after the step
+        pos[a][i] = std::floor(unit(gen) * ncell[a]) * (length[a] / ncell[a]);
+        vel[a][i] = 0.0;
+      } else if (r == 1) {  // just below the upper box face
+        pos[a][i] = std::nextafter(length[a], 0.0);
+        vel[a][i] = 0.0;
+      } else if (r == 2) {  // through a face
+        pos[a][i] = unit(gen) < 0.5 ? 0.01 : length[a] - 0.01;
+        vel[a][i] = pos[a][i] < 1.0 ? -1.0 : 1.0;
+      }
+    }
+  }
+  vel[0][777] = std::numeric_limits<double>::quiet_NaN();
+  double inv[3];
+  for (int a = 0; a < 3; ++a) inv[a] = a < Dim ? ncell[a] / length[a] : 0.0;
+  auto axis = [&](int a, double x) -> std::uint32_t {
+    const double f = x * inv[a];
+    if (!(f > 0.0)) return 0;
+    const auto k = static_cast<std::uint32_t>(f);
+    return k < ncell[a] ? k : ncell[a] - 1;
+  };
+  std::vector<std::uint32_t> ref(n), ref_count(cells, 0);
+  auto scalar_into = [&](std::vector<std::uint32_t>& cell, std::vector<std::uint32_t>& count) {
+    return [&](std::size_t i) {
+      double x[3] = {0.0, 0.0, 0.0};
+      for (int a = 0; a < Dim; ++a) x[a] = wrap_periodic(pos[a][i] + vel[a][i] * dt, length[a]);
+      const std::uint32_t k = axis(0, x[0]) + ncell[0] * (axis(1, x[1]) + ncell[1] * axis(2, x[2]));
+      cell[i] = k;
+      ++count[k];
+    };
+  };
+  {
+    auto one = scalar_into(ref, ref_count);
+    for (std::size_t i = 0; i < n; ++i) one(i);
+  }
+  const detail::StreamCellsArgs g{{pos[0].data(), pos[1].data(), pos[2].data()},
+                                  {vel[0].data(), vel[1].data(), vel[2].data()},
+                                  dt,
+                                  {length[0], length[1], length[2]},
+                                  {inv[0], inv[1], inv[2]},
+                                  {ncell[0] - 1.0, ncell[1] - 1.0, ncell[2] - 1.0},
+                                  static_cast<double>(ncell[0]),
+                                  static_cast<double>(ncell[1])};
+  for (int path = 0; path < 2; ++path) {
+    if (path == 1 && !grainbath::Philox4x32Lanes::have_avx2()) continue;
+    std::vector<std::uint32_t> cell(n, 0xffffffffu), count(cells, 0);
+    auto one = scalar_into(cell, count);
+    std::size_t i = path == 0 ? detail::stream_cells_sse2<Dim>(g, 0, n, cell.data(), count.data(), one)
+                              : detail::stream_cells_avx2<Dim>(g, 0, n, cell.data(), count.data(), one);
+    EXPECT_LT(n - i, path == 0 ? 2u : 4u);
+    for (; i < n; ++i) one(i);
+    for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell[j], ref[j]) << (path ? "AVX2" : "SSE2") << " Dim " << Dim << " particle " << j;
+    EXPECT_EQ(count, ref_count) << (path ? "AVX2" : "SSE2") << " Dim " << Dim;
+  }
+}
+
+TEST(DsmcStreamCells, SimdPathsGiveTheScalarCells) {
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    check_stream_cells<1>(seed);
+    check_stream_cells<2>(seed);
+    check_stream_cells<3>(seed);
+  }
+  if (!grainbath::Philox4x32Lanes::have_avx2()) GTEST_SKIP() << "no AVX2 on this CPU: only the SSE2 path was compared";
 }
 
 }  // namespace

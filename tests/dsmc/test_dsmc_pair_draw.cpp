@@ -1,5 +1,6 @@
 // The candidate pair of the NTC collisions (src/dsmc/collide.hpp): i uniform on [0, N) and j
-// on the other N - 1 grains, from the two 32-bit halves of one Philox word (below_from).
+// on the other N - 1 grains, from the two 32-bit halves of one Philox word (below_from); and
+// the generator of a cell's collision words (Philox4x32Words, operators/random.hpp).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +13,8 @@
 namespace {
 
 using grainbath::CounterRng;
+using grainbath::Philox4x32Lanes;
+using grainbath::Philox4x32Words;
 using grainbath::Stream;
 using grainbath::dsmc::below_from;
 
@@ -42,10 +45,12 @@ TEST(DsmcPairDraw, RejectedValueIsRedrawnFromTheLowHalfOfFreshWords) {
 }
 
 // The ordered pairs (i, j != i) of N grains drawn as collide_cell does: every pair equally
-// likely (chi-square over N (N - 1) pairs, 0.1 % level), never i == j.
-TEST(DsmcPairDraw, OrderedPairsAreUniform) {
+// likely (chi-square over N (N - 1) pairs, 0.1 % level), never i == j. For both generators:
+// collide_cell's (Philox4x32Words, CellCollisionRng) and CounterRng.
+template <class Rng>
+void expect_ordered_pairs_uniform() {
   for (std::uint32_t n : {2u, 3u, 5u, 16u}) {
-    CounterRng rng(9, Stream::grain_collisions, n, 4);
+    Rng rng(9, Stream::grain_collisions, n, 4);
     std::vector<double> hits(static_cast<std::size_t>(n) * n, 0.0);
     const int draws = 400000;
     for (int t = 0; t < draws; ++t) {
@@ -68,6 +73,87 @@ TEST(DsmcPairDraw, OrderedPairsAreUniform) {
     const double limit = dof * std::pow(1.0 - 2.0 / (9.0 * dof) + z * std::sqrt(2.0 / (9.0 * dof)), 3);
     EXPECT_LT(chi2, limit) << "N " << n;
   }
+}
+
+TEST(DsmcPairDraw, OrderedPairsAreUniform) {
+  expect_ordered_pairs_uniform<grainbath::dsmc::CellCollisionRng>();
+  expect_ordered_pairs_uniform<CounterRng>();
+}
+
+// The collision words of a cell (Philox4x32Words): one group of eight words is computed by
+// group_sse2 / group_avx2 with the round keys advanced in a register; both must give
+// Random123's scalar Philox4x32 words (words8_scalar) for keys and counters with high bits
+// and block bases up to the 2^32 wrap. Fails if a round key, a multiplier or the word
+// packing differs.
+TEST(DsmcCollisionWords, GroupPathsEqualRandom123) {
+  for (const std::uint64_t key : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{0xfedcba9876543210ull}}) {
+    for (const std::uint32_t base : {0u, 4u, 4000000000u, 0xfffffffcu}) {
+      for (std::uint32_t a = 0; a < 50; ++a) {
+        const std::uint32_t c0 = a * 2654435761u, c1 = (a % 256) << 24 | (a * 40503u & 0xffffffu), c2 = a * 97u + 123456789u;
+        std::uint64_t ref[8], sse2[8] = {}, avx2[8] = {};
+        Philox4x32Lanes::words8_scalar(key, c0, c1, c2, base, ref);
+        Philox4x32Words::group_sse2(key, c0, c1, c2, base, sse2);
+        for (int j = 0; j < 8; ++j) ASSERT_EQ(sse2[j], ref[j]) << "key " << key << " base " << base << " a " << a;
+        if (Philox4x32Lanes::have_avx2()) {
+          Philox4x32Words::group_avx2(key, c0, c1, c2, base, avx2);
+          for (int j = 0; j < 8; ++j) ASSERT_EQ(avx2[j], ref[j]) << "key " << key << " base " << base << " a " << a;
+        }
+      }
+    }
+  }
+  if (!Philox4x32Lanes::have_avx2()) GTEST_SKIP() << "no AVX2 on this CPU: only the SSE2 path was compared";
+}
+
+// The generator is counter-based on (seed, stream; cell, step, draw): word d of cell k at
+// step s is word d % 8 of the Philox4x32 group with counters (k low, k high | stream << 24,
+// s, 4 (d / 8)) under the seed, so it does not depend on which thread or rank handles the
+// cell; uniform() is (w >> 11 + 1/2) 2^-53 of the next word. Changing any key part changes
+// the words.
+TEST(DsmcCollisionWords, KeyedOnSeedStreamCellStepDraw) {
+  const std::uint64_t seed = 0x123456789abcdefull, cell = 0x00ab0000cafef00dull, step = 4242;
+  Philox4x32Words rng(seed, Stream::grain_collisions, cell, step);
+  const auto c0 = static_cast<std::uint32_t>(cell);
+  const auto c1 = static_cast<std::uint32_t>(cell >> 32) | static_cast<std::uint32_t>(Stream::grain_collisions) << 24;
+  std::uint64_t ref[24];
+  for (std::uint32_t g = 0; g < 3; ++g) Philox4x32Lanes::words8_scalar(seed, c0, c1, static_cast<std::uint32_t>(step), 4 * g, ref + 8 * g);
+  for (int d = 0; d < 20; ++d) EXPECT_EQ(rng.bits64(), ref[d]) << "draw " << d;
+  EXPECT_EQ(rng.uniform(), (static_cast<double>(ref[20] >> 11) + 0.5) * 0x1.0p-53);
+  EXPECT_EQ(rng.groups_used(), 3u);
+  const std::uint64_t first = ref[0];
+  EXPECT_NE(Philox4x32Words(seed + 1, Stream::grain_collisions, cell, step).bits64(), first);
+  EXPECT_NE(Philox4x32Words(seed, Stream::sort_shuffle, cell, step).bits64(), first);
+  EXPECT_NE(Philox4x32Words(seed, Stream::grain_collisions, cell + 1, step).bits64(), first);
+  EXPECT_NE(Philox4x32Words(seed, Stream::grain_collisions, cell + (1ull << 32), step).bits64(), first);
+  EXPECT_NE(Philox4x32Words(seed, Stream::grain_collisions, cell, step + 1).bits64(), first);
+}
+
+// The directions of the collisions (Philox4x32Words::unit_vector): unit length, and uniform
+// on the sphere to 5 standard errors in the first and second moments (<n> = 0,
+// <n_a n_b> = delta_ab / 3), and the uniforms in (0, 1) with mean 1/2.
+TEST(DsmcCollisionWords, UnitVectorsAndUniforms) {
+  Philox4x32Words rng(77, Stream::grain_collisions, 3, 9);
+  const int n = 200000;
+  double m[3] = {}, q[3][3] = {}, umean = 0;
+  for (int t = 0; t < n; ++t) {
+    const grainbath::Vec3 r = rng.unit_vector();
+    ASSERT_NEAR(r.x * r.x + r.y * r.y + r.z * r.z, 1.0, 1e-14);
+    const double c[3] = {r.x, r.y, r.z};
+    for (int a = 0; a < 3; ++a) {
+      m[a] += c[a];
+      for (int b = 0; b < 3; ++b) q[a][b] += c[a] * c[b];
+    }
+    const double u = rng.uniform();
+    ASSERT_GT(u, 0.0);
+    ASSERT_LT(u, 1.0);
+    umean += u;
+  }
+  // var(n_a) = 1/3, var(n_a^2) = 1/5 - 1/9 = 4/45, var(n_a n_b) = 1/15
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(m[a] / n, 0.0, 5 * std::sqrt(1.0 / 3.0 / n));
+    for (int b = 0; b < 3; ++b)
+      EXPECT_NEAR(q[a][b] / n, a == b ? 1.0 / 3.0 : 0.0, 5 * std::sqrt((a == b ? 4.0 / 45.0 : 1.0 / 15.0) / n));
+  }
+  EXPECT_NEAR(umean / n, 0.5, 5 * std::sqrt(1.0 / 12.0 / n));
 }
 
 }  // namespace
