@@ -20,7 +20,9 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <numbers>
+#include <string_view>
 
 #include "operators/vec3.hpp"
 
@@ -397,8 +399,13 @@ struct Philox4x32Lanes {
     }
   }
 
+  // Whether the AVX2 paths run: the CPU has AVX2 and the environment does not ask for the
+  // baseline (GRAINBATH_SIMD=sse2, read once; every path gives the same bits, so this only
+  // lets tests/simd compare the two paths in one machine and users rule the dispatch out).
   static bool have_avx2() {
     static const bool avx2 = [] {
+      const char* simd = std::getenv("GRAINBATH_SIMD");
+      if (simd != nullptr && std::string_view(simd) == "sse2") return false;
       __builtin_cpu_init();
       return __builtin_cpu_supports("avx2") != 0;
     }();

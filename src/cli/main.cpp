@@ -4,8 +4,10 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <string_view>
 
 #include "cli/commands.hpp"
 #include "dsmc/decomposition.hpp"
@@ -18,7 +20,9 @@ const char* kUnits = R"(Units (scaled, Bisi & Spiga):
          Background mass mB = alpha m / (1 - alpha), alpha = [background] mass_ratio;
          background collision rate (nB/eps)|v-w|, eps = [background] knudsen.
   EDMD:  lengths in grain diameters (sigma = 1), m = 1, temperatures in energy units.
-See docs/CASE_FILE.md for every key, its default and its unit.)";
+See docs/CASE_FILE.md for every key, its default and its unit.
+Environment: GRAINBATH_SIMD=sse2 forces the baseline SIMD paths of the DSMC kernels
+(default auto: AVX2 where the CPU has it; the results are the same bits).)";
 }
 
 namespace {
@@ -67,6 +71,16 @@ int cli_main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  }
+  // GRAINBATH_SIMD chooses the SIMD paths of the hot DSMC kernels (operators/random.hpp,
+  // Philox4x32Lanes::have_avx2): unset or "auto" = AVX2 where the CPU has it, "sse2" = the
+  // baseline; the results are the same bits either way. A misspelt value is an error, not
+  // a silent "auto".
+  if (const char* simd = std::getenv("GRAINBATH_SIMD");
+      simd != nullptr && std::string_view(simd) != "auto" && std::string_view(simd) != "sse2") {
+    std::cerr << "error: environment variable GRAINBATH_SIMD: expected \"auto\" or \"sse2\", found \"" << simd
+              << "\"\n";
+    return 2;
   }
   if (*run) return grainbath::cli::command_run(run_args);
   if (*check) return grainbath::cli::command_check(check_args);
