@@ -322,14 +322,35 @@ struct Philox4x32Lanes {
   static constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;
 
   // Scalar reference by Random123 (also the per-grain path): the same eight words.
-  static void words8_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
-                            std::uint32_t base, std::uint64_t* w) {
+  // Blocks = 4 gives words8, Blocks = 2 words4 (block j's outputs in words j and Blocks + j).
+  template <std::uint32_t Blocks>
+  static void blocks_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
+                            std::uint64_t* w) {
     const r123::Philox4x32::key_type k{{static_cast<std::uint32_t>(key), static_cast<std::uint32_t>(key >> 32)}};
-    for (std::uint32_t j = 0; j < 4; ++j) {
+    for (std::uint32_t j = 0; j < Blocks; ++j) {
       const r123::Philox4x32::ctr_type c{{c0, c1, c2, base + j}};
       const auto o = r123::Philox4x32{}(c, k);
       w[j] = o.v[0] | static_cast<std::uint64_t>(o.v[1]) << 32;
-      w[4 + j] = o.v[2] | static_cast<std::uint64_t>(o.v[3]) << 32;
+      w[Blocks + j] = o.v[2] | static_cast<std::uint64_t>(o.v[3]) << 32;
+    }
+  }
+  static void words8_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
+                            std::uint32_t base, std::uint64_t* w) {
+    blocks_scalar<4>(key, c0, c1, c2, base, w);
+  }
+
+  // The ten round keys of Philox4x32-10 (the key bumped by the Weyl constants), broadcast.
+  static void round_keys_sse2(std::uint64_t key, __m128i* k0, __m128i* k1) {
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
+    }
+  }
+  [[gnu::target("avx2"), gnu::always_inline]] static inline void round_keys_avx2(std::uint64_t key, __m256i* k0,
+                                                                                 __m256i* k1) {
+    for (int r = 0; r < 10; ++r) {
+      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
+      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
     }
   }
 
@@ -338,10 +359,7 @@ struct Philox4x32Lanes {
   static void words8_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                           std::uint32_t base, std::size_t n, std::uint64_t* w) {
     __m128i k0[10], k1[10];
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
+    round_keys_sse2(key, k0, k1);
     const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
     const __m128i x2i = _mm_set1_epi64x(c2);
     for (std::size_t a = 0; a < n; ++a) {
@@ -367,10 +385,7 @@ struct Philox4x32Lanes {
   [[gnu::target("avx2")]] static void words8_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
                                                   std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
     __m256i k0[10], k1[10];
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
+    round_keys_avx2(key, k0, k1);
     const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
     const __m256i x3i = _mm256_set_epi64x(base + 3, base + 2, base + 1, base);
     // Round 0 in scalar code: only the fourth counter word differs between the four blocks
@@ -418,13 +433,7 @@ struct Philox4x32Lanes {
   // The DSMC bath kernel's test budget since it takes its variates from 32-bit halves.
   static void words4_scalar(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
                             std::uint32_t base, std::uint64_t* w) {
-    const r123::Philox4x32::key_type k{{static_cast<std::uint32_t>(key), static_cast<std::uint32_t>(key >> 32)}};
-    for (std::uint32_t j = 0; j < 2; ++j) {
-      const r123::Philox4x32::ctr_type c{{c0, c1, c2, base + j}};
-      const auto o = r123::Philox4x32{}(c, k);
-      w[j] = o.v[0] | static_cast<std::uint64_t>(o.v[1]) << 32;
-      w[2 + j] = o.v[2] | static_cast<std::uint64_t>(o.v[3]) << 32;
-    }
+    blocks_scalar<2>(key, c0, c1, c2, base, w);
   }
 
   // n groups of four words, group a with counters (c0[a], c1[a], c2, base): SSE2, the two
@@ -432,10 +441,7 @@ struct Philox4x32Lanes {
   static void words4_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                           std::uint32_t base, std::size_t n, std::uint64_t* w) {
     __m128i k0[10], k1[10];
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
+    round_keys_sse2(key, k0, k1);
     const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
     const __m128i x3i = _mm_set_epi64x(base + 1, base);
     const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
@@ -464,10 +470,7 @@ struct Philox4x32Lanes {
   [[gnu::target("avx2")]] static void words4_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
                                                   std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
     __m256i k0[10], k1[10];
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
+    round_keys_avx2(key, k0, k1);
     const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
     const __m256i x3i = _mm256_set_epi64x(base + 1, base, base + 1, base);
     const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);

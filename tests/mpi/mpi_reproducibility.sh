@@ -39,22 +39,7 @@ same() {  # same REF OTHER LABEL
   if ! h5diff --exclude-path /parameters "$1/results.h5" "$2/results.h5" > "$work/h5diff.log" 2>&1; then
     echo "FAIL $3: results.h5 differs from the plain run:"; head -20 "$work/h5diff.log"; fail=1; return
   fi
-  if ! /usr/bin/env python3 - "$1/summary.json" "$2/summary.json" <<'PY'
-import json, sys
-def flat(d, p=""):
-    out = {}
-    for k, v in d.items():
-        key = p + k
-        if isinstance(v, dict): out.update(flat(v, key + "."))
-        else: out[key] = v
-    return out
-a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
-keys = [k for k in a if not k.startswith("performance.")]
-bad = [k for k in keys if a[k] != b.get(k)]
-bad += [k for k in b if not k.startswith("performance.") and k not in a]
-for k in bad[:10]: print("  ", k, a.get(k), b.get(k))
-sys.exit(1 if bad else 0)
-PY
+  if ! /usr/bin/env python3 "$(dirname "$0")/../same_summary.py" "$1/summary.json" "$2/summary.json"
   then
     echo "FAIL $3: summary.json numbers differ"; fail=1; return
   fi

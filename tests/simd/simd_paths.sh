@@ -29,21 +29,7 @@ for c in "$cases"/*/; do
     fail=1
     continue
   fi
-  if ! /usr/bin/env python3 - "$work/$name-auto/summary.json" "$work/$name-sse2/summary.json" <<'PY'
-import json, sys
-def flat(d, p=""):
-    out = {}
-    for k, v in d.items():
-        key = p + k
-        if isinstance(v, dict): out.update(flat(v, key + "."))
-        else: out[key] = v
-    return out
-a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
-diff = [k for k in sorted(set(a) | set(b))
-        if not k.startswith("performance.") and not k.startswith("provenance.") and a.get(k) != b.get(k)]
-for k in diff: print(f"  {k}: {a.get(k)!r} vs {b.get(k)!r}")
-sys.exit(1 if diff else 0)
-PY
+  if ! /usr/bin/env python3 "$(dirname "$0")/../same_summary.py" "$work/$name-auto/summary.json" "$work/$name-sse2/summary.json"
   then
     echo "FAIL $name: summary.json differs between the dispatched and the SSE2 paths"
     fail=1
