@@ -455,33 +455,44 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   }
   Top2 best = load_top2(sc_[i]);
   const double t = ki.t;
-  // the pair test of scan_cell (ballistic branch); rj = candidate position at time t
-  auto test = [&](std::uint32_t j, const Kin& kj, double rjx, double rjy, double rjz) {
+  // The pair test of scan_cell (ballistic branch) in two passes. Pass 1 computes, for every
+  // candidate, the quantities that decide rejection without reference to the running best:
+  // b = dr.dv (receding: b >= 0) and disc = b^2 - dv^2 q2 (no real root: disc <= 0). These
+  // two tests go either way about equally often, so as branches they are mispredicted a
+  // lot; instead every candidate is written to the survivor arrays and the write position
+  // advances only when it passes (n += pass). Pass 2 runs the sqrt and division only on the
+  // survivors, in candidate order, so offer() sees the same times in the same order. Same
+  // operations as the base, so the same bits. The lower bound t + q2/(-2b) >= t2 of
+  // scan_cell is left out: sqrt(disc) <= -b in floating point (sqrt of a correctly rounded
+  // value <= b^2), so the computed time is never below the bound and offer() rejects it
+  // anyway (tc >= t2); it only saved work, and here it would cost a division and a branch.
+  std::uint32_t sj[kMax];
+  double sb[kMax], sq2[kMax], sdisc[kMax];
+  int ns = 0;
+  // rj = candidate position at time t
+  auto filter = [&](std::uint32_t j, const Kin& kj, double rjx, double rjy, double rjz) {
     const double drx = rjx - ki.r.x, dry = rjy - ki.r.y;
     const double dvx = kj.v.x - ki.v.x, dvy = kj.v.y - ki.v.y;
     double b = drx * dvx + dry * dvy;
-    double drz = 0.0, dvz = 0.0;
-    if constexpr (D == 3) {
-      drz = rjz - ki.r.z, dvz = kj.v.z - ki.v.z;
-      b += drz * dvz;
-    }
-    if (b >= 0.0) return;
     double dr2 = drx * drx + dry * dry;
-    if constexpr (D == 3) dr2 += drz * drz;
-    const double q2 = dr2 - 1.0;
-    if (q2 > 0.0 && t + q2 / (-2.0 * b) >= best.t2) return;  // lower bound, no sqrt
     double dv2 = dvx * dvx + dvy * dvy;
-    if constexpr (D == 3) dv2 += dvz * dvz;
+    if constexpr (D == 3) {
+      const double drz = rjz - ki.r.z, dvz = kj.v.z - ki.v.z;
+      b += drz * dvz;
+      dr2 += drz * drz;
+      dv2 += dvz * dvz;
+    }
+    const double q2 = dr2 - 1.0;
     const double disc = b * b - dv2 * q2;
-    if (disc <= 0.0) return;
-    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(disc))), j, kj.counter);
+    sj[ns] = j, sb[ns] = b, sq2[ns] = q2, sdisc[ns] = disc;
+    ns += static_cast<int>((b < 0.0) & (disc > 0.0));
   };
   if (interior) {
     for (int q = 0; q < nb; ++q) {
       const std::uint32_t j = buf[q];
       const Kin& kj = k_[j];
       const double dtj = t - kj.t;
-      test(j, kj, kj.r.x + dtj * kj.v.x, kj.r.y + dtj * kj.v.y, D == 3 ? kj.r.z + dtj * kj.v.z : 0.0);
+      filter(j, kj, kj.r.x + dtj * kj.v.x, kj.r.y + dtj * kj.v.y, D == 3 ? kj.r.z + dtj * kj.v.z : 0.0);
     }
   } else {
     int q = 0;
@@ -491,10 +502,14 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
         const std::uint32_t j = buf[q];
         const Kin& kj = k_[j];
         const double dtj = t - kj.t;
-        test(j, kj, (kj.r.x + dtj * kj.v.x) + sx, (kj.r.y + dtj * kj.v.y) + sy,
-             D == 3 ? (kj.r.z + dtj * kj.v.z) + sz : 0.0);
+        filter(j, kj, (kj.r.x + dtj * kj.v.x) + sx, (kj.r.y + dtj * kj.v.y) + sy,
+               D == 3 ? (kj.r.z + dtj * kj.v.z) + sz : 0.0);
       }
     }
+  }
+  for (int s = 0; s < ns; ++s) {
+    const double b = sb[s], q2 = sq2[s];
+    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], k_[sj[s]].counter);
   }
   store_top2(i, best);
   return true;
@@ -680,14 +695,20 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   Top2 best[2] = {{kInf, kInf, 0, 0, 0, 0}, {kInf, kInf, 0, 0, 0, 0}};
   // Both grains are tested against every candidate at once, lane 0 = i, lane 1 = j (GCC
   // vector extension, SSE2 on x86-64: two IEEE operations side by side, the same rounding
-  // as the scalar code; no FMA exists in the baseline ISA, so nothing is contracted). Most
-  // pairs are receding (b = dr.dv >= 0 for both lanes) and are rejected after these few
-  // operations; the rest is the scalar test, in the base's operation order. A grain tested
-  // against itself (k = i in lane 0, k = j in lane 1) has dr = 0 exactly (it is at time t:
-  // r + 0 v), hence b = 0, and is rejected by the same test: no identity check is needed.
+  // as the scalar code; no FMA exists in the baseline ISA, so nothing is contracted). Pass 1
+  // computes b = dr.dv, q2 and disc = b^2 - dv^2 q2 for every candidate and keeps, per lane,
+  // those with b < 0 (approaching) and disc > 0 (a real root): as branches these tests go
+  // either way about equally often and were mispredicted a lot; the extra arithmetic for
+  // the rejected pairs is a few vector operations. Pass 2 is the scalar rest of the test,
+  // in the base's operation order. A grain tested against itself (k = i in lane 0, k = j in
+  // lane 1) has dr = 0 exactly (it is at time t: r + 0 v), hence b = 0, and is rejected by
+  // the same test: no identity check is needed.
   using D2 = double __attribute__((vector_size(16)));
   const D2 rx = {ki.r.x, kj.r.x}, ry = {ki.r.y, kj.r.y}, rz = {ki.r.z, kj.r.z};
   const D2 vx = {ki.v.x, kj.v.x}, vy = {ki.v.y, kj.v.y}, vz = {ki.v.z, kj.v.z};
+  std::uint32_t sk[2][kMax];
+  double sb[2][kMax], sq2[2][kMax], sdisc[2][kMax];
+  int ns[2] = {0, 0};
   for (int q = 0; q < nb; ++q) {
     const std::uint32_t k = buf[q];
     const Kin& kk = k_[k];
@@ -703,21 +724,26 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
       dvz = D2{kk.v.z, kk.v.z} - vz;
       b = b + drz * dvz;
     }
-    if (!(b[0] < 0.0) && !(b[1] < 0.0)) continue;
     D2 dr2 = drx * drx + dry * dry, dv2 = dvx * dvx + dvy * dvy;
     if constexpr (D == 3) dr2 = dr2 + drz * drz, dv2 = dv2 + dvz * dvz;
     const D2 q2 = dr2 - 1.0;
     const D2 disc = b * b - dv2 * q2;
-    // The scalar scans also skip a pair when the lower bound t + q2/(-2b) of its time is
-    // already >= the second candidate's; that test only saves work (sqrt(disc) <= -b, so
-    // the computed time is never below the bound, and offer() rejects it anyway), and here,
-    // where the candidates start at +inf, it rejects few pairs: left out.
+    // each lane's survivor (b < 0 and disc > 0) is appended by store-and-advance, no branch
+    const auto pass = (b < 0.0) & (disc > 0.0);  // lanes: -1 or 0
     for (int l = 0; l < 2; ++l) {
-      const double bl = b[l], q2l = q2[l], discl = disc[l];
-      if (!(bl < 0.0) || !(discl > 0.0)) continue;
-      best[l].offer(t + (q2l <= 0.0 ? 0.0 : q2l / (-bl + std::sqrt(discl))), k, kk.counter);
+      const int n = ns[l];
+      sk[l][n] = k, sb[l][n] = b[l], sq2[l][n] = q2[l], sdisc[l][n] = disc[l];
+      ns[l] = n + static_cast<int>(pass[l] & 1);
     }
   }
+  // Pass 2, per lane in candidate order: the same offers in the same order as testing each
+  // candidate in turn.
+  for (int l = 0; l < 2; ++l)
+    for (int s = 0; s < ns[l]; ++s) {
+      const double q2 = sq2[l][s];
+      best[l].offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s]))), sk[l][s],
+                    k_[sk[l][s]].counter);
+    }
   store_top2(i, best[0]);
   store_top2(j, best[1]);
   schedule(i);
