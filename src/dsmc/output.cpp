@@ -9,6 +9,7 @@
 
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
+#include "core/state_hash.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/rough.hpp"
 #include "dsmc/spatial.hpp"
@@ -91,6 +92,38 @@ void write_xdmf(const std::filesystem::path& path, const Domain& d, const std::v
       << "</DataItem>\n   </Attribute>\n";
   o << "  </Grid>\n </Domain>\n</Xdmf>\n";
   if (!o) throw std::runtime_error(path.string() + ": cannot write the XDMF file");
+}
+
+// summary.json `state.hash` (src/core/state_hash.hpp): every stored per-particle value of the
+// final state — positions (none in homogeneous runs), velocities, the bath residual of runs
+// with a medium, the spins of rough grains — keyed on the particle id, independent of the
+// storage order, so runs that must agree bitwise (threads, ranks, SIMD paths, restarts) can be
+// compared to the last bit.
+std::string final_state_hash(const State& s) {
+  const Particles& p = s.particles;
+  // positions are stored per dimension in use (none for homogeneous runs)
+  const std::size_t n = p.size();
+  const bool px = p.x.size() == n, py = p.y.size() == n, pz = p.z.size() == n;
+  const bool hazard = p.bath_hazard.size() == n, spins = s.wx.size() == n;
+  StateHash h;
+  double v[10];
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t k = 0;
+    if (px) v[k++] = p.x[i];
+    if (py) v[k++] = p.y[i];
+    if (pz) v[k++] = p.z[i];
+    v[k++] = p.vx[i];
+    v[k++] = p.vy[i];
+    v[k++] = p.vz[i];
+    if (hazard) v[k++] = p.bath_hazard[i];
+    if (spins) {
+      v[k++] = s.wx[i];
+      v[k++] = s.wy[i];
+      v[k++] = s.wz[i];
+    }
+    h.add(p.id[i], std::span<const double>(v, k));
+  }
+  return h.hex();
 }
 
 }  // namespace
@@ -348,6 +381,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   summary.set("counters.majorant_exceeded", static_cast<std::int64_t>(rc.grain.bound_exceeded));
   summary.set("counters.particles_final", static_cast<std::int64_t>(n));
   summary.set("counters.particles_removed", static_cast<std::int64_t>(rc.removed));
+  summary.set("state.hash", final_state_hash(s));
   const double per = 1.0 / static_cast<double>(c.particles);
   summary.set("energy.bath_input_per_grain", rc.bath_energy * per);
   summary.set("energy.wall_input_per_grain", rc.wall_energy * per);

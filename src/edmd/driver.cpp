@@ -11,6 +11,7 @@
 #include "closures/rough.hpp"
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
+#include "core/state_hash.hpp"
 #include "edmd/checkpoint.hpp"
 #include "edmd/edmd.hpp"
 #include "edmd/measure.hpp"
@@ -760,6 +761,30 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   summary.set("collision.vn_over_sqrt_piT", vn_mean / std::sqrt(std::numbers::pi * T_mean));  // Bizon after eq. 33
   summary.set("collision.vn2_over_4T", vn2_mean / (4.0 * T_mean));
   summary.set("collision.count", static_cast<std::int64_t>(f.collisions));
+  {
+    // state.hash (src/core/state_hash.hpp): every bit of the final positions, velocities and
+    // (rough grains) spins, by id, so runs that must agree bitwise (restart vs straight run,
+    // same case and seed) can be compared to the last bit; positions are synchronised above
+    StateHash h;
+    double v[9];
+    for (std::size_t id = 0; id < N; ++id) {
+      const Vec3 r = eng.position(id), u = eng.velocity(id), w = c.rough ? eng.angular_velocity(id) : Vec3{};
+      std::size_t k = 0;
+      for (int d = 0; d < D; ++d) v[k++] = d == 0 ? r.x : d == 1 ? r.y : r.z;
+      for (int d = 0; d < D; ++d) v[k++] = d == 0 ? u.x : d == 1 ? u.y : u.z;
+      if (c.rough) {
+        if (D == 2) {
+          v[k++] = w.z;
+        } else {
+          v[k++] = w.x;
+          v[k++] = w.y;
+          v[k++] = w.z;
+        }
+      }
+      h.add(id, std::span<const double>(v, k));
+    }
+    summary.set("state.hash", h.hex());
+  }
   if (!c.free_cooling) summary.set("g_r.contact_fit", pairs.contact_value());
   // loss rate (Bizon eqs. 14, 29-31)
   const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
