@@ -4,7 +4,8 @@
 # has it (Philox4x32 words of the bath tests and of the cell collisions, the fused step's
 # cell index and gather) and SSE2 otherwise; GRAINBATH_SIMD=sse2 forces the baseline. Each
 # case is run both ways and results.h5 (every dataset and attribute except /provenance) and
-# summary.json (performance.* left out) must be identical. On a CPU without AVX2 both runs
+# summary.json (performance.* left out; it holds state.hash, the fingerprint of every bit of
+# the final particle state, src/core/state_hash.hpp) must be identical. On a CPU without AVX2 both runs
 # take the baseline path and the test checks only determinism; it says so.
 #
 # usage: simd_paths.sh GRAINBATH CASES_DIR WORK_DIR
