@@ -339,12 +339,12 @@ class Engine {
 
   // particle storage (structure of arrays, indexed by storage slot; slots are re-sorted by
   // cell at every rebuild for memory locality, id_[slot] is the stable particle id)
-  std::vector<std::uint32_t> id_, slot_of_;
-  std::vector<Kin> k_;
+  HugePageVector<std::uint32_t> id_, slot_of_;
+  HugePageVector<Kin> k_;
   std::vector<Vec3> a_;          // acceleration (air table), zero otherwise
   std::vector<Vec3> omega_;      // angular velocity: reserved for rough grains (issue #6)
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
-  std::vector<Sched> sc_;
+  HugePageVector<Sched> sc_;
   std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
 
   // cells: fixed-capacity member arrays
@@ -353,7 +353,7 @@ class Engine {
   int cap_ = 8;
   // cell c's block at c * (cap_ + 1): [member count, members...]; the count sits next to
   // the members, so a neighbour scan touches one cache line per row of cells, not two
-  std::vector<std::uint32_t> members_;
+  HugePageVector<std::uint32_t> members_;
   // predict_pair: j's cells outside i's 3^D block, by offset c_j - c_i (constructor)
   std::array<std::vector<int>, 27> union_extra_;
   std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }

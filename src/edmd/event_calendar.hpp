@@ -18,6 +18,8 @@
 #include <limits>
 #include <vector>
 
+#include "core/huge_pages.hpp"
+
 namespace grainbath::edmd {
 
 class EventCalendar {
@@ -126,8 +128,8 @@ class EventCalendar {
     }
   }
 
-  std::vector<std::uint32_t> heads_;
-  std::vector<Node> node_;
+  HugePageVector<std::uint32_t> heads_;
+  HugePageVector<Node> node_;
   std::uint32_t overflow_head_ = kNone;
   double base_ = 0.0, width_ = 1.0, inv_width_ = 1.0;
   std::size_t cur_ = 0;

@@ -1,0 +1,93 @@
+// Memory latency of this machine, the hardware floor beside the EDMD figures (Issue #7:
+// "the distance to the hardware limit", docs/PERFORMANCE.md "EDMD scaling").
+//
+// An event-driven step at large N reads the records of ~20-40 neighbours at random places in
+// memory; once the records no longer fit in the caches each one is a miss whose cost is the
+// load-to-use latency of the level that holds it, divided by how many misses the core can keep
+// in flight at once. This benchmark measures both ends of that range for working sets from
+// L2-resident to DRAM-resident:
+//   * BM_PointerChase/<KiB>/1: one dependent chain (each load's address is the previous
+//     load's value), so no two misses overlap: the full latency per load;
+//   * BM_PointerChase/<KiB>/8: eight independent chains advanced in turn: up to eight misses
+//     in flight, the best a well-prefetched random access pattern can reach;
+//   * the third argument 1: the same on transparent huge pages (2 MiB).
+// Nodes are 64-byte cache lines linked in one random cycle (Sattolo's algorithm), so the
+// hardware prefetchers cannot predict the next line. Reported: time per load (the counter ns_per_load, printed with its SI prefix, e.g. 180n = 180 ns).
+#include <benchmark/benchmark.h>
+
+#include <sys/mman.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <numeric>
+#include <random>
+#include <vector>
+
+namespace {
+
+struct alignas(64) Node {
+  std::uint32_t next;
+  std::uint32_t pad[15];
+};
+
+// The nodes in memory aligned to 2 MiB; with huge = true the kernel is asked for transparent
+// huge pages (madvise; this machine's THP mode is "madvise"), so the TLB covers 2 MiB per
+// entry instead of 4 KiB and a random load at DRAM-sized working sets no longer also walks
+// the page tables.
+struct FreeDeleter {
+  void operator()(Node* p) const { std::free(p); }
+};
+using NodeBuffer = std::unique_ptr<Node[], FreeDeleter>;
+
+NodeBuffer random_cycle(std::size_t n, std::uint64_t seed, bool huge) {
+  // Sattolo: a uniformly random cyclic permutation, one cycle through all n nodes
+  std::vector<std::uint32_t> perm(n);
+  std::iota(perm.begin(), perm.end(), 0u);
+  std::mt19937_64 g(seed);
+  for (std::size_t i = n - 1; i > 0; --i) {
+    std::uniform_int_distribution<std::size_t> pick(0, i - 1);
+    std::swap(perm[i], perm[pick(g)]);
+  }
+  constexpr std::size_t kAlign = 2u << 20;
+  const std::size_t bytes = (n * sizeof(Node) + kAlign - 1) / kAlign * kAlign;
+  NodeBuffer nodes(static_cast<Node*>(std::aligned_alloc(kAlign, bytes)));
+  if (!nodes) throw std::bad_alloc();
+  if (huge) madvise(nodes.get(), bytes, MADV_HUGEPAGE);  // advice only: ignored where THP is off
+  for (std::size_t i = 0; i < n; ++i) nodes[i].next = perm[i];
+  return nodes;
+}
+
+void BM_PointerChase(benchmark::State& state) {
+  const std::size_t kib = static_cast<std::size_t>(state.range(0));
+  const int chains = static_cast<int>(state.range(1));
+  const bool huge = state.range(2) != 0;
+  const std::size_t n = kib * 1024 / sizeof(Node);
+  const NodeBuffer nodes = random_cycle(n, 12345, huge);
+  constexpr int kMaxChains = 8;
+  std::uint32_t at[kMaxChains];
+  for (int c = 0; c < kMaxChains; ++c) at[c] = static_cast<std::uint32_t>((n / kMaxChains) * c);
+  constexpr std::int64_t kLoadsPerChain = 1 << 20;
+  for (auto _ : state) {
+    if (chains == 1) {
+      std::uint32_t p = at[0];
+      for (std::int64_t k = 0; k < kLoadsPerChain; ++k) p = nodes[p].next;
+      at[0] = p;
+    } else {
+      for (std::int64_t k = 0; k < kLoadsPerChain; ++k)
+        for (int c = 0; c < kMaxChains; ++c) at[c] = nodes[at[c]].next;
+    }
+    benchmark::DoNotOptimize(at);
+  }
+  const double loads = static_cast<double>(state.iterations()) * static_cast<double>(kLoadsPerChain) * chains;
+  state.counters["time_per_load"] = benchmark::Counter(loads, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["working_set_MiB"] = static_cast<double>(n * sizeof(Node)) / (1 << 20);
+}
+// 256 KiB (L2), 1 MiB (the L2 size), 8 MiB, 32 MiB (the L3 size), 128 MiB and 512 MiB (DRAM)
+BENCHMARK(BM_PointerChase)
+    ->ArgsProduct({{256, 1024, 8 * 1024, 32 * 1024, 128 * 1024, 512 * 1024}, {1, 8}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
