@@ -3,7 +3,7 @@
 # otherwise idle machine (the 1-minute load average is logged before every run; on a shared
 # machine wall times are upper bounds). Usage:
 #   scripts/bench-issue7.sh BUILD_DIR OUT_DIR [REPEATS] [MPI_BUILD_DIR]
-# BUILD_DIR needs the targets bench_dsmc and bench_edmd; MPI_BUILD_DIR (optional) a grainbath
+# BUILD_DIR needs the targets bench_dsmc, bench_edmd and bench_memory; MPI_BUILD_DIR (optional) a grainbath
 # built with -DGRAINBATH_MPI=ON, for the 1-process vs 2-rank figure of the DSMC-1 case.
 # Writes OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
 # (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd) and OUT_DIR/mpi.txt.
@@ -21,6 +21,12 @@ echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
   'DSMC2_HomogeneousBath/1/' 'DSMC2_HomogeneousBath/2/' 'StreamTriad' | tee -a "$out/dsmc.txt"
 "$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" 1 'DSMC1_SpartaBox_1e7/1/' 'DSMC1_SpartaBox_1e7/2/' \
   | tee -a "$out/dsmc.txt"
+
+echo "== memory latency ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/memory.txt"
+# pointer chase (bench/bench_memory.cpp): ns per dependent load, 1 and 8 chains, 4 KiB and
+# 2 MiB pages, working sets from L2 to DRAM: the floor under the EDMD figures at large N
+"$build/bench/bench_memory" --benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true 2>&1 \
+  | grep -E '_median' | tee -a "$out/memory.txt"
 
 echo "== EDMD ($(date -u +%H:%M:%S), $(uptime))"
 sh "$here/scripts/bench-edmd.sh" "$build" "$out/edmd" "$reps"
@@ -46,7 +52,8 @@ if [ -n "$mpibuild" ]; then
       echo "np=$np rep=$r load=$load wall_seconds=$wall" | tee -a "$out/mpi.txt"
     done
     h5diff --exclude-path /parameters "$out/mpi-np1-r$r/results.h5" "$out/mpi-np2-r$r/results.h5" \
-      && echo "rep $r: results.h5 identical for 1 and 2 ranks" | tee -a "$out/mpi.txt"
+      && "$py" "$here/tests/same_summary.py" "$out/mpi-np1-r$r/summary.json" "$out/mpi-np2-r$r/summary.json" \
+      && echo "rep $r: results.h5 and summary.json (state.hash included) identical for 1 and 2 ranks" | tee -a "$out/mpi.txt"
     r=$((r + 1))
   done
 fi
