@@ -321,13 +321,32 @@ TEST(BathKernel, CarriedResidualKeepsTheRatesAcrossSubsteps) {
   EXPECT_NEAR(m * s2 / n / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / n));
 }
 
+// The batch kernel's instruction-set paths (operators/background_lanes.inc: two lanes in
+// SSE2, four in AVX2), called directly; the AVX2 one only where the CPU has it.
+namespace {
+using BatchPath = void (*)(std::size_t, const std::uint64_t*, double*, double*, double*, double*,
+                           const BackgroundState&, double, double, const BathKey&, BackgroundCounters&);
+struct NamedBatchPath {
+  const char* name;
+  BatchPath run;
+};
+std::vector<NamedBatchPath> batch_paths() {
+  std::vector<NamedBatchPath> paths{{"sse2", detail::bath_sse2::evolve_batch}};
+  if (__builtin_cpu_supports("avx2")) paths.push_back({"avx2", detail::bath_avx2::evolve_batch});
+  return paths;
+}
+}  // namespace
+
 // The interleaved kernel is the per-grain kernel: bitwise the same velocities, residuals and
 // counters (energy summed grain by grain in order), for block sizes that are not multiples
-// of the lane count or the chunk, ids that are not 0..n-1, a residual that runs out
-// immediately, a grain at rest in the bath frame, and many tests per grain.
+// of the lane count (2 or 4) or the chunk, ids that are not 0..n-1, a residual that runs out
+// immediately, a grain at rest in the bath frame, and many tests per grain; on every
+// instruction-set path of the batch kernel.
 TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   const BackgroundState b = BackgroundState::make(2.0, 0.05, {0.1, -0.3, 0.2}, 1.4, 0.6, 1.3);
-  for (const std::size_t n : {1u, 3u, 5u, 255u, 257u, 1031u}) {
+  for (const NamedBatchPath& path : batch_paths())
+  for (const std::size_t n : {1u, 2u, 3u, 5u, 6u, 7u, 255u, 257u, 258u, 1031u}) {
+    SCOPED_TRACE(path.name);
     SCOPED_TRACE(n);
     std::vector<double> vx(n), vy(n), vz(n), hz(n);
     std::vector<std::uint64_t> id(n);
@@ -344,7 +363,7 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
     BackgroundCounters batch, keyed;
     for (int s = 0; s < 3; ++s) {
       const BathKey key{11, Stream::background_second_half, static_cast<std::uint64_t>(s)};
-      bath_evolve_batch(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.3, 0.2, key, batch);
+      path.run(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.3, 0.2, key, batch);
       for (std::size_t i = 0; i < n; ++i) {
         Vec3 v{kx[i], ky[i], kz[i]};
         double gain;
@@ -363,6 +382,61 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
       ASSERT_EQ(vz[i], kz[i]) << i;
       ASSERT_EQ(hz[i], kh[i]) << i;
     }
+  }
+}
+
+// The AVX2 path (four lanes) against the SSE2 path (two lanes), bitwise: the directions of
+// 2^16 random words and of the quadrant and z edges (every lane position), and the batch
+// kernel over 20,001 grains (odd, not a multiple of 4 or of the chunk) in a drifting
+// medium through 6 substeps, both with hot grains (many tests each) and slow ones.
+TEST(BathKernel, AvxAndSse2PathsEqualBitwise) {
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 path exists";
+  std::vector<std::uint64_t> words;
+  for (const std::uint64_t hi : {0x00000000u, 0x3fffffffu, 0x40000000u, 0x7fffffffu, 0x80000000u, 0xbfffffffu,
+                                 0xc0000000u, 0xffffffffu, 0x20000000u, 0x1fffffffu})
+    for (const std::uint64_t lo : {0x00000000u, 0x7fffffffu, 0x80000000u, 0xffffffffu, 0x12345678u})
+      words.push_back(hi << 32 | lo);
+  CounterRng r(5, Stream::initial_velocities, 1, 0);
+  while (words.size() % 4 != 0 || words.size() < (1u << 16)) words.push_back(r.bits64());
+  for (std::size_t k = 0; k < words.size(); k += 4) {
+    alignas(32) double ax[4], ay[4], az[4], sx[4], sy[4], sz[4];
+    detail::bath_avx2::direction_lanes(words.data() + k, 1, ax, ay, az);
+    detail::bath_sse2::direction_lanes(words.data() + k, 1, sx, sy, sz);
+    detail::bath_sse2::direction_lanes(words.data() + k + 2, 1, sx + 2, sy + 2, sz + 2);
+    for (int j = 0; j < 4; ++j) {
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(ax[j]), std::bit_cast<std::uint64_t>(sx[j])) << std::hex << words[k + j];
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(ay[j]), std::bit_cast<std::uint64_t>(sy[j])) << std::hex << words[k + j];
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(az[j]), std::bit_cast<std::uint64_t>(sz[j])) << std::hex << words[k + j];
+    }
+  }
+  const BackgroundState b = BackgroundState::make(1.0, 0.01, {0.3, 0.0, -0.1}, 1.0, 0.5, 1.0);
+  const std::size_t n = 20001;
+  std::vector<double> vx(n), vy(n), vz(n), hz(n);
+  std::vector<std::uint64_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    CounterRng g(3, Stream::initial_velocities, i, 0);
+    const double s = i % 3 == 0 ? 4.0 : 0.5;
+    vx[i] = s * g.normal(), vy[i] = s * g.normal(), vz[i] = s * g.normal();
+    hz[i] = g.exponential();
+    id[i] = 7 * i + 3;
+  }
+  auto ax = vx, ay = vy, az = vz, ah = hz;
+  BackgroundCounters sse2, avx2;
+  for (int s = 0; s < 6; ++s) {
+    const BathKey key{3, s % 2 ? Stream::background_second_half : Stream::background_first_half,
+                      static_cast<std::uint64_t>(s / 2)};
+    detail::bath_sse2::evolve_batch(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.0, 0.005, key, sse2);
+    detail::bath_avx2::evolve_batch(n, id.data(), ax.data(), ay.data(), az.data(), ah.data(), b, 1.0, 0.005, key, avx2);
+  }
+  EXPECT_GT(sse2.candidates, 5 * n);
+  EXPECT_EQ(avx2.candidates, sse2.candidates);
+  EXPECT_EQ(avx2.collisions, sse2.collisions);
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(avx2.energy_gain), std::bit_cast<std::uint64_t>(sse2.energy_gain));
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ax[i]), std::bit_cast<std::uint64_t>(vx[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ay[i]), std::bit_cast<std::uint64_t>(vy[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(az[i]), std::bit_cast<std::uint64_t>(vz[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ah[i]), std::bit_cast<std::uint64_t>(hz[i])) << i;
   }
 }
 
