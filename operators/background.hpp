@@ -433,16 +433,24 @@ typedef long long Mask __attribute__((vector_size(16)));
 inline constexpr std::size_t kLanes = 2;
 inline Lanes lanes_sqrt(Lanes x) { return _mm_sqrt_pd(x); }
 inline unsigned lanes_movemask(Mask m) { return static_cast<unsigned>(_mm_movemask_pd(reinterpret_cast<__m128d>(m))); }
-// direction_lanes' integer parts of words w[0], w[stride]: the signed low halves and the
-// high halves' bits 0-29 minus 2^29, as exact doubles; `odd` all ones where bit 62 is set
-inline void direction_words(const std::uint64_t* w, std::size_t stride, Lanes& zi, Lanes& ji, Mask& odd, Mask& word) {
-  const __m128i v = _mm_set_epi64x(static_cast<long long>(w[stride]), static_cast<long long>(w[0]));
-  const __m128i lo = _mm_shuffle_epi32(v, _MM_SHUFFLE(3, 1, 2, 0));  // (lo 0, lo 1, hi 0, hi 1)
-  const __m128i hi = _mm_unpackhi_epi64(lo, lo);
-  zi = _mm_cvtepi32_pd(lo);
-  ji = _mm_cvtepi32_pd(_mm_sub_epi32(_mm_and_si128(hi, _mm_set1_epi32(0x3fffffff)), _mm_set1_epi32(1 << 29)));
-  odd = reinterpret_cast<Mask>(_mm_shuffle_epi32(_mm_srai_epi32(_mm_slli_epi32(v, 1), 31), _MM_SHUFFLE(3, 3, 1, 1)));
-  word = reinterpret_cast<Mask>(v);
+inline Lanes to_lanes(__m128i h) { return _mm_cvtepi32_pd(h); }
+inline Mask widen_mask(__m128i h) { return reinterpret_cast<Mask>(_mm_unpacklo_epi32(h, h)); }
+// grain 0's words w0 w1 | w2 w3 and grain 1's, interleaved by 32-bit halves:
+// (w0 lo 0, w0 lo 1, w0 hi 0, w0 hi 1) and so on; h[k] has half k in its low two int32
+inline void word_halves(const std::uint64_t* w, __m128i h[8]) {
+  const __m128i* p = reinterpret_cast<const __m128i*>(w);
+  const __m128i g0a = _mm_loadu_si128(p), g0b = _mm_loadu_si128(p + 1), g1a = _mm_loadu_si128(p + 2),
+                g1b = _mm_loadu_si128(p + 3);
+  const __m128i w0 = _mm_unpacklo_epi32(g0a, g1a), w1 = _mm_unpackhi_epi32(g0a, g1a),
+                w2 = _mm_unpacklo_epi32(g0b, g1b), w3 = _mm_unpackhi_epi32(g0b, g1b);
+  h[0] = w0, h[1] = _mm_srli_si128(w0, 8), h[2] = w1, h[3] = _mm_srli_si128(w1, 8);
+  h[4] = w2, h[5] = _mm_srli_si128(w2, 8), h[6] = w3, h[7] = _mm_srli_si128(w3, 8);
+}
+inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x, Lanes& bound) {
+  const __m128d e0 = _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[0]));
+  const __m128d e1 = _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[1]));
+  x = _mm_unpacklo_pd(e0, e1);
+  bound = _mm_unpackhi_pd(e0, e1);
 }
 #include "operators/background_lanes.inc"
 }  // namespace bath_sse2
@@ -462,17 +470,32 @@ typedef long long Mask __attribute__((vector_size(32)));
 inline constexpr std::size_t kLanes = 4;
 inline Lanes lanes_sqrt(Lanes x) { return _mm256_sqrt_pd(x); }
 inline unsigned lanes_movemask(Mask m) { return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(m))); }
-// as bath_sse2::direction_words, for words w[0], w[stride], w[2 stride], w[3 stride]
-inline void direction_words(const std::uint64_t* w, std::size_t stride, Lanes& zi, Lanes& ji, Mask& odd, Mask& word) {
-  const __m256i v = _mm256_set_epi64x(static_cast<long long>(w[3 * stride]), static_cast<long long>(w[2 * stride]),
-                                      static_cast<long long>(w[stride]), static_cast<long long>(w[0]));
-  // (lo 0, lo 1, lo 2, lo 3 | hi 0, hi 1, hi 2, hi 3)
-  const __m256i halves = _mm256_permutevar8x32_epi32(v, _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7));
-  zi = _mm256_cvtepi32_pd(_mm256_castsi256_si128(halves));
-  const __m128i hi = _mm256_extracti128_si256(halves, 1);
-  ji = _mm256_cvtepi32_pd(_mm_sub_epi32(_mm_and_si128(hi, _mm_set1_epi32(0x3fffffff)), _mm_set1_epi32(1 << 29)));
-  odd = reinterpret_cast<Mask>(_mm256_shuffle_epi32(_mm256_srai_epi32(_mm256_slli_epi32(v, 1), 31), _MM_SHUFFLE(3, 3, 1, 1)));
-  word = reinterpret_cast<Mask>(v);
+inline Lanes to_lanes(__m128i h) { return _mm256_cvtepi32_pd(h); }
+inline Mask widen_mask(__m128i h) { return reinterpret_cast<Mask>(_mm256_cvtepi32_epi64(h)); }
+// the four grains' words as rows (w0 w1 | w2 w3 per grain) transposed by 32-bit halves:
+// (w0 lo 0..3 | w2 lo 0..3), (w0 hi 0..3 | w2 hi 0..3), (w1 lo | w3 lo), (w1 hi | w3 hi)
+inline void word_halves(const std::uint64_t* w, __m128i h[8]) {
+  const __m256i* p = reinterpret_cast<const __m256i*>(w);
+  const __m256i r0 = _mm256_loadu_si256(p), r1 = _mm256_loadu_si256(p + 1), r2 = _mm256_loadu_si256(p + 2),
+                r3 = _mm256_loadu_si256(p + 3);
+  const __m256i t0 = _mm256_unpacklo_epi32(r0, r1), t1 = _mm256_unpackhi_epi32(r0, r1),
+                t2 = _mm256_unpacklo_epi32(r2, r3), t3 = _mm256_unpackhi_epi32(r2, r3);
+  const __m256i lo02 = _mm256_unpacklo_epi64(t0, t2), hi02 = _mm256_unpackhi_epi64(t0, t2),
+                lo13 = _mm256_unpacklo_epi64(t1, t3), hi13 = _mm256_unpackhi_epi64(t1, t3);
+  h[0] = _mm256_castsi256_si128(lo02), h[1] = _mm256_castsi256_si128(hi02);
+  h[2] = _mm256_castsi256_si128(lo13), h[3] = _mm256_castsi256_si128(hi13);
+  h[4] = _mm256_extracti128_si256(lo02, 1), h[5] = _mm256_extracti128_si256(hi02, 1);
+  h[6] = _mm256_extracti128_si256(lo13, 1), h[7] = _mm256_extracti128_si256(hi13, 1);
+}
+inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x, Lanes& bound) {
+  const __m256d e02 = _mm256_insertf128_pd(
+      _mm256_castpd128_pd256(_mm_loadu_pd(reinterpret_cast<const double*>(base + offset[0]))),
+      _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[2])), 1);
+  const __m256d e13 = _mm256_insertf128_pd(
+      _mm256_castpd128_pd256(_mm_loadu_pd(reinterpret_cast<const double*>(base + offset[1]))),
+      _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[3])), 1);
+  x = _mm256_unpacklo_pd(e02, e13);      // (x0, x1 | x2, x3)
+  bound = _mm256_unpackhi_pd(e02, e13);  // (b0, b1 | b2, b3)
 }
 #include "operators/background_lanes.inc"
 }  // namespace bath_avx2
@@ -485,8 +508,9 @@ inline void direction_words(const std::uint64_t* w, std::size_t stride, Lanes& z
 // Directions of two grains from words wa and wb (bath_sse2::direction_lanes; the per-grain
 // kernel passes one word twice and takes lane 0).
 inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx, double* ry, double* rz) {
-  const std::uint64_t w[2] = {wa, wb};
-  bath_sse2::direction_lanes(w, 1, rx, ry, rz);
+  const __m128i w = _mm_set_epi64x(static_cast<long long>(wb), static_cast<long long>(wa));
+  const __m128i lo = _mm_shuffle_epi32(w, _MM_SHUFFLE(3, 1, 2, 0));  // (lo a, lo b, hi a, hi b)
+  bath_sse2::direction_lanes(lo, _mm_unpackhi_epi64(lo, lo), rx, ry, rz);
 }
 
 // The 4 words of test t of grain `id` (the two blocks in one SIMD call; the same bits on

@@ -385,28 +385,66 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
-// The AVX2 path (four lanes) against the SSE2 path (two lanes), bitwise: the directions of
-// 2^16 random words and of the quadrant and z edges (every lane position), and the batch
-// kernel over 20,001 grains (odd, not a multiple of 4 or of the chunk) in a drifting
-// medium through 6 substeps, both with hot grains (many tests each) and slow ones.
+// The AVX2 path (four lanes) against the SSE2 path (two lanes) and the scalar code of the
+// per-grain kernel, bitwise: the variates (uniform, ziggurat fast values and slow-path
+// flags, directions) of 2^16 random words and of the quadrant, z and layer edges in every
+// half and lane position; and the batch kernel over 20,001 grains (odd, not a multiple of 4
+// or of the chunk) in a drifting medium through 6 substeps, with hot grains (many tests
+// each) and slow ones.
 TEST(BathKernel, AvxAndSse2PathsEqualBitwise) {
   if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 path exists";
   std::vector<std::uint64_t> words;
   for (const std::uint64_t hi : {0x00000000u, 0x3fffffffu, 0x40000000u, 0x7fffffffu, 0x80000000u, 0xbfffffffu,
-                                 0xc0000000u, 0xffffffffu, 0x20000000u, 0x1fffffffu})
-    for (const std::uint64_t lo : {0x00000000u, 0x7fffffffu, 0x80000000u, 0xffffffffu, 0x12345678u})
+                                 0xc0000000u, 0xffffffffu, 0x20000000u, 0x1fffffffu, 0x000007ffu, 0xfffff800u})
+    for (const std::uint64_t lo : {0x00000000u, 0x7fffffffu, 0x80000000u, 0xffffffffu, 0x12345678u, 0x000003ffu})
       words.push_back(hi << 32 | lo);
+  const std::size_t edges = words.size();
+  for (std::size_t k = 0; k < edges; ++k)  // every edge word at every word position of a test
+    for (std::size_t pos = 0; pos < 4; ++pos) words.push_back(pos == 0 ? words[k] : std::rotl(words[k], 17 * int(pos)));
   CounterRng r(5, Stream::initial_velocities, 1, 0);
-  while (words.size() % 4 != 0 || words.size() < (1u << 16)) words.push_back(r.bits64());
-  for (std::size_t k = 0; k < words.size(); k += 4) {
-    alignas(32) double ax[4], ay[4], az[4], sx[4], sy[4], sz[4];
-    detail::bath_avx2::direction_lanes(words.data() + k, 1, ax, ay, az);
-    detail::bath_sse2::direction_lanes(words.data() + k, 1, sx, sy, sz);
-    detail::bath_sse2::direction_lanes(words.data() + k + 2, 1, sx + 2, sy + 2, sz + 2);
+  while (words.size() % 16 != 0 || words.size() < (1u << 16)) words.push_back(r.bits64());
+  auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
+  for (std::size_t k = 0; k < words.size(); k += 16) {  // four grains' test words
+    alignas(32) double avx[9][4], sse[9][4];
+    unsigned avx_fail[5], sse_fail[5][2];
+    {
+      using namespace detail::bath_avx2;
+      __m128i h[8];
+      word_halves(words.data() + k, h);
+      uniform_lanes(h[0], avx[0]);
+      for (int v = 0; v < 4; ++v)
+        avx_fail[v] = ziggurat_lanes(h[1 + v], detail::kBathZiggurat.normal, 2 * detail::BathZiggurat::L - 1, detail::BathZiggurat::B, avx[1 + v]);
+      avx_fail[4] = ziggurat_lanes(h[5], detail::kBathZiggurat.exponential, detail::BathZiggurat::L - 1, detail::BathZiggurat::B - 1, avx[5]);
+      direction_lanes(h[6], h[7], avx[6], avx[7], avx[8]);
+    }
+    for (int pair = 0; pair < 2; ++pair) {
+      using namespace detail::bath_sse2;
+      __m128i h[8];
+      word_halves(words.data() + k + 8 * pair, h);
+      uniform_lanes(h[0], sse[0] + 2 * pair);
+      for (int v = 0; v < 4; ++v)
+        sse_fail[v][pair] = ziggurat_lanes(h[1 + v], detail::kBathZiggurat.normal, 2 * detail::BathZiggurat::L - 1, detail::BathZiggurat::B, sse[1 + v] + 2 * pair);
+      sse_fail[4][pair] = ziggurat_lanes(h[5], detail::kBathZiggurat.exponential, detail::BathZiggurat::L - 1, detail::BathZiggurat::B - 1, sse[5] + 2 * pair);
+      direction_lanes(h[6], h[7], sse[6] + 2 * pair, sse[7] + 2 * pair, sse[8] + 2 * pair);
+    }
+    for (int v = 0; v < 5; ++v) ASSERT_EQ(avx_fail[v], sse_fail[v][0] | sse_fail[v][1] << 2) << v;
     for (int j = 0; j < 4; ++j) {
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(ax[j]), std::bit_cast<std::uint64_t>(sx[j])) << std::hex << words[k + j];
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(ay[j]), std::bit_cast<std::uint64_t>(sy[j])) << std::hex << words[k + j];
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(az[j]), std::bit_cast<std::uint64_t>(sz[j])) << std::hex << words[k + j];
+      const std::uint64_t* w = words.data() + k + 4 * j;
+      for (int v = 0; v < 9; ++v) ASSERT_EQ(bits(avx[v][j]), bits(sse[v][j])) << v << " " << std::hex << w[0];
+      // and the scalar code of bath_variates (the per-grain kernel)
+      ASSERT_EQ(bits(avx[0][j]), bits(detail::bath_uniform(detail::bath_half(w, 0))));
+      for (int v = 0; v < 5; ++v) {
+        double fast;
+        const unsigned slow = v < 4 ? detail::bath_normal_fast(detail::bath_half(w, 1 + v), fast)
+                                    : detail::bath_exponential_fast(detail::bath_half(w, 5), fast);
+        ASSERT_EQ((avx_fail[v] >> j) & 1u, slow) << v;
+        ASSERT_EQ(bits(avx[1 + v][j]), bits(fast)) << v << " " << std::hex << w[0];
+      }
+      alignas(16) double rx[2], ry[2], rz[2];
+      detail::bath_direction_lanes(w[3], w[3], rx, ry, rz);
+      ASSERT_EQ(bits(avx[6][j]), bits(rx[0])) << std::hex << w[3];
+      ASSERT_EQ(bits(avx[7][j]), bits(ry[0])) << std::hex << w[3];
+      ASSERT_EQ(bits(avx[8][j]), bits(rz[0])) << std::hex << w[3];
     }
   }
   const BackgroundState b = BackgroundState::make(1.0, 0.01, {0.3, 0.0, -0.1}, 1.0, 0.5, 1.0);
