@@ -452,6 +452,22 @@ inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x
   x = _mm_unpacklo_pd(e0, e1);
   bound = _mm_unpackhi_pd(e0, e1);
 }
+// two lanes: only keep = 2 (lane 1 alone) moves a lane
+inline Lanes compact(Lanes x, unsigned keep) {
+  const Mask move = Mask{} - static_cast<long long>(keep == 2u);
+  const Lanes high = _mm_unpackhi_pd(x, x);
+  return reinterpret_cast<Lanes>((reinterpret_cast<Mask>(high) & move) | (reinterpret_cast<Mask>(x) & ~move));
+}
+inline __m128i compact_ints(__m128i h, unsigned keep) {
+  const __m128i move = _mm_set1_epi32(-static_cast<int>(keep == 2u));
+  return _mm_or_si128(_mm_and_si128(_mm_srli_si128(h, 4), move), _mm_andnot_si128(move, h));
+}
+inline __m128i ints_load(const std::uint32_t* p) { return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)); }
+inline void ints_store(std::uint32_t* p, __m128i h) { _mm_storel_epi64(reinterpret_cast<__m128i*>(p), h); }
+inline void id_halves(const std::uint64_t* id, __m128i& lo, __m128i& hi) {
+  lo = _mm_shuffle_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id)), _MM_SHUFFLE(3, 1, 2, 0));
+  hi = _mm_srli_si128(lo, 8);
+}
 #include "operators/background_lanes.inc"
 }  // namespace bath_sse2
 
@@ -496,6 +512,38 @@ inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x
       _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[3])), 1);
   x = _mm256_unpacklo_pd(e02, e13);      // (x0, x1 | x2, x3)
   bound = _mm256_unpackhi_pd(e02, e13);  // (b0, b1 | b2, b3)
+}
+// the permutations that move the lanes set in a 4-bit `keep` to the front, in order: of
+// 32-bit elements for doubles (two per lane) and for int32
+struct CompactPermutations {
+  alignas(32) int doubles[16][8];
+  alignas(16) int ints[16][4];
+};
+inline constexpr CompactPermutations kCompactPermutations = [] {
+  CompactPermutations t{};
+  for (int keep = 0; keep < 16; ++keep)
+    for (int lane = 0, front = 0; lane < 4; ++lane)
+      if (keep >> lane & 1) {
+        t.doubles[keep][2 * front] = 2 * lane, t.doubles[keep][2 * front + 1] = 2 * lane + 1;
+        t.ints[keep][front++] = lane;
+      }
+  return t;
+}();
+inline Lanes compact(Lanes x, unsigned keep) {
+  const __m256i order = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompactPermutations.doubles[keep]));
+  return _mm256_castsi256_pd(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(x), order));
+}
+inline __m128i compact_ints(__m128i h, unsigned keep) {
+  const __m128i order = _mm_load_si128(reinterpret_cast<const __m128i*>(kCompactPermutations.ints[keep]));
+  return _mm_castps_si128(_mm_permutevar_ps(_mm_castsi128_ps(h), order));
+}
+inline __m128i ints_load(const std::uint32_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+inline void ints_store(std::uint32_t* p, __m128i h) { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), h); }
+inline void id_halves(const std::uint64_t* id, __m128i& lo, __m128i& hi) {
+  const __m256i halves = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id)),
+                                                     _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7));
+  lo = _mm256_castsi256_si128(halves);
+  hi = _mm256_extracti128_si256(halves, 1);
 }
 #include "operators/background_lanes.inc"
 }  // namespace bath_avx2

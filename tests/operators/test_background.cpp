@@ -385,6 +385,47 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
+// The lane compaction of the batch kernel's active grains (compact, compact_ints): for
+// every mask, the marked lanes come first, in order, bitwise (doubles and int32), on both
+// paths.
+// (memory in, memory out: 256-bit vectors stay inside the AVX2 function)
+using CompactInMemory = void (*)(const double*, const std::int32_t*, unsigned, double*, std::int32_t*);
+void compact_sse2(const double* x, const std::int32_t* ints, unsigned keep, double* out, std::int32_t* out_ints) {
+  using namespace detail::bath_sse2;
+  lanes_store(out, compact(lanes_load(x), keep));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(out_ints),
+                   compact_ints(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ints)), keep));
+}
+[[gnu::target("avx2")]] void compact_avx2(const double* x, const std::int32_t* ints, unsigned keep, double* out,
+                                          std::int32_t* out_ints) {
+  using namespace detail::bath_avx2;
+  lanes_store(out, compact(lanes_load(x), keep));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(out_ints),
+                   compact_ints(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ints)), keep));
+}
+void check_compaction(CompactInMemory run, std::size_t lanes) {
+  for (unsigned keep = 0; keep < (1u << lanes); ++keep) {
+    SCOPED_TRACE(keep);
+    const std::int32_t ints[4] = {11, -22, 33, -44};
+    double x[4], got[4];
+    std::int32_t got_ints[4];
+    for (std::size_t j = 0; j < 4; ++j) x[j] = std::ldexp(1.0 + static_cast<double>(j) / 8, -1000 + 7 * static_cast<int>(j));
+    run(x, ints, keep, got, got_ints);
+    std::size_t front = 0;
+    for (std::size_t j = 0; j < lanes; ++j)
+      if (keep >> j & 1) {
+        EXPECT_EQ(std::bit_cast<std::uint64_t>(got[front]), std::bit_cast<std::uint64_t>(x[j]));
+        EXPECT_EQ(got_ints[front], ints[j]);
+        ++front;
+      }
+  }
+}
+TEST(BathKernel, CompactionKeepsMarkedLanesInOrder) {
+  check_compaction(compact_sse2, 2);
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 path exists";
+  check_compaction(compact_avx2, 4);
+}
+
 // The AVX2 path (four lanes) against the SSE2 path (two lanes) and the scalar code of the
 // per-grain kernel, bitwise: the variates (uniform, ziggurat fast values and slow-path
 // flags, directions) of 2^16 random words and of the quadrant, z and layer edges in every
