@@ -250,49 +250,10 @@ namespace detail {
 // 512 layers in the kernel alone, 38.3 vs 39.6 ns per test, and the same in the whole run)
 // and of two bits of the uniform across the layer (21 instead of 23 for the normal: the
 // distribution function's bound goes from 2^-24 to 2^-22, see above). The tables are built at
-// program start from the same closure condition as ZigguratTable (bisection on r so that
-// the equal-area layers close at the mode), for the densities exp(-x^2/2) and exp(-x).
-struct BathZigguratLayers {
-  static constexpr int kBits = 10, kLayers = 1 << kBits;
-  double x[kLayers + 1];  // layer edges, x[0] virtual base width v / f(r), x[1] = r, x[kLayers] = 0
-  double ratio[kLayers];  // x[i+1] / x[i]
-  double f[kLayers + 1];  // f(x[i])
-  double r = 0.0;         // start of the tail
-
-  template <class F, class FInv, class Tail>
-  static BathZigguratLayers build(F f, FInv finv, Tail tail, long double lo, long double hi) {
-    BathZigguratLayers t{};
-    auto defect = [&](long double r, BathZigguratLayers* out) -> long double {
-      const long double v = r * f(r) + tail(r);
-      long double x = r;
-      if (out) {
-        out->x[0] = static_cast<double>(v / f(r));
-        out->x[1] = static_cast<double>(r);
-      }
-      for (int i = 1; i < kLayers - 1; ++i) {
-        const long double y = v / x + f(x);
-        if (y >= 1.0L) return 1.0L + (kLayers - i);  // closed too early: r too small
-        x = finv(y);
-        if (out) out->x[i + 1] = static_cast<double>(x);
-      }
-      return v / x + f(x) - 1.0L;
-    };
-    // bisection to the last bit of long double (~66 halvings; each costs kLayers inverse
-    // densities, and the tables are built at the start of every process)
-    long double a = lo, b = hi;
-    for (;;) {
-      const long double m = 0.5L * (a + b);
-      if (!(a < m && m < b)) break;
-      (defect(m, nullptr) > 0 ? a : b) = m;
-    }
-    t.r = static_cast<double>(b);
-    defect(b, &t);
-    t.x[kLayers] = 0.0;
-    for (int i = 0; i <= kLayers; ++i) t.f[i] = static_cast<double>(f(static_cast<long double>(t.x[i])));
-    for (int i = 0; i < kLayers; ++i) t.ratio[i] = t.x[i + 1] / t.x[i];
-    return t;
-  }
-};
+// program start by ZigguratTable's builder (ZigguratLayers, operators/random.hpp: bisection
+// on r so that the equal-area layers close at the mode), for the densities exp(-x^2/2) and
+// exp(-x).
+using BathZigguratLayers = ZigguratLayers<1 << 10>;
 inline const BathZigguratLayers kBathNormalLayers = BathZigguratLayers::build(
     [](long double x) { return std::exp(-0.5L * x * x); }, [](long double y) { return std::sqrt(-2.0L * std::log(y)); },
     [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0L,
