@@ -14,8 +14,11 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <immintrin.h>
+#include <initializer_list>
 #include <numbers>
 
 #include "operators/binary_collision.hpp"
@@ -240,68 +243,6 @@ struct BathVariates {
 
 namespace detail {
 
-// Two lanes of doubles (GCC vector extension, one SSE2 register on baseline x86-64): the
-// element-wise IEEE operations are those of the scalar code, so each lane gets bitwise the
-// scalar result.
-typedef double BathLanes __attribute__((vector_size(16)));
-typedef long long BathMask __attribute__((vector_size(16)));
-
-inline BathLanes bath_sqrt(BathLanes x) { return _mm_sqrt_pd(x); }
-inline BathLanes bath_select(BathMask m, BathLanes a, BathLanes b) {
-  return reinterpret_cast<BathLanes>((reinterpret_cast<BathMask>(a) & m) | (reinterpret_cast<BathMask>(b) & ~m));
-}
-inline BathLanes bath_load(const double* p) {
-  BathLanes x;
-  std::memcpy(&x, p, sizeof x);
-  return x;
-}
-inline void bath_store(double* p, BathLanes x) { std::memcpy(p, &x, sizeof x); }
-
-// Uniform directions of two grains (lane 0 from word wa, lane 1 from wb), without rejection
-// (Archimedes: z = cos(theta) uniform on (-1, 1) and an independent uniform azimuth phi give
-// a uniform direction): z from the low 32 bits read as a signed integer, (k + 1/2) 2^-31
-// (odd multiples of 2^-32, symmetric about 0, |z| < 1); phi = q pi/2 + a with the quadrant
-// q from bits 62-63 and a = (j - 2^29 + 1/2) (pi/2) 2^-30 in (-pi/4, pi/4) from bits 32-61.
-// cos a and sin a by their Taylor series to a^16 and a^15 (polynomials in a^2): the truncation
-// is below (pi/4)^17/17! = 5e-17, so each is within a few ulp of the true value; the
-// rotation by q quarter turns is exact (swap and sign flips):
-//   (cos phi, sin phi) = (c, s), (-s, c), (-c, -s), (s, -c) for q = 0, 1, 2, 3.
-// r = (rho cos phi, rho sin phi, z) with rho = sqrt((1 - z)(1 + z)) (1 - z, 1 + z exact).
-// Plain IEEE operations in SSE2 lanes (no FMA, no libm): the same bits on every x86-64,
-// and bath_evolve_keyed calls this very function (lane 0) so both kernels agree bitwise.
-inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx, double* ry, double* rz) {
-  const __m128i w = _mm_set_epi64x(static_cast<long long>(wb), static_cast<long long>(wa));
-  // low halves (z) and high halves (azimuth) of the two words as int32 pairs
-  const __m128i lo = _mm_shuffle_epi32(w, _MM_SHUFFLE(3, 1, 2, 0));   // (lo a, lo b, hi a, hi b)
-  const __m128i hi = _mm_unpackhi_epi64(lo, lo);
-  const BathLanes half = {0.5, 0.5}, one = {1.0, 1.0};
-  const BathLanes z = (_mm_cvtepi32_pd(lo) + half) * 0x1.0p-31;
-  const __m128i j = _mm_sub_epi32(_mm_and_si128(hi, _mm_set1_epi32(0x3fffffff)), _mm_set1_epi32(1 << 29));
-  const BathLanes a = (_mm_cvtepi32_pd(j) + half) * (std::numbers::pi * 0x1.0p-31);
-  const BathLanes t = a * a;
-  // Estrin's scheme in t (pairs of terms, then t^2, t^4): a dependency chain of 6
-  // operations instead of 16 by Horner's rule, so the variates pass keeps more grains in
-  // flight; every term is added in the same fixed order on every machine
-  const BathLanes t2 = t * t, t4 = t2 * t2;
-  const BathLanes sp = ((-1.0 / 6 + t * (1.0 / 120)) + t2 * (-1.0 / 5040 + t * (1.0 / 362880))) +
-                       t4 * ((-1.0 / 39916800 + t * (1.0 / 6227020800.0)) + t2 * (-1.0 / 1307674368000.0));
-  const BathLanes cp = ((-1.0 / 2 + t * (1.0 / 24)) + t2 * (-1.0 / 720 + t * (1.0 / 40320))) +
-                       t4 * ((-1.0 / 3628800 + t * (1.0 / 479001600)) + t2 * (-1.0 / 87178291200.0 + t * (1.0 / 20922789888000.0)));
-  const BathLanes s = a + (a * t) * sp;
-  const BathLanes c = one + t * cp;
-  // q odd: swap; x negated for q = 1, 2 (bit 62 xor bit 63), y for q = 2, 3 (bit 63)
-  const BathMask odd = reinterpret_cast<BathMask>(_mm_shuffle_epi32(_mm_srai_epi32(_mm_slli_epi32(w, 1), 31), _MM_SHUFFLE(3, 3, 1, 1)));
-  const BathMask sign = {static_cast<long long>(0x8000000000000000ull), static_cast<long long>(0x8000000000000000ull)};
-  const BathMask wm = reinterpret_cast<BathMask>(w);
-  const BathMask neg_x = (wm ^ (wm << 1)) & sign, neg_y = wm & sign;
-  const BathLanes x = reinterpret_cast<BathLanes>(reinterpret_cast<BathMask>(bath_select(odd, s, c)) ^ neg_x);
-  const BathLanes y = reinterpret_cast<BathLanes>(reinterpret_cast<BathMask>(bath_select(odd, c, s)) ^ neg_y);
-  const BathLanes rho = bath_sqrt((one - z) * (one + z));
-  bath_store(rx, rho * x);
-  bath_store(ry, rho * y);
-  bath_store(rz, z);
-}
-
 // The bath kernel's own ziggurats (Marsaglia & Tsang 2000, as ZigguratTable, here with
 // 2^kBits layers): more layers make the fast path more likely (the normal's slow path
 // 0.43% per draw with 1024 layers instead of 1.5% with 256, the exponential's 0.64% instead
@@ -309,49 +250,10 @@ inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx,
 // 512 layers in the kernel alone, 38.3 vs 39.6 ns per test, and the same in the whole run)
 // and of two bits of the uniform across the layer (21 instead of 23 for the normal: the
 // distribution function's bound goes from 2^-24 to 2^-22, see above). The tables are built at
-// program start from the same closure condition as ZigguratTable (bisection on r so that
-// the equal-area layers close at the mode), for the densities exp(-x^2/2) and exp(-x).
-struct BathZigguratLayers {
-  static constexpr int kBits = 10, kLayers = 1 << kBits;
-  double x[kLayers + 1];  // layer edges, x[0] virtual base width v / f(r), x[1] = r, x[kLayers] = 0
-  double ratio[kLayers];  // x[i+1] / x[i]
-  double f[kLayers + 1];  // f(x[i])
-  double r = 0.0;         // start of the tail
-
-  template <class F, class FInv, class Tail>
-  static BathZigguratLayers build(F f, FInv finv, Tail tail, long double lo, long double hi) {
-    BathZigguratLayers t{};
-    auto defect = [&](long double r, BathZigguratLayers* out) -> long double {
-      const long double v = r * f(r) + tail(r);
-      long double x = r;
-      if (out) {
-        out->x[0] = static_cast<double>(v / f(r));
-        out->x[1] = static_cast<double>(r);
-      }
-      for (int i = 1; i < kLayers - 1; ++i) {
-        const long double y = v / x + f(x);
-        if (y >= 1.0L) return 1.0L + (kLayers - i);  // closed too early: r too small
-        x = finv(y);
-        if (out) out->x[i + 1] = static_cast<double>(x);
-      }
-      return v / x + f(x) - 1.0L;
-    };
-    // bisection to the last bit of long double (~66 halvings; each costs kLayers inverse
-    // densities, and the tables are built at the start of every process)
-    long double a = lo, b = hi;
-    for (;;) {
-      const long double m = 0.5L * (a + b);
-      if (!(a < m && m < b)) break;
-      (defect(m, nullptr) > 0 ? a : b) = m;
-    }
-    t.r = static_cast<double>(b);
-    defect(b, &t);
-    t.x[kLayers] = 0.0;
-    for (int i = 0; i <= kLayers; ++i) t.f[i] = static_cast<double>(f(static_cast<long double>(t.x[i])));
-    for (int i = 0; i < kLayers; ++i) t.ratio[i] = t.x[i + 1] / t.x[i];
-    return t;
-  }
-};
+// program start by ZigguratTable's builder (ZigguratLayers, operators/random.hpp: bisection
+// on r so that the equal-area layers close at the mode), for the densities exp(-x^2/2) and
+// exp(-x).
+using BathZigguratLayers = ZigguratLayers<1 << 10>;
 inline const BathZigguratLayers kBathNormalLayers = BathZigguratLayers::build(
     [](long double x) { return std::exp(-0.5L * x * x); }, [](long double y) { return std::sqrt(-2.0L * std::log(y)); },
     [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0L,
@@ -481,6 +383,145 @@ inline std::uint32_t bath_ctr1(std::uint64_t id, Stream stream) {
   return static_cast<std::uint32_t>(id >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24);
 }
 
+// The lane code of the batch kernel (operators/background_lanes.inc), compiled once per
+// instruction set: two double lanes in SSE2 (baseline x86-64) and four in AVX2, chosen at
+// run time by Philox4x32Lanes::have_avx2() (GRAINBATH_SIMD=sse2 forces the baseline).
+// Both give bitwise the same results (the same IEEE operations per lane, no FMA; tests/
+// operators BathKernel.AvxAndSse2PathsEqualBitwise).
+namespace bath_sse2 {
+typedef double Lanes __attribute__((vector_size(16)));
+typedef long long Mask __attribute__((vector_size(16)));
+inline constexpr std::size_t kLanes = 2;
+inline Lanes lanes_sqrt(Lanes x) { return _mm_sqrt_pd(x); }
+inline unsigned lanes_movemask(Mask m) { return static_cast<unsigned>(_mm_movemask_pd(reinterpret_cast<__m128d>(m))); }
+inline Lanes to_lanes(__m128i h) { return _mm_cvtepi32_pd(h); }
+inline Mask widen_mask(__m128i h) { return reinterpret_cast<Mask>(_mm_unpacklo_epi32(h, h)); }
+// grain 0's words w0 w1 | w2 w3 and grain 1's, interleaved by 32-bit halves:
+// (w0 lo 0, w0 lo 1, w0 hi 0, w0 hi 1) and so on; h[k] has half k in its low two int32
+inline void word_halves(const std::uint64_t* w, __m128i h[8]) {
+  const __m128i* p = reinterpret_cast<const __m128i*>(w);
+  const __m128i g0a = _mm_loadu_si128(p), g0b = _mm_loadu_si128(p + 1), g1a = _mm_loadu_si128(p + 2),
+                g1b = _mm_loadu_si128(p + 3);
+  const __m128i w0 = _mm_unpacklo_epi32(g0a, g1a), w1 = _mm_unpackhi_epi32(g0a, g1a),
+                w2 = _mm_unpacklo_epi32(g0b, g1b), w3 = _mm_unpackhi_epi32(g0b, g1b);
+  h[0] = w0, h[1] = _mm_srli_si128(w0, 8), h[2] = w1, h[3] = _mm_srli_si128(w1, 8);
+  h[4] = w2, h[5] = _mm_srli_si128(w2, 8), h[6] = w3, h[7] = _mm_srli_si128(w3, 8);
+}
+inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x, Lanes& bound) {
+  const __m128d e0 = _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[0]));
+  const __m128d e1 = _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[1]));
+  x = _mm_unpacklo_pd(e0, e1);
+  bound = _mm_unpackhi_pd(e0, e1);
+}
+// two lanes: only keep = 2 (lane 1 alone) moves a lane
+inline Lanes compact(Lanes x, unsigned keep) {
+  const Mask move = Mask{} - static_cast<long long>(keep == 2u);
+  const Lanes high = _mm_unpackhi_pd(x, x);
+  return reinterpret_cast<Lanes>((reinterpret_cast<Mask>(high) & move) | (reinterpret_cast<Mask>(x) & ~move));
+}
+inline __m128i compact_ints(__m128i h, unsigned keep) {
+  const __m128i move = _mm_set1_epi32(-static_cast<int>(keep == 2u));
+  return _mm_or_si128(_mm_and_si128(_mm_srli_si128(h, 4), move), _mm_andnot_si128(move, h));
+}
+inline __m128i ints_load(const std::uint32_t* p) { return _mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)); }
+inline void ints_store(std::uint32_t* p, __m128i h) { _mm_storel_epi64(reinterpret_cast<__m128i*>(p), h); }
+inline void id_halves(const std::uint64_t* id, __m128i& lo, __m128i& hi) {
+  lo = _mm_shuffle_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(id)), _MM_SHUFFLE(3, 1, 2, 0));
+  hi = _mm_srli_si128(lo, 8);
+}
+#include "operators/background_lanes.inc"
+}  // namespace bath_sse2
+
+// The AVX2 copy: every function defined up to the pop is compiled for AVX2 (and explicitly
+// without FMA, so that no multiply-add can be contracted whatever the global flags). Only
+// called when the CPU has AVX2.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2,no-fma"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2,no-fma")
+#endif
+namespace bath_avx2 {
+typedef double Lanes __attribute__((vector_size(32)));
+typedef long long Mask __attribute__((vector_size(32)));
+inline constexpr std::size_t kLanes = 4;
+inline Lanes lanes_sqrt(Lanes x) { return _mm256_sqrt_pd(x); }
+inline unsigned lanes_movemask(Mask m) { return static_cast<unsigned>(_mm256_movemask_pd(reinterpret_cast<__m256d>(m))); }
+inline Lanes to_lanes(__m128i h) { return _mm256_cvtepi32_pd(h); }
+inline Mask widen_mask(__m128i h) { return reinterpret_cast<Mask>(_mm256_cvtepi32_epi64(h)); }
+// the four grains' words as rows (w0 w1 | w2 w3 per grain) transposed by 32-bit halves:
+// (w0 lo 0..3 | w2 lo 0..3), (w0 hi 0..3 | w2 hi 0..3), (w1 lo | w3 lo), (w1 hi | w3 hi)
+inline void word_halves(const std::uint64_t* w, __m128i h[8]) {
+  const __m256i* p = reinterpret_cast<const __m256i*>(w);
+  const __m256i r0 = _mm256_loadu_si256(p), r1 = _mm256_loadu_si256(p + 1), r2 = _mm256_loadu_si256(p + 2),
+                r3 = _mm256_loadu_si256(p + 3);
+  const __m256i t0 = _mm256_unpacklo_epi32(r0, r1), t1 = _mm256_unpackhi_epi32(r0, r1),
+                t2 = _mm256_unpacklo_epi32(r2, r3), t3 = _mm256_unpackhi_epi32(r2, r3);
+  const __m256i lo02 = _mm256_unpacklo_epi64(t0, t2), hi02 = _mm256_unpackhi_epi64(t0, t2),
+                lo13 = _mm256_unpacklo_epi64(t1, t3), hi13 = _mm256_unpackhi_epi64(t1, t3);
+  h[0] = _mm256_castsi256_si128(lo02), h[1] = _mm256_castsi256_si128(hi02);
+  h[2] = _mm256_castsi256_si128(lo13), h[3] = _mm256_castsi256_si128(hi13);
+  h[4] = _mm256_extracti128_si256(lo02, 1), h[5] = _mm256_extracti128_si256(hi02, 1);
+  h[6] = _mm256_extracti128_si256(lo13, 1), h[7] = _mm256_extracti128_si256(hi13, 1);
+}
+inline void load_entries(const char* base, const std::uint32_t* offset, Lanes& x, Lanes& bound) {
+  const __m256d e02 = _mm256_insertf128_pd(
+      _mm256_castpd128_pd256(_mm_loadu_pd(reinterpret_cast<const double*>(base + offset[0]))),
+      _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[2])), 1);
+  const __m256d e13 = _mm256_insertf128_pd(
+      _mm256_castpd128_pd256(_mm_loadu_pd(reinterpret_cast<const double*>(base + offset[1]))),
+      _mm_loadu_pd(reinterpret_cast<const double*>(base + offset[3])), 1);
+  x = _mm256_unpacklo_pd(e02, e13);      // (x0, x1 | x2, x3)
+  bound = _mm256_unpackhi_pd(e02, e13);  // (b0, b1 | b2, b3)
+}
+// the permutations that move the lanes set in a 4-bit `keep` to the front, in order: of
+// 32-bit elements for doubles (two per lane) and for int32
+struct CompactPermutations {
+  alignas(32) int doubles[16][8];
+  alignas(16) int ints[16][4];
+};
+inline constexpr CompactPermutations kCompactPermutations = [] {
+  CompactPermutations t{};
+  for (int keep = 0; keep < 16; ++keep)
+    for (int lane = 0, front = 0; lane < 4; ++lane)
+      if (keep >> lane & 1) {
+        t.doubles[keep][2 * front] = 2 * lane, t.doubles[keep][2 * front + 1] = 2 * lane + 1;
+        t.ints[keep][front++] = lane;
+      }
+  return t;
+}();
+inline Lanes compact(Lanes x, unsigned keep) {
+  const __m256i order = _mm256_load_si256(reinterpret_cast<const __m256i*>(kCompactPermutations.doubles[keep]));
+  return _mm256_castsi256_pd(_mm256_permutevar8x32_epi32(_mm256_castpd_si256(x), order));
+}
+inline __m128i compact_ints(__m128i h, unsigned keep) {
+  const __m128i order = _mm_load_si128(reinterpret_cast<const __m128i*>(kCompactPermutations.ints[keep]));
+  return _mm_castps_si128(_mm_permutevar_ps(_mm_castsi128_ps(h), order));
+}
+inline __m128i ints_load(const std::uint32_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+inline void ints_store(std::uint32_t* p, __m128i h) { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), h); }
+inline void id_halves(const std::uint64_t* id, __m128i& lo, __m128i& hi) {
+  const __m256i halves = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(id)),
+                                                     _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7));
+  lo = _mm256_castsi256_si128(halves);
+  hi = _mm256_extracti128_si256(halves, 1);
+}
+#include "operators/background_lanes.inc"
+}  // namespace bath_avx2
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+// Directions of two grains from words wa and wb (bath_sse2::direction_lanes; the per-grain
+// kernel passes one word twice and takes lane 0).
+inline void bath_direction_lanes(std::uint64_t wa, std::uint64_t wb, double* rx, double* ry, double* rz) {
+  const __m128i w = _mm_set_epi64x(static_cast<long long>(wb), static_cast<long long>(wa));
+  const __m128i lo = _mm_shuffle_epi32(w, _MM_SHUFFLE(3, 1, 2, 0));  // (lo a, lo b, hi a, hi b)
+  bath_sse2::direction_lanes(lo, _mm_unpackhi_epi64(lo, lo), rx, ry, rz);
+}
+
 // The 4 words of test t of grain `id` (the two blocks in one SIMD call; the same bits on
 // every path, tests/operators/test_random.cpp).
 inline void bath_words(const BathKey& key, std::uint64_t id, std::uint64_t t, std::uint64_t* w) {
@@ -569,250 +610,27 @@ inline void bath_evolve_keyed(Vec3& v, double& hazard, const BackgroundState& b,
   }
 }
 
-namespace detail {
-
-// bath_test for two grains at once (lanes), in three parts run as three passes over the
-// active grains: this one (the partner and the acceptance), bath_collide_lanes (the
-// collision, applied times `on`) and bath_next_lanes (the next candidate's bookkeeping of
-// bath_evolve_keyed). The same operations in the same order as bath_test and
-// bath_evolve_keyed for each lane, so bitwise the same results; the independent lanes'
-// square roots and divisions overlap. Out: g = c - c_w, |g|^2 and on = 1 (accepted) or 0.
-inline void bath_test_lanes(BathLanes u, BathLanes z0, BathLanes z1, BathLanes z2, BathLanes z3, BathLanes vx,
-                            BathLanes vy, BathLanes vz, BathLanes cmod, BathLanes& gx, BathLanes& gy, BathLanes& gz,
-                            BathLanes& g2, BathLanes& on, const BackgroundState& b) {
-  const BathLanes zero = {0.0, 0.0};
-  const BathLanes cx = vx - b.velocity.x, cy = vy - b.velocity.y, cz = vz - b.velocity.z;
-  const BathLanes tp = u * (cmod + b.mean_speed);
-  const BathMask maxw = tp < cmod;
-  const BathLanes s3 = z0 * z0 + z1 * z1 + z2 * z2, s4 = s3 + z3 * z3;
-  const BathLanes a3 = bath_sqrt(s3), a = bath_sqrt(bath_select(maxw, s3, s4));
-  const BathLanes scale = b.sigma * (a / a3);
-  gx = cx - z0 * scale, gy = cy - z1 * scale, gz = cz - z2 * scale;
-  g2 = gx * gx + gy * gy + gz * gz;
-  const BathLanes cw_mod = b.sigma * a;
-  const BathLanes tpp = tp - bath_select(maxw, zero, cmod), d = bath_select(maxw, cmod, zero + b.mean_speed);
-  const BathLanes lhs = tpp * (cmod + cw_mod);
-  on = bath_select(lhs * lhs < g2 * (d * d), zero + 1.0, zero);
-}
-
-// The collision of bath_test_lanes' candidates, applied times `on` (1 or 0): v' = v - alpha
-// (g - |g| r), and the energy change. Separate passes (Issue #7): one test is a chain of
-// about 150 cycles of dependent square roots and divisions, and with the whole test in one
-// loop body only about two iterations fit in the out-of-order window; three shorter loops
-// (acceptance, collision, next candidate) overlap more grains.
-inline void bath_collide_lanes(BathLanes gx, BathLanes gy, BathLanes gz, BathLanes g2, BathLanes on, BathLanes rx,
-                               BathLanes ry, BathLanes rz, BathLanes& vx, BathLanes& vy, BathLanes& vz,
-                               BathLanes& gain, const BackgroundState& b, double grain_mass) {
-  const BathLanes gm = bath_sqrt(g2);
-  const BathLanes dvx = (gx - rx * gm) * -b.mass_ratio, dvy = (gy - ry * gm) * -b.mass_ratio,
-                  dvz = (gz - rz * gm) * -b.mass_ratio;
-  const BathLanes nx = vx + dvx, ny = vy + dvy, nz = vz + dvz;
-  const BathLanes de = 0.5 * grain_mass * ((nx * nx + ny * ny + nz * nz) - (vx * vx + vy * vy + vz * vz));
-  vx += dvx * on;
-  vy += dvy * on;
-  vz += dvz * on;
-  gain += de * on;
-}
-
-// The bookkeeping of the next candidate after bath_test_lanes (bath_evolve_keyed per lane):
-// |c| of the new velocity, and the residual `hazard`, the remaining time `left` and `more`
-// (1 if the grain has a further candidate in this substep, else 0) from the exponential e.
-inline void bath_next_lanes(BathLanes e, BathLanes vx, BathLanes vy, BathLanes vz, BathLanes& cmod, BathLanes& hazard,
-                            BathLanes& left, BathLanes& more, const BackgroundState& b) {
-  const BathLanes zero = {0.0, 0.0};
-  const BathLanes ex = vx - b.velocity.x, ey = vy - b.velocity.y, ez = vz - b.velocity.z;
-  cmod = bath_sqrt(ex * ex + ey * ey + ez * ez);
-  // next candidate (bath_evolve_keyed): done if the new residual covers the rest
-  const BathLanes rate = b.rate_scale * (cmod + b.mean_speed);
-  const BathLanes need = rate * left;
-  const BathMask done = e >= need;
-  hazard = bath_select(done, e - need, e);
-  more = bath_select(done, zero, zero + 1.0);
-  const BathLanes rest = left - e / rate;
-  left = bath_select(zero < rest, rest, zero);
-}
-
-
-}  // namespace detail
-
 // All grains [0, n) of arrays vx, vy, vz, hazard (ids in `id`) through a bath substep in a
 // uniform medium: bitwise the results of bath_evolve_keyed per grain, with the energy
 // gains added to counters.energy_gain grain by grain in index order. Grains are taken in
 // chunks of 256 whose active grains (those with a candidate left) are kept compacted in
 // structure-of-arrays scratch; in round t every active grain makes its test t, in passes:
 // (1) the round's Philox4x32 words, all grains at once in integer SIMD; (2) the variates of
-// each test, two grains at a time (ziggurat fast paths, directions in SSE2 lanes), into
-// arrays, the grains needing a slow path listed and done after the pass; (3) the tests two
-// lanes at a time, split in three loops (acceptance, collision, next candidate: shorter
+// each test, a register of grains at a time (ziggurat fast paths, directions in lanes), into
+// arrays, the grains needing a slow path listed and done after the pass; (3) the tests a
+// register at a time, split in three loops (acceptance, collision, next candidate: shorter
 // dependency chains per loop body, so more grains overlap; tests of different grains are
 // independent and no branch depends on the acceptance), then the write-back and the
 // compaction of the grains that go on. A short last group of lanes computes padding
-// (copies of valid lanes) that is not written back.
+// (copies of valid lanes) that is not written back. Four lanes in AVX2 where the CPU has
+// it, else two in SSE2 (operators/background_lanes.inc): bitwise the same results.
 inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx, double* vy, double* vz,
                               double* hazard, const BackgroundState& b, double grain_mass, double duration,
                               const BathKey& key, BackgroundCounters& counters) {
-  if (b.rate_scale <= 0.0) return;
-  constexpr std::size_t kChunk = 256, L = 2;
-  std::uint32_t index[kChunk], ctr0[kChunk], ctr1[kChunk], slow[kChunk + 2];
-  alignas(64) std::uint64_t words[4 * (kChunk + 1)];
-  // active-grain state and this round's variates, padded to whole lane groups
-  alignas(64) double avx[kChunk + L], avy[kChunk + L], avz[kChunk + L], acm[kChunk + L], aleft[kChunk + L],
-      again[kChunk + L], ahz[kChunk + L], aon[kChunk + L], amore[kChunk + L];
-  alignas(64) double xu[kChunk + L], xz0[kChunk + L], xz1[kChunk + L], xz2[kChunk + L], xz3[kChunk + L],
-      xe[kChunk + L], xrx[kChunk + L], xry[kChunk + L], xrz[kChunk + L];
-  double gain[kChunk];
-  std::uint64_t candidates = 0, collisions = 0;
-  for (std::size_t lo = 0; lo < n; lo += kChunk) {
-    const std::size_t m = std::min(kChunk, n - lo);
-    std::size_t na = 0;
-    // which grains have a candidate in this substep: two grains per SSE2 register (the
-    // operations of bath_evolve_keyed per lane), an odd last grain in scalar code
-    auto enter = [&](std::size_t k, double cmod, double h, double need, double left, bool run) {
-      const std::size_t i = lo + k;
-      hazard[i] = run ? h : h - need;
-      gain[k] = 0.0;
-      index[na] = static_cast<std::uint32_t>(k);
-      ctr0[na] = detail::bath_ctr0(id[i]);
-      ctr1[na] = detail::bath_ctr1(id[i], key.stream);
-      avx[na] = vx[i];
-      avy[na] = vy[i];
-      avz[na] = vz[i];
-      acm[na] = cmod;
-      again[na] = 0.0;
-      aleft[na] = left;
-      na += run;
-    };
-    std::size_t k = 0;
-    for (; k + 2 <= m; k += 2) {
-      using detail::BathLanes;
-      const std::size_t i = lo + k;
-      const BathLanes zero = {0.0, 0.0};
-      const BathLanes cx = detail::bath_load(vx + i) - b.velocity.x, cy = detail::bath_load(vy + i) - b.velocity.y,
-                      cz = detail::bath_load(vz + i) - b.velocity.z;
-      const BathLanes cmod = detail::bath_sqrt(cx * cx + cy * cy + cz * cz);
-      const BathLanes rate = b.rate_scale * (cmod + b.mean_speed);
-      const BathLanes need = rate * duration;
-      const BathLanes h = detail::bath_load(hazard + i);
-      const BathLanes rest = duration - h / rate;
-      const BathLanes left = detail::bath_select(zero < rest, rest, zero);
-      const int run = _mm_movemask_pd(h < need);
-      enter(k, cmod[0], h[0], need[0], left[0], run & 1);
-      enter(k + 1, cmod[1], h[1], need[1], left[1], run >> 1);
-    }
-    if (k < m) {
-      const std::size_t i = lo + k;
-      const double cmod = norm(Vec3{vx[i], vy[i], vz[i]} - b.velocity);
-      const double rate = b.rate_scale * (cmod + b.mean_speed);
-      const double need = rate * duration;
-      const double h = hazard[i];
-      enter(k, cmod, h, need, std::max(0.0, duration - h / rate), h < need);
-    }
-    for (std::uint64_t t = 0; na > 0; ++t) {
-      candidates += na;
-      // (1) words
-      Philox4x32Lanes::words4(key.seed, ctr0, ctr1, static_cast<std::uint32_t>(key.step), static_cast<std::uint32_t>(2 * t),
-                              na, words);
-      // (2) variates, two grains at a time: the ziggurat fast paths (scalar: table loads),
-      // the directions in SSE2 lanes; the rare slow path per grain. An odd last grain is
-      // paired with a copy of its words (padding, not used).
-      if (na % 2 != 0) std::memcpy(words + 4 * na, words + 4 * (na - 1), 4 * sizeof(std::uint64_t));
-      std::size_t nslow = 0;
-      for (std::size_t a = 0; a < na; a += 2) {
-        using detail::bath_half;
-        const std::uint64_t* wa = words + 4 * a;
-        const std::uint64_t* wb = wa + 4;
-        std::uint32_t fa, fb;
-        xu[a] = detail::bath_uniform(bath_half(wa, 0));
-        xu[a + 1] = detail::bath_uniform(bath_half(wb, 0));
-        fa = detail::bath_normal_fast(bath_half(wa, 1), xz0[a]);
-        fb = detail::bath_normal_fast(bath_half(wb, 1), xz0[a + 1]);
-        fa |= detail::bath_normal_fast(bath_half(wa, 2), xz1[a]) << 1;
-        fb |= detail::bath_normal_fast(bath_half(wb, 2), xz1[a + 1]) << 1;
-        fa |= detail::bath_normal_fast(bath_half(wa, 3), xz2[a]) << 2;
-        fb |= detail::bath_normal_fast(bath_half(wb, 3), xz2[a + 1]) << 2;
-        fa |= detail::bath_normal_fast(bath_half(wa, 4), xz3[a]) << 3;
-        fb |= detail::bath_normal_fast(bath_half(wb, 4), xz3[a + 1]) << 3;
-        fa |= detail::bath_exponential_fast(bath_half(wa, 5), xe[a]) << 4;
-        fb |= detail::bath_exponential_fast(bath_half(wb, 5), xe[a + 1]) << 4;
-        detail::bath_direction_lanes(wa[3], wb[3], xrx + a, xry + a, xrz + a);
-        // grains needing a slow path are listed without a branch and done after the pass
-        // (a branch here was mispredicted on most of the tests that take one)
-        slow[nslow] = static_cast<std::uint32_t>(a) | fa << 16;
-        nslow += fa != 0;
-        slow[nslow] = static_cast<std::uint32_t>(a + 1) | fb << 16;
-        nslow += (fb != 0) & (a + 1 < na);
-      }
-      for (std::size_t q = 0; q < nslow; ++q) {
-        const std::size_t g = slow[q] & 0xffffu;
-        detail::bath_variates_slow_lane(words + 4 * g, slow[q] >> 16, key, id[lo + index[g]], t, g, xz0, xz1, xz2, xz3, xe);
-      }
-      // padding lanes: copies of the last active grain
-      for (std::size_t a = na; a % L != 0; ++a) {
-        for (double* p : {avx, avy, avz, acm, aleft, again, xu, xz0, xz1, xz2, xz3, xe, xrx, xry, xrz}) p[a] = p[na - 1];
-      }
-      // (3) tests
-      for (std::size_t a = 0; a < na; a += L) {
-        using detail::bath_load;
-        detail::BathLanes gx, gy, gz, g2, on;
-        detail::bath_test_lanes(bath_load(xu + a), bath_load(xz0 + a), bath_load(xz1 + a), bath_load(xz2 + a),
-                                bath_load(xz3 + a), bath_load(avx + a), bath_load(avy + a), bath_load(avz + a),
-                                bath_load(acm + a), gx, gy, gz, g2, on, b);
-        // the partner's normals are not needed any more: their arrays take g
-        detail::bath_store(xz0 + a, gx);
-        detail::bath_store(xz1 + a, gy);
-        detail::bath_store(xz2 + a, gz);
-        detail::bath_store(xz3 + a, g2);
-        detail::bath_store(aon + a, on);
-      }
-      for (std::size_t a = 0; a < na; a += L) {
-        using detail::bath_load;
-        detail::BathLanes lvx = bath_load(avx + a), lvy = bath_load(avy + a), lvz = bath_load(avz + a),
-                          lg = bath_load(again + a);
-        detail::bath_collide_lanes(bath_load(xz0 + a), bath_load(xz1 + a), bath_load(xz2 + a), bath_load(xz3 + a),
-                                   bath_load(aon + a), bath_load(xrx + a), bath_load(xry + a), bath_load(xrz + a), lvx,
-                                   lvy, lvz, lg, b, grain_mass);
-        detail::bath_store(avx + a, lvx);
-        detail::bath_store(avy + a, lvy);
-        detail::bath_store(avz + a, lvz);
-        detail::bath_store(again + a, lg);
-      }
-      for (std::size_t a = 0; a < na; a += L) {
-        using detail::bath_load;
-        detail::BathLanes lcm, lleft = bath_load(aleft + a), hz, more;
-        detail::bath_next_lanes(bath_load(xe + a), bath_load(avx + a), bath_load(avy + a), bath_load(avz + a), lcm, hz,
-                                lleft, more, b);
-        detail::bath_store(acm + a, lcm);
-        detail::bath_store(aleft + a, lleft);
-        detail::bath_store(ahz + a, hz);
-        detail::bath_store(amore + a, more);
-      }
-      // write back, and keep the grains that go on
-      std::size_t nn = 0;
-      for (std::size_t a = 0; a < na; ++a) {
-        const std::size_t k = index[a], i = lo + k;
-        vx[i] = avx[a];
-        vy[i] = avy[a];
-        vz[i] = avz[a];
-        hazard[i] = ahz[a];
-        gain[k] = again[a];
-        collisions += static_cast<std::uint64_t>(aon[a]);
-        index[nn] = index[a];
-        ctr0[nn] = ctr0[a];
-        ctr1[nn] = ctr1[a];
-        avx[nn] = avx[a];
-        avy[nn] = avy[a];
-        avz[nn] = avz[a];
-        acm[nn] = acm[a];
-        again[nn] = again[a];
-        aleft[nn] = aleft[a];
-        nn += static_cast<std::size_t>(amore[a]);
-      }
-      na = nn;
-    }
-    for (std::size_t k = 0; k < m; ++k) counters.energy_gain += gain[k];
-  }
-  counters.candidates += candidates;
-  counters.collisions += collisions;
+  if (Philox4x32Lanes::have_avx2())
+    detail::bath_avx2::evolve_batch(n, id, vx, vy, vz, hazard, b, grain_mass, duration, key, counters);
+  else
+    detail::bath_sse2::evolve_batch(n, id, vx, vy, vz, hazard, b, grain_mass, duration, key, counters);
 }
 
 }  // namespace grainbath

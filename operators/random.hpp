@@ -57,8 +57,13 @@ enum class Stream : std::uint64_t {
 // method is exact: every accepted point is uniform under the curve.
 // r is found here by bisection on the condition that the layers close at the mode
 // (x[256] = 0), not copied from a table: the tables are built at program start.
-struct ZigguratTable {
-  static constexpr int kLayers = 256;
+// ZigguratLayers<L> is the table of L layers (the DSMC bath kernel's own ziggurats,
+// operators/background.hpp, have 1024); ZigguratTable the 256-layer one of CounterRng.
+template <int Layers>
+struct ZigguratLayers {
+  static constexpr int kLayers = Layers;
+  static constexpr int kBits = std::countr_zero(static_cast<unsigned>(Layers));  // layer index bits
+  static_assert(Layers == 1 << kBits, "a power of two: the layer is a bit field of the draw");
   double x[kLayers + 1];      // layer edges, x[0] virtual base width, x[kLayers] = 0
   double ratio[kLayers];      // x[i+1] / x[i]: fast-path bound on the uniform
   double f[kLayers + 1];      // f(x[i])
@@ -66,10 +71,10 @@ struct ZigguratTable {
 
   // Density, its inverse and the tail mass beyond r, for both shapes.
   template <class F, class FInv, class Tail>
-  static ZigguratTable build(F f, FInv finv, Tail tail, double lo, double hi) {
-    ZigguratTable t{};
+  static ZigguratLayers build(F f, FInv finv, Tail tail, long double lo, long double hi) {
+    ZigguratLayers t{};
     // closing defect: how far above the mode the layers end for a trial r (decreasing in r)
-    auto defect = [&](long double r, ZigguratTable* out) -> long double {
+    auto defect = [&](long double r, ZigguratLayers* out) -> long double {
       const long double v = r * f(r) + tail(r);
       long double x = r;
       if (out) {
@@ -84,9 +89,15 @@ struct ZigguratTable {
       }
       return v / x + f(x) - 1.0L;
     };
+    // bisection to the last bit of long double (~66 halvings; each costs kLayers inverse
+    // densities, and the tables are built at the start of every process). Once a and b
+    // are neighbours the midpoint rounds to one of them and the bracket no longer moves
+    // (defect(a) > 0 >= defect(b) throughout), so this is the fixed point a bisection of
+    // any greater number of halvings (ZigguratTable once took 200) ends at.
     long double a = lo, b = hi;
-    for (int it = 0; it < 200; ++it) {
+    for (;;) {
       const long double m = 0.5L * (a + b);
+      if (!(a < m && m < b)) break;
       (defect(m, nullptr) > 0 ? a : b) = m;
     }
     t.r = static_cast<double>(b);
@@ -96,19 +107,21 @@ struct ZigguratTable {
     for (int i = 0; i < kLayers; ++i) t.ratio[i] = t.x[i + 1] / t.x[i];
     return t;
   }
+};
 
+struct ZigguratTable : ZigguratLayers<256> {
   static const ZigguratTable& normal();
   static const ZigguratTable& exponential();
 };
 
 // Built once at program start (namespace-scope inline variables: no guard on every draw).
-inline const ZigguratTable kNormalZiggurat = ZigguratTable::build(
+inline const ZigguratTable kNormalZiggurat{ZigguratLayers<256>::build(
     [](long double x) { return std::exp(-0.5L * x * x); }, [](long double y) { return std::sqrt(-2.0L * std::log(y)); },
-    [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0,
-    4.5);
-inline const ZigguratTable kExponentialZiggurat = ZigguratTable::build(
+    [](long double r) { return std::sqrt(std::numbers::pi_v<long double> / 2) * std::erfc(r / std::sqrt(2.0L)); }, 3.0L,
+    4.5L)};
+inline const ZigguratTable kExponentialZiggurat{ZigguratLayers<256>::build(
     [](long double x) { return std::exp(-x); }, [](long double y) { return -std::log(y); },
-    [](long double r) { return std::exp(-r); }, 6.0, 9.0);
+    [](long double r) { return std::exp(-r); }, 6.0L, 9.0L)};
 inline const ZigguratTable& ZigguratTable::normal() { return kNormalZiggurat; }
 inline const ZigguratTable& ZigguratTable::exponential() { return kExponentialZiggurat; }
 

@@ -321,13 +321,32 @@ TEST(BathKernel, CarriedResidualKeepsTheRatesAcrossSubsteps) {
   EXPECT_NEAR(m * s2 / n / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / n));
 }
 
+// The batch kernel's instruction-set paths (operators/background_lanes.inc: two lanes in
+// SSE2, four in AVX2), called directly; the AVX2 one only where the CPU has it.
+namespace {
+using BatchPath = void (*)(std::size_t, const std::uint64_t*, double*, double*, double*, double*,
+                           const BackgroundState&, double, double, const BathKey&, BackgroundCounters&);
+struct NamedBatchPath {
+  const char* name;
+  BatchPath run;
+};
+std::vector<NamedBatchPath> batch_paths() {
+  std::vector<NamedBatchPath> paths{{"sse2", detail::bath_sse2::evolve_batch}};
+  if (__builtin_cpu_supports("avx2")) paths.push_back({"avx2", detail::bath_avx2::evolve_batch});
+  return paths;
+}
+}  // namespace
+
 // The interleaved kernel is the per-grain kernel: bitwise the same velocities, residuals and
 // counters (energy summed grain by grain in order), for block sizes that are not multiples
-// of the lane count or the chunk, ids that are not 0..n-1, a residual that runs out
-// immediately, a grain at rest in the bath frame, and many tests per grain.
+// of the lane count (2 or 4) or the chunk, ids that are not 0..n-1, a residual that runs out
+// immediately, a grain at rest in the bath frame, and many tests per grain; on every
+// instruction-set path of the batch kernel.
 TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   const BackgroundState b = BackgroundState::make(2.0, 0.05, {0.1, -0.3, 0.2}, 1.4, 0.6, 1.3);
-  for (const std::size_t n : {1u, 3u, 5u, 255u, 257u, 1031u}) {
+  for (const NamedBatchPath& path : batch_paths())
+  for (const std::size_t n : {1u, 2u, 3u, 5u, 6u, 7u, 255u, 257u, 258u, 1031u}) {
+    SCOPED_TRACE(path.name);
     SCOPED_TRACE(n);
     std::vector<double> vx(n), vy(n), vz(n), hz(n);
     std::vector<std::uint64_t> id(n);
@@ -344,7 +363,7 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
     BackgroundCounters batch, keyed;
     for (int s = 0; s < 3; ++s) {
       const BathKey key{11, Stream::background_second_half, static_cast<std::uint64_t>(s)};
-      bath_evolve_batch(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.3, 0.2, key, batch);
+      path.run(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.3, 0.2, key, batch);
       for (std::size_t i = 0; i < n; ++i) {
         Vec3 v{kx[i], ky[i], kz[i]};
         double gain;
@@ -363,6 +382,140 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
       ASSERT_EQ(vz[i], kz[i]) << i;
       ASSERT_EQ(hz[i], kh[i]) << i;
     }
+  }
+}
+
+// The lane compaction of the batch kernel's active grains (compact, compact_ints): for
+// every mask, the marked lanes come first, in order, bitwise (doubles and int32), on both
+// paths.
+// (memory in, memory out: 256-bit vectors stay inside the AVX2 function)
+using CompactInMemory = void (*)(const double*, const std::int32_t*, unsigned, double*, std::int32_t*);
+void compact_sse2(const double* x, const std::int32_t* ints, unsigned keep, double* out, std::int32_t* out_ints) {
+  using namespace detail::bath_sse2;
+  lanes_store(out, compact(lanes_load(x), keep));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(out_ints),
+                   compact_ints(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ints)), keep));
+}
+[[gnu::target("avx2")]] void compact_avx2(const double* x, const std::int32_t* ints, unsigned keep, double* out,
+                                          std::int32_t* out_ints) {
+  using namespace detail::bath_avx2;
+  lanes_store(out, compact(lanes_load(x), keep));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(out_ints),
+                   compact_ints(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ints)), keep));
+}
+void check_compaction(CompactInMemory run, std::size_t lanes) {
+  for (unsigned keep = 0; keep < (1u << lanes); ++keep) {
+    SCOPED_TRACE(keep);
+    const std::int32_t ints[4] = {11, -22, 33, -44};
+    double x[4], got[4];
+    std::int32_t got_ints[4];
+    for (std::size_t j = 0; j < 4; ++j) x[j] = std::ldexp(1.0 + static_cast<double>(j) / 8, -1000 + 7 * static_cast<int>(j));
+    run(x, ints, keep, got, got_ints);
+    std::size_t front = 0;
+    for (std::size_t j = 0; j < lanes; ++j)
+      if (keep >> j & 1) {
+        EXPECT_EQ(std::bit_cast<std::uint64_t>(got[front]), std::bit_cast<std::uint64_t>(x[j]));
+        EXPECT_EQ(got_ints[front], ints[j]);
+        ++front;
+      }
+  }
+}
+TEST(BathKernel, CompactionKeepsMarkedLanesInOrder) {
+  check_compaction(compact_sse2, 2);
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 path exists";
+  check_compaction(compact_avx2, 4);
+}
+
+// The AVX2 path (four lanes) against the SSE2 path (two lanes) and the scalar code of the
+// per-grain kernel, bitwise: the variates (uniform, ziggurat fast values and slow-path
+// flags, directions) of 2^16 random words and of the quadrant, z and layer edges in every
+// half and lane position; and the batch kernel over 20,001 grains (odd, not a multiple of 4
+// or of the chunk) in a drifting medium through 6 substeps, with hot grains (many tests
+// each) and slow ones.
+TEST(BathKernel, AvxAndSse2PathsEqualBitwise) {
+  if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 path exists";
+  std::vector<std::uint64_t> words;
+  for (const std::uint64_t hi : {0x00000000u, 0x3fffffffu, 0x40000000u, 0x7fffffffu, 0x80000000u, 0xbfffffffu,
+                                 0xc0000000u, 0xffffffffu, 0x20000000u, 0x1fffffffu, 0x000007ffu, 0xfffff800u})
+    for (const std::uint64_t lo : {0x00000000u, 0x7fffffffu, 0x80000000u, 0xffffffffu, 0x12345678u, 0x000003ffu})
+      words.push_back(hi << 32 | lo);
+  const std::size_t edges = words.size();
+  for (std::size_t k = 0; k < edges; ++k)  // every edge word at every word position of a test
+    for (std::size_t pos = 0; pos < 4; ++pos) words.push_back(pos == 0 ? words[k] : std::rotl(words[k], 17 * int(pos)));
+  CounterRng r(5, Stream::initial_velocities, 1, 0);
+  while (words.size() % 16 != 0 || words.size() < (1u << 16)) words.push_back(r.bits64());
+  auto bits = [](double x) { return std::bit_cast<std::uint64_t>(x); };
+  for (std::size_t k = 0; k < words.size(); k += 16) {  // four grains' test words
+    alignas(32) double avx[9][4], sse[9][4];
+    unsigned avx_fail[5], sse_fail[5][2];
+    {
+      using namespace detail::bath_avx2;
+      __m128i h[8];
+      word_halves(words.data() + k, h);
+      uniform_lanes(h[0], avx[0]);
+      for (int v = 0; v < 4; ++v)
+        avx_fail[v] = ziggurat_lanes(h[1 + v], detail::kBathZiggurat.normal, 2 * detail::BathZiggurat::L - 1, detail::BathZiggurat::B, avx[1 + v]);
+      avx_fail[4] = ziggurat_lanes(h[5], detail::kBathZiggurat.exponential, detail::BathZiggurat::L - 1, detail::BathZiggurat::B - 1, avx[5]);
+      direction_lanes(h[6], h[7], avx[6], avx[7], avx[8]);
+    }
+    for (int pair = 0; pair < 2; ++pair) {
+      using namespace detail::bath_sse2;
+      __m128i h[8];
+      word_halves(words.data() + k + 8 * pair, h);
+      uniform_lanes(h[0], sse[0] + 2 * pair);
+      for (int v = 0; v < 4; ++v)
+        sse_fail[v][pair] = ziggurat_lanes(h[1 + v], detail::kBathZiggurat.normal, 2 * detail::BathZiggurat::L - 1, detail::BathZiggurat::B, sse[1 + v] + 2 * pair);
+      sse_fail[4][pair] = ziggurat_lanes(h[5], detail::kBathZiggurat.exponential, detail::BathZiggurat::L - 1, detail::BathZiggurat::B - 1, sse[5] + 2 * pair);
+      direction_lanes(h[6], h[7], sse[6] + 2 * pair, sse[7] + 2 * pair, sse[8] + 2 * pair);
+    }
+    for (int v = 0; v < 5; ++v) ASSERT_EQ(avx_fail[v], sse_fail[v][0] | sse_fail[v][1] << 2) << v;
+    for (int j = 0; j < 4; ++j) {
+      const std::uint64_t* w = words.data() + k + 4 * j;
+      for (int v = 0; v < 9; ++v) ASSERT_EQ(bits(avx[v][j]), bits(sse[v][j])) << v << " " << std::hex << w[0];
+      // and the scalar code of bath_variates (the per-grain kernel)
+      ASSERT_EQ(bits(avx[0][j]), bits(detail::bath_uniform(detail::bath_half(w, 0))));
+      for (int v = 0; v < 5; ++v) {
+        double fast;
+        const unsigned slow = v < 4 ? detail::bath_normal_fast(detail::bath_half(w, 1 + v), fast)
+                                    : detail::bath_exponential_fast(detail::bath_half(w, 5), fast);
+        ASSERT_EQ((avx_fail[v] >> j) & 1u, slow) << v;
+        ASSERT_EQ(bits(avx[1 + v][j]), bits(fast)) << v << " " << std::hex << w[0];
+      }
+      alignas(16) double rx[2], ry[2], rz[2];
+      detail::bath_direction_lanes(w[3], w[3], rx, ry, rz);
+      ASSERT_EQ(bits(avx[6][j]), bits(rx[0])) << std::hex << w[3];
+      ASSERT_EQ(bits(avx[7][j]), bits(ry[0])) << std::hex << w[3];
+      ASSERT_EQ(bits(avx[8][j]), bits(rz[0])) << std::hex << w[3];
+    }
+  }
+  const BackgroundState b = BackgroundState::make(1.0, 0.01, {0.3, 0.0, -0.1}, 1.0, 0.5, 1.0);
+  const std::size_t n = 20001;
+  std::vector<double> vx(n), vy(n), vz(n), hz(n);
+  std::vector<std::uint64_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    CounterRng g(3, Stream::initial_velocities, i, 0);
+    const double s = i % 3 == 0 ? 4.0 : 0.5;
+    vx[i] = s * g.normal(), vy[i] = s * g.normal(), vz[i] = s * g.normal();
+    hz[i] = g.exponential();
+    id[i] = 7 * i + 3;
+  }
+  auto ax = vx, ay = vy, az = vz, ah = hz;
+  BackgroundCounters sse2, avx2;
+  for (int s = 0; s < 6; ++s) {
+    const BathKey key{3, s % 2 ? Stream::background_second_half : Stream::background_first_half,
+                      static_cast<std::uint64_t>(s / 2)};
+    detail::bath_sse2::evolve_batch(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), b, 1.0, 0.005, key, sse2);
+    detail::bath_avx2::evolve_batch(n, id.data(), ax.data(), ay.data(), az.data(), ah.data(), b, 1.0, 0.005, key, avx2);
+  }
+  EXPECT_GT(sse2.candidates, 5 * n);
+  EXPECT_EQ(avx2.candidates, sse2.candidates);
+  EXPECT_EQ(avx2.collisions, sse2.collisions);
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(avx2.energy_gain), std::bit_cast<std::uint64_t>(sse2.energy_gain));
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ax[i]), std::bit_cast<std::uint64_t>(vx[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ay[i]), std::bit_cast<std::uint64_t>(vy[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(az[i]), std::bit_cast<std::uint64_t>(vz[i])) << i;
+    ASSERT_EQ(std::bit_cast<std::uint64_t>(ah[i]), std::bit_cast<std::uint64_t>(hz[i])) << i;
   }
 }
 
