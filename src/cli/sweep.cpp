@@ -125,7 +125,7 @@ std::map<std::string, double> read_summary(const fs::path& p) {
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
-  FlatJson j{text};
+  FlatJson j{text, 0, {}};
   j.value("");
   return j.out;
 }
@@ -341,7 +341,7 @@ int command_sweep(const SweepArgs& a) {
     em << "| quantity | mean over " << variants.size() << " replicas | standard error | per-run stderr (mean) |\n|---|---|---|---|\n";
     Summary merged;
     for (const auto& c : columns) {
-      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || c.size() > 7 && c.compare(c.size() - 7, 7, ".stderr") == 0)
+      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || (c.size() > 7 && c.compare(c.size() - 7, 7, ".stderr") == 0))
         continue;
       std::vector<double> v;
       for (const auto& r : rows)
@@ -387,7 +387,7 @@ int command_sweep(const SweepArgs& a) {
   std::fputs(md.str().c_str(), stdout);
   // one plot, if Python with matplotlib is available (the C++ side never needs it)
   const fs::path exe_dir = fs::path(self).parent_path();
-  for (const fs::path cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
+  for (const fs::path& cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
     if (fs::exists(cand)) {
       const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
       const std::string cmd = python + " '" + cand.string() + "' '" + out.string() + "' >/dev/null 2>&1";
