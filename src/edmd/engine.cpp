@@ -158,7 +158,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   bg_time_.assign(n_, kInf);
   if (dims_ == 2) {  // the candidate mirror (engine.hpp): disks only
     hot_.assign(4 * n_, 0.0);
-    ltime_.assign(n_, 0.0);
+    stamp_.assign(n_, Stamp{});
   }
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
@@ -282,7 +282,7 @@ void Engine::move_to(std::uint32_t i, double t) {
   publish(i);
 }
 
-// The candidate mirror of i (engine.hpp: hot_, ltime_) from its kinematic record. Called
+// The candidate mirror of i (engine.hpp: hot_, stamp_) from its kinematic record. Called
 // wherever k_[i] changes: move_to (r, t; v under acceleration), trajectory_changed (after
 // every change of v or a pinned r, with the new counter), the periodic wrap of a cell
 // crossing, and sort_by_cell for everyone (rebuild, restore).
@@ -291,19 +291,19 @@ inline void Engine::publish(std::uint32_t i) {
   const Kin& k = k_[i];
   double* h = &hot_[4 * static_cast<std::size_t>(i)];
   h[0] = k.r.x, h[1] = k.r.y, h[2] = k.v.x, h[3] = k.v.y;
-  ltime_[i] = k.t;
+  stamp_[i] = Stamp{k.t, k.counter};
 }
 
 bool Engine::candidate_mirror_consistent() const {
   // bit patterns, so that a stale -0 / +0 or NaN payload would show too
   auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
-  if (dims_ != 2) return hot_.empty() && ltime_.empty();  // 3D reads Kin (engine.hpp)
-  if (hot_.size() != 4 * n_ || ltime_.size() != n_) return false;
+  if (dims_ != 2) return hot_.empty() && stamp_.empty();  // 3D reads Kin (engine.hpp)
+  if (hot_.size() != 4 * n_ || stamp_.size() != n_) return false;
   for (std::size_t i = 0; i < n_; ++i) {
     const Kin& k = k_[i];
     const double* h = &hot_[4 * i];
     if (!same(h[0], k.r.x) || !same(h[1], k.r.y) || !same(h[2], k.v.x) || !same(h[3], k.v.y)) return false;
-    if (!same(ltime_[i], k.t)) return false;
+    if (!same(stamp_[i].t, k.t) || stamp_[i].counter != k.counter) return false;
   }
   return true;
 }
@@ -545,7 +545,6 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
     const double b = sb[s], q2 = sq2[s];
     best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], candidate_counter<D>(sj[s]));
   }
-  if constexpr (D == 2) resolve_counters(best);
   store_top2(i, best);
   return true;
 }
@@ -780,7 +779,6 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
       best[l].offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s]))), sk[l][s],
                     candidate_counter<D>(sk[l][s]));
     }
-  if constexpr (D == 2) resolve_counters(best[0]), resolve_counters(best[1]);
   store_top2(i, best[0]);
   store_top2(j, best[1]);
   schedule(i);

@@ -45,8 +45,8 @@ namespace grainbath::edmd {
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Cache-line-aligned storage for the engine's compact candidate arrays (Engine::hot_,
-// Engine::ltime_): with the base at a line boundary a 32-byte disk record never straddles
-// two lines, and the local times sit eight to a line.
+// Engine::stamp_): with the base at a line boundary a 32-byte disk record never straddles
+// two lines, and the 16-byte time stamps sit four to a line.
 template <class T>
 struct LineAlignedAllocator {
   using value_type = T;
@@ -206,7 +206,7 @@ class Engine {
   double min_distance() const;
   // Heap property and one-entry-per-particle consistency (tests).
   bool calendar_valid() const { return heap_.valid(); }
-  // The compact candidate mirror (hot_, ltime_) equals the kinematic records bit for bit
+  // The compact candidate mirror (hot_, stamp_) equals the kinematic records bit for bit
   // (tests: every path that changes a grain must refresh it).
   bool candidate_mirror_consistent() const;
   std::uint64_t rebuilds() const { return rebuilds_; }
@@ -282,12 +282,10 @@ class Engine {
     std::uint8_t aux = 0;  // cell crossing: 2 * dim + (dir > 0); wall: 2 * dim + (high side)
   };
   static constexpr std::uint64_t kUnknownCounter = ~std::uint64_t{0};
-  // a kept candidate whose counter is read after the scan (resolve_counters); never stored
-  static constexpr std::uint64_t kPendingCounter = ~std::uint64_t{0} - 1;
   static_assert(sizeof(Sched) == 64, "the scheduling record is one cache line");
 
   void move_to(std::uint32_t i, double t);
-  void publish(std::uint32_t i);  // copy k_[i] into the candidate mirror (hot_, ltime_)
+  void publish(std::uint32_t i);  // copy k_[i] into the candidate mirror (hot_, stamp_)
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -301,7 +299,7 @@ class Engine {
   template <int D>
   bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
   // A candidate grain as the fast paths read it: from the compact mirror in 2D (hot_,
-  // ltime_), from its Kin record in 3D (see hot_). Same values either way.
+  // stamp_), from its Kin record in 3D (see hot_). Same values either way.
   struct Candidate {
     double rx, ry, rz, vx, vy, vz, t;
   };
@@ -309,26 +307,22 @@ class Engine {
   Candidate candidate(std::uint32_t j) const {
     if constexpr (D == 2) {
       const double* h = hot_.data() + 4 * static_cast<std::size_t>(j);
-      return {h[0], h[1], 0.0, h[2], h[3], 0.0, ltime_[j]};
+      return {h[0], h[1], 0.0, h[2], h[3], 0.0, stamp_[j].t};
     } else {
       const Kin& k = k_[j];
       return {k.r.x, k.r.y, k.r.z, k.v.x, k.v.y, k.v.z, k.t};
     }
   }
-  // The event counter a scan stores with a candidate it keeps. Disks: not read per
-  // candidate (it would be one more line); the offer carries kPendingCounter and
-  // resolve_counters() reads the at most two kept partners' counters after the scan (a
-  // candidate's counter cannot change during a scan, so the values are the same).
   template <int D>
   std::uint64_t candidate_counter(std::uint32_t j) const {
-    if constexpr (D == 2) return kPendingCounter;
+    if constexpr (D == 2) return stamp_[j].counter;
     else return k_[j].counter;
   }
   template <int D>
   void request_candidate(std::uint32_t j) const {  // software prefetch of what candidate<D> reads
     if constexpr (D == 2) {
       __builtin_prefetch(hot_.data() + 4 * static_cast<std::size_t>(j));
-      __builtin_prefetch(ltime_.data() + j);
+      __builtin_prefetch(stamp_.data() + j);
     } else {
       __builtin_prefetch(&k_[j]);
     }
@@ -349,10 +343,6 @@ class Engine {
   };
   Top2 load_top2(const Sched& s) const {
     return {s.coll_time, s.coll2_time, s.coll_partner, s.coll2_partner, s.coll_partner_counter, s.coll2_partner_counter};
-  }
-  void resolve_counters(Top2& b) const {
-    if (b.c1 == kPendingCounter) b.c1 = k_[b.p1].counter;
-    if (b.c2 == kPendingCounter) b.c2 = k_[b.p2].counter;
   }
   void store_top2(std::uint32_t i, const Top2& b);
   void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, Top2& best) const;
@@ -409,16 +399,21 @@ class Engine {
   // predict_pair_d) read of a *candidate* grain, in records smaller than the 64-byte Kin.
   // At large N those scans cost about one last-level miss per candidate record
   // (docs/performance/edmd.md), so the record size is the lever: hot_ holds x, y, vx, vy
-  // (32 bytes, two disks per cache line), ltime_ the local time (8 bytes, eight per line;
-  // the event counter is read from Kin for the kept partners only, resolve_counters). In the Morton storage order the members of neighbouring cells are
+  // (32 bytes, two disks per cache line), stamp_ the local time and event counter (16
+  // bytes, four per line; the counter is read only for the candidates that survive the
+  // pair test). In the Morton storage order the members of neighbouring cells are
   // neighbours in memory, so they share lines. The values are copies of k_ (publish():
   // move_to, trajectory_changed, the periodic wrap of a cell crossing, sort_by_cell), so
   // the pair arithmetic is the same bits as with Kin. Empty in 3D: a 48-byte x, y, z, vx,
   // vy, vz record straddles lines and the time needs a second array, which measured more
   // simulated last-level misses than the one aligned Kin line (docs/performance/edmd.md,
   // 2026-11-25 night).
+  struct Stamp {
+    double t = 0.0;
+    std::uint64_t counter = 0;
+  };
   std::vector<double, LineAlignedAllocator<double>> hot_;  // 4 doubles per slot (2D only)
-  std::vector<double, LineAlignedAllocator<double>> ltime_;  // local time t (2D only)
+  std::vector<Stamp, LineAlignedAllocator<Stamp>> stamp_;
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};

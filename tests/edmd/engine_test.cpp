@@ -132,7 +132,7 @@ TEST(EdmdEngine, AirTableQuarticPredictionsKeepGrainsApart) {
 }
 
 // The ballistic fast paths read candidate grains from a compact mirror of the kinematic
-// records (engine.hpp: hot_, ltime_). A path that changes a grain (free flight, collision,
+// records (engine.hpp: hot_, stamp_). A path that changes a grain (free flight, collision,
 // wall, heating kick, medium collision, periodic wrap, re-sort) without refreshing the
 // mirror would let the scans predict from stale positions or velocities. Checked bit for
 // bit in the middle of runs (grains at different local times) with every feature that
