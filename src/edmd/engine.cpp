@@ -156,10 +156,8 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   omega_.assign(n_, Vec3{});
   sc_.assign(n_, Sched{});
   bg_time_.assign(n_, kInf);
-  if (dims_ == 2) {  // the candidate mirror (engine.hpp): disks only
-    hot_.assign(4 * n_, 0.0);
-    stamp_.assign(n_, Stamp{});
-  }
+  hot_.assign(n_ * 2 * static_cast<std::size_t>(dims_), 0.0);
+  stamp_.assign(n_, Stamp{});
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
   for (std::size_t i = 0; i < n_; ++i) {
@@ -287,22 +285,27 @@ void Engine::move_to(std::uint32_t i, double t) {
 // every change of v or a pinned r, with the new counter), the periodic wrap of a cell
 // crossing, and sort_by_cell for everyone (rebuild, restore).
 inline void Engine::publish(std::uint32_t i) {
-  if (dims_ != 2) return;
   const Kin& k = k_[i];
-  double* h = &hot_[4 * static_cast<std::size_t>(i)];
-  h[0] = k.r.x, h[1] = k.r.y, h[2] = k.v.x, h[3] = k.v.y;
+  const std::size_t stride = 2 * static_cast<std::size_t>(dims_);
+  double* h = &hot_[i * stride];
+  if (dims_ == 3) {
+    h[0] = k.r.x, h[1] = k.r.y, h[2] = k.r.z, h[3] = k.v.x, h[4] = k.v.y, h[5] = k.v.z;
+  } else {
+    h[0] = k.r.x, h[1] = k.r.y, h[2] = k.v.x, h[3] = k.v.y;
+  }
   stamp_[i] = Stamp{k.t, k.counter};
 }
 
 bool Engine::candidate_mirror_consistent() const {
   // bit patterns, so that a stale -0 / +0 or NaN payload would show too
   auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
-  if (dims_ != 2) return hot_.empty() && stamp_.empty();  // 3D reads Kin (engine.hpp)
-  if (hot_.size() != 4 * n_ || stamp_.size() != n_) return false;
+  const std::size_t stride = 2 * static_cast<std::size_t>(dims_);
   for (std::size_t i = 0; i < n_; ++i) {
     const Kin& k = k_[i];
-    const double* h = &hot_[4 * i];
-    if (!same(h[0], k.r.x) || !same(h[1], k.r.y) || !same(h[2], k.v.x) || !same(h[3], k.v.y)) return false;
+    const double* h = &hot_[i * stride];
+    const double r[3] = {k.r.x, k.r.y, k.r.z}, v[3] = {k.v.x, k.v.y, k.v.z};
+    for (int d = 0; d < dims_; ++d)
+      if (!same(h[d], r[d]) || !same(h[dims_ + d], v[d])) return false;
     if (!same(stamp_[i].t, k.t) || stamp_[i].counter != k.counter) return false;
   }
   return true;
@@ -413,6 +416,16 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 template <int D>
 bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
+  // candidates are read from the compact mirror (engine.hpp: hot_, stamp_), the same values
+  // as their Kin records in fewer cache lines
+  constexpr std::size_t kS = 2 * D;  // doubles per hot_ record
+  const double* const hot = hot_.data();
+  const Stamp* const stamp = stamp_.data();
+  auto request = [&](std::uint32_t j) {
+    __builtin_prefetch(hot + j * kS);
+    if constexpr (D == 3) __builtin_prefetch(hot + j * kS + kS - 1);  // 48 bytes may straddle two lines
+    __builtin_prefetch(stamp + j);
+  };
   const auto& c = sc_[i].cell;
   int lo[3] = {-1, -1, D == 3 ? -1 : 0}, hi[3] = {1, 1, D == 3 ? 1 : 0};
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
@@ -443,7 +456,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
           if (nb + cnt > kMax) return false;
           for (int q = 0; q < cnt; ++q) {
             const std::uint32_t j = m[q];
-            request_candidate<D>(j);
+            request(j);
             buf[nb] = j;
             nb += (j != i);
           }
@@ -476,7 +489,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
           if (nb + cnt > kMax) return false;
           for (int q = 0; q < cnt; ++q) {
             const std::uint32_t j = m[q];
-            request_candidate<D>(j);
+            request(j);
             buf[nb] = j;
             nb += (j != i);
           }
@@ -504,14 +517,15 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   double sb[kMax], sq2[kMax], sdisc[kMax];
   int ns = 0;
   // rj = candidate position at time t
-  auto filter = [&](std::uint32_t j, const Candidate& kj, double rjx, double rjy, double rjz) {
+  // hj = the candidate's hot_ record: position hj[0..D), velocity hj[D..2D)
+  auto filter = [&](std::uint32_t j, const double* hj, double rjx, double rjy, double rjz) {
     const double drx = rjx - ki.r.x, dry = rjy - ki.r.y;
-    const double dvx = kj.vx - ki.v.x, dvy = kj.vy - ki.v.y;
+    const double dvx = hj[D] - ki.v.x, dvy = hj[D + 1] - ki.v.y;
     double b = drx * dvx + dry * dvy;
     double dr2 = drx * drx + dry * dry;
     double dv2 = dvx * dvx + dvy * dvy;
     if constexpr (D == 3) {
-      const double drz = rjz - ki.r.z, dvz = kj.vz - ki.v.z;
+      const double drz = rjz - ki.r.z, dvz = hj[D + 2] - ki.v.z;
       b += drz * dvz;
       dr2 += drz * drz;
       dv2 += dvz * dvz;
@@ -524,9 +538,9 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   if (interior) {
     for (int q = 0; q < nb; ++q) {
       const std::uint32_t j = buf[q];
-      const Candidate kj = candidate<D>(j);
-      const double dtj = t - kj.t;
-      filter(j, kj, kj.rx + dtj * kj.vx, kj.ry + dtj * kj.vy, D == 3 ? kj.rz + dtj * kj.vz : 0.0);
+      const double* hj = hot + j * kS;
+      const double dtj = t - stamp[j].t;
+      filter(j, hj, hj[0] + dtj * hj[D], hj[1] + dtj * hj[D + 1], D == 3 ? hj[2] + dtj * hj[D + 2] : 0.0);
     }
   } else {
     int q = 0;
@@ -534,16 +548,16 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
       const double sx = seg_shift[sg][0], sy = seg_shift[sg][1], sz = seg_shift[sg][2];
       for (; q < seg_end[sg]; ++q) {
         const std::uint32_t j = buf[q];
-        const Candidate kj = candidate<D>(j);
-        const double dtj = t - kj.t;
-        filter(j, kj, (kj.rx + dtj * kj.vx) + sx, (kj.ry + dtj * kj.vy) + sy,
-               D == 3 ? (kj.rz + dtj * kj.vz) + sz : 0.0);
+        const double* hj = hot + j * kS;
+        const double dtj = t - stamp[j].t;
+        filter(j, hj, (hj[0] + dtj * hj[D]) + sx, (hj[1] + dtj * hj[D + 1]) + sy,
+               D == 3 ? (hj[2] + dtj * hj[D + 2]) + sz : 0.0);
       }
     }
   }
   for (int s = 0; s < ns; ++s) {
     const double b = sb[s], q2 = sq2[s];
-    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], candidate_counter<D>(sj[s]));
+    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], stamp[sj[s]].counter);
   }
   store_top2(i, best);
   return true;
@@ -680,6 +694,10 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   int nb = 0;
   bool overflow = false;
   constexpr int zr = D == 3 ? 1 : 0;
+  // candidates from the compact mirror (engine.hpp: hot_, stamp_), as in scan_neighbours_d
+  constexpr std::size_t kS = 2 * D;
+  const double* const hot = hot_.data();
+  const Stamp* const stamp = stamp_.data();
   auto add_cell = [&](int cell) {
     const std::uint32_t* m = cell_block(cell) + 1;
     const int cnt = static_cast<int>(m[-1]);
@@ -689,7 +707,9 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
     }
     for (int q = 0; q < cnt; ++q) {
       const std::uint32_t k = m[q];
-      request_candidate<D>(k);
+      __builtin_prefetch(hot + k * kS);
+      if constexpr (D == 3) __builtin_prefetch(hot + k * kS + kS - 1);  // 48 bytes may straddle two lines
+      __builtin_prefetch(stamp + k);
       buf[nb++] = k;
     }
   };
@@ -746,17 +766,17 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   int ns[2] = {0, 0};
   for (int q = 0; q < nb; ++q) {
     const std::uint32_t k = buf[q];
-    const Candidate kk = candidate<D>(k);
-    const double dtk = t - kk.t;
-    const double rkx = kk.rx + dtk * kk.vx, rky = kk.ry + dtk * kk.vy;
+    const double* hk = hot + k * kS;  // position hk[0..D), velocity hk[D..2D)
+    const double dtk = t - stamp[k].t;
+    const double rkx = hk[0] + dtk * hk[D], rky = hk[1] + dtk * hk[D + 1];
     const D2 drx = D2{rkx, rkx} - rx, dry = D2{rky, rky} - ry;
-    const D2 dvx = D2{kk.vx, kk.vx} - vx, dvy = D2{kk.vy, kk.vy} - vy;
+    const D2 dvx = D2{hk[D], hk[D]} - vx, dvy = D2{hk[D + 1], hk[D + 1]} - vy;
     D2 drz = {0.0, 0.0}, dvz = {0.0, 0.0};
     D2 b = drx * dvx + dry * dvy;
     if constexpr (D == 3) {
-      const double rkz = kk.rz + dtk * kk.vz;
+      const double rkz = hk[2] + dtk * hk[D + 2];
       drz = D2{rkz, rkz} - rz;
-      dvz = D2{kk.vz, kk.vz} - vz;
+      dvz = D2{hk[D + 2], hk[D + 2]} - vz;
       b = b + drz * dvz;
     }
     D2 dr2 = drx * drx + dry * dry, dv2 = dvx * dvx + dvy * dvy;
@@ -777,7 +797,7 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
     for (int s = 0; s < ns[l]; ++s) {
       const double q2 = sq2[l][s];
       best[l].offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s]))), sk[l][s],
-                    candidate_counter<D>(sk[l][s]));
+                    stamp[sk[l][s]].counter);
     }
   store_top2(i, best[0]);
   store_top2(j, best[1]);

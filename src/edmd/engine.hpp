@@ -298,35 +298,6 @@ class Engine {
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
   template <int D>
   bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
-  // A candidate grain as the fast paths read it: from the compact mirror in 2D (hot_,
-  // stamp_), from its Kin record in 3D (see hot_). Same values either way.
-  struct Candidate {
-    double rx, ry, rz, vx, vy, vz, t;
-  };
-  template <int D>
-  Candidate candidate(std::uint32_t j) const {
-    if constexpr (D == 2) {
-      const double* h = hot_.data() + 4 * static_cast<std::size_t>(j);
-      return {h[0], h[1], 0.0, h[2], h[3], 0.0, stamp_[j].t};
-    } else {
-      const Kin& k = k_[j];
-      return {k.r.x, k.r.y, k.r.z, k.v.x, k.v.y, k.v.z, k.t};
-    }
-  }
-  template <int D>
-  std::uint64_t candidate_counter(std::uint32_t j) const {
-    if constexpr (D == 2) return stamp_[j].counter;
-    else return k_[j].counter;
-  }
-  template <int D>
-  void request_candidate(std::uint32_t j) const {  // software prefetch of what candidate<D> reads
-    if constexpr (D == 2) {
-      __builtin_prefetch(hot_.data() + 4 * static_cast<std::size_t>(j));
-      __builtin_prefetch(stamp_.data() + j);
-    } else {
-      __builtin_prefetch(&k_[j]);
-    }
-  }
   // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
   struct Top2 {
     double t1, t2;
@@ -395,24 +366,22 @@ class Engine {
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
   std::vector<Sched> sc_;
   std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
-  // Candidate mirror of the disks, by slot: what the ballistic fast paths (scan_neighbours_d,
+  // Candidate mirror, by slot: what the ballistic fast paths (scan_neighbours_d,
   // predict_pair_d) read of a *candidate* grain, in records smaller than the 64-byte Kin.
   // At large N those scans cost about one last-level miss per candidate record
-  // (docs/performance/edmd.md), so the record size is the lever: hot_ holds x, y, vx, vy
-  // (32 bytes, two disks per cache line), stamp_ the local time and event counter (16
-  // bytes, four per line; the counter is read only for the candidates that survive the
-  // pair test). In the Morton storage order the members of neighbouring cells are
-  // neighbours in memory, so they share lines. The values are copies of k_ (publish():
-  // move_to, trajectory_changed, the periodic wrap of a cell crossing, sort_by_cell), so
-  // the pair arithmetic is the same bits as with Kin. Empty in 3D: a 48-byte x, y, z, vx,
-  // vy, vz record straddles lines and the time needs a second array, which measured more
-  // simulated last-level misses than the one aligned Kin line (docs/performance/edmd.md,
-  // 2026-11-25 night).
+  // (docs/performance/edmd.md), so the record size is the lever: hot_ holds, per slot,
+  // the position and velocity components that exist in the run (2D: x, y, vx, vy =
+  // 32 bytes, two disks per cache line; 3D: x, y, z, vx, vy, vz = 48 bytes), stamp_ the
+  // local time and event counter (16 bytes, four per line; the counter is read only for
+  // the few candidates that survive the pair test). In the Morton storage order the
+  // members of neighbouring cells are neighbours in memory, so they share lines. The
+  // values are copies of k_ (publish(): move_to, trajectory_changed, the periodic wrap of
+  // a cell crossing, sort_by_cell), so the pair arithmetic is the same bits as with Kin.
   struct Stamp {
     double t = 0.0;
     std::uint64_t counter = 0;
   };
-  std::vector<double, LineAlignedAllocator<double>> hot_;  // 4 doubles per slot (2D only)
+  std::vector<double, LineAlignedAllocator<double>> hot_;  // 2 * dims_ doubles per slot
   std::vector<Stamp, LineAlignedAllocator<Stamp>> stamp_;
 
   // cells: fixed-capacity member arrays
