@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <cstring>
 #include <sstream>
 
 namespace grainbath::edmd {
@@ -156,8 +155,6 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   omega_.assign(n_, Vec3{});
   sc_.assign(n_, Sched{});
   bg_time_.assign(n_, kInf);
-  hot_.assign(n_ * 2 * static_cast<std::size_t>(dims_), 0.0);
-  stamp_.assign(n_, Stamp{});
   c_.vn_histogram.assign(static_cast<std::size_t>(std::max(1, s.vn_bins)), 0);
 
   for (std::size_t i = 0; i < n_; ++i) {
@@ -271,49 +268,15 @@ void Engine::move_to(std::uint32_t i, double t) {
     const Vec3 r0 = k.r, v0 = k.v;
     advance_piece(i, dt);
     k.t = t;
-    publish(i);
     move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
     return;
   }
   advance_piece(i, dt);
   k.t = t;
-  publish(i);
-}
-
-// The candidate mirror of i (engine.hpp: hot_, stamp_) from its kinematic record. Called
-// wherever k_[i] changes: move_to (r, t; v under acceleration), trajectory_changed (after
-// every change of v or a pinned r, with the new counter), the periodic wrap of a cell
-// crossing, and sort_by_cell for everyone (rebuild, restore).
-inline void Engine::publish(std::uint32_t i) {
-  const Kin& k = k_[i];
-  const std::size_t stride = 2 * static_cast<std::size_t>(dims_);
-  double* h = &hot_[i * stride];
-  if (dims_ == 3) {
-    h[0] = k.r.x, h[1] = k.r.y, h[2] = k.r.z, h[3] = k.v.x, h[4] = k.v.y, h[5] = k.v.z;
-  } else {
-    h[0] = k.r.x, h[1] = k.r.y, h[2] = k.v.x, h[3] = k.v.y;
-  }
-  stamp_[i] = Stamp{k.t, k.counter};
-}
-
-bool Engine::candidate_mirror_consistent() const {
-  // bit patterns, so that a stale -0 / +0 or NaN payload would show too
-  auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
-  const std::size_t stride = 2 * static_cast<std::size_t>(dims_);
-  for (std::size_t i = 0; i < n_; ++i) {
-    const Kin& k = k_[i];
-    const double* h = &hot_[i * stride];
-    const double r[3] = {k.r.x, k.r.y, k.r.z}, v[3] = {k.v.x, k.v.y, k.v.z};
-    for (int d = 0; d < dims_; ++d)
-      if (!same(h[d], r[d]) || !same(h[dims_ + d], v[d])) return false;
-    if (!same(stamp_[i].t, k.t) || stamp_[i].counter != k.counter) return false;
-  }
-  return true;
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {
   ++k_[i].counter;
-  publish(i);
   draw_background_time(i);
 }
 
@@ -416,16 +379,6 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 template <int D>
 bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
-  // candidates are read from the compact mirror (engine.hpp: hot_, stamp_), the same values
-  // as their Kin records in fewer cache lines
-  constexpr std::size_t kS = 2 * D;  // doubles per hot_ record
-  const double* const hot = hot_.data();
-  const Stamp* const stamp = stamp_.data();
-  auto request = [&](std::uint32_t j) {
-    __builtin_prefetch(hot + j * kS);
-    if constexpr (D == 3) __builtin_prefetch(hot + j * kS + kS - 1);  // 48 bytes may straddle two lines
-    __builtin_prefetch(stamp + j);
-  };
   const auto& c = sc_[i].cell;
   int lo[3] = {-1, -1, D == 3 ? -1 : 0}, hi[3] = {1, 1, D == 3 ? 1 : 0};
   if (layer_dim >= 0) lo[layer_dim] = hi[layer_dim] = layer_dir;
@@ -456,7 +409,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
           if (nb + cnt > kMax) return false;
           for (int q = 0; q < cnt; ++q) {
             const std::uint32_t j = m[q];
-            request(j);
+            __builtin_prefetch(&k_[j]);
             buf[nb] = j;
             nb += (j != i);
           }
@@ -489,7 +442,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
           if (nb + cnt > kMax) return false;
           for (int q = 0; q < cnt; ++q) {
             const std::uint32_t j = m[q];
-            request(j);
+            __builtin_prefetch(&k_[j]);
             buf[nb] = j;
             nb += (j != i);
           }
@@ -517,15 +470,14 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   double sb[kMax], sq2[kMax], sdisc[kMax];
   int ns = 0;
   // rj = candidate position at time t
-  // hj = the candidate's hot_ record: position hj[0..D), velocity hj[D..2D)
-  auto filter = [&](std::uint32_t j, const double* hj, double rjx, double rjy, double rjz) {
+  auto filter = [&](std::uint32_t j, const Kin& kj, double rjx, double rjy, double rjz) {
     const double drx = rjx - ki.r.x, dry = rjy - ki.r.y;
-    const double dvx = hj[D] - ki.v.x, dvy = hj[D + 1] - ki.v.y;
+    const double dvx = kj.v.x - ki.v.x, dvy = kj.v.y - ki.v.y;
     double b = drx * dvx + dry * dvy;
     double dr2 = drx * drx + dry * dry;
     double dv2 = dvx * dvx + dvy * dvy;
     if constexpr (D == 3) {
-      const double drz = rjz - ki.r.z, dvz = hj[D + 2] - ki.v.z;
+      const double drz = rjz - ki.r.z, dvz = kj.v.z - ki.v.z;
       b += drz * dvz;
       dr2 += drz * drz;
       dv2 += dvz * dvz;
@@ -538,9 +490,9 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   if (interior) {
     for (int q = 0; q < nb; ++q) {
       const std::uint32_t j = buf[q];
-      const double* hj = hot + j * kS;
-      const double dtj = t - stamp[j].t;
-      filter(j, hj, hj[0] + dtj * hj[D], hj[1] + dtj * hj[D + 1], D == 3 ? hj[2] + dtj * hj[D + 2] : 0.0);
+      const Kin& kj = k_[j];
+      const double dtj = t - kj.t;
+      filter(j, kj, kj.r.x + dtj * kj.v.x, kj.r.y + dtj * kj.v.y, D == 3 ? kj.r.z + dtj * kj.v.z : 0.0);
     }
   } else {
     int q = 0;
@@ -548,16 +500,16 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
       const double sx = seg_shift[sg][0], sy = seg_shift[sg][1], sz = seg_shift[sg][2];
       for (; q < seg_end[sg]; ++q) {
         const std::uint32_t j = buf[q];
-        const double* hj = hot + j * kS;
-        const double dtj = t - stamp[j].t;
-        filter(j, hj, (hj[0] + dtj * hj[D]) + sx, (hj[1] + dtj * hj[D + 1]) + sy,
-               D == 3 ? (hj[2] + dtj * hj[D + 2]) + sz : 0.0);
+        const Kin& kj = k_[j];
+        const double dtj = t - kj.t;
+        filter(j, kj, (kj.r.x + dtj * kj.v.x) + sx, (kj.r.y + dtj * kj.v.y) + sy,
+               D == 3 ? (kj.r.z + dtj * kj.v.z) + sz : 0.0);
       }
     }
   }
   for (int s = 0; s < ns; ++s) {
     const double b = sb[s], q2 = sq2[s];
-    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], stamp[sj[s]].counter);
+    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], k_[sj[s]].counter);
   }
   store_top2(i, best);
   return true;
@@ -694,10 +646,6 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   int nb = 0;
   bool overflow = false;
   constexpr int zr = D == 3 ? 1 : 0;
-  // candidates from the compact mirror (engine.hpp: hot_, stamp_), as in scan_neighbours_d
-  constexpr std::size_t kS = 2 * D;
-  const double* const hot = hot_.data();
-  const Stamp* const stamp = stamp_.data();
   auto add_cell = [&](int cell) {
     const std::uint32_t* m = cell_block(cell) + 1;
     const int cnt = static_cast<int>(m[-1]);
@@ -706,11 +654,8 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
       return;
     }
     for (int q = 0; q < cnt; ++q) {
-      const std::uint32_t k = m[q];
-      __builtin_prefetch(hot + k * kS);
-      if constexpr (D == 3) __builtin_prefetch(hot + k * kS + kS - 1);  // 48 bytes may straddle two lines
-      __builtin_prefetch(stamp + k);
-      buf[nb++] = k;
+      __builtin_prefetch(&k_[m[q]]);
+      buf[nb++] = m[q];
     }
   };
   // request every row of cells first (independent misses in flight together), then gather
@@ -766,17 +711,17 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   int ns[2] = {0, 0};
   for (int q = 0; q < nb; ++q) {
     const std::uint32_t k = buf[q];
-    const double* hk = hot + k * kS;  // position hk[0..D), velocity hk[D..2D)
-    const double dtk = t - stamp[k].t;
-    const double rkx = hk[0] + dtk * hk[D], rky = hk[1] + dtk * hk[D + 1];
+    const Kin& kk = k_[k];
+    const double dtk = t - kk.t;
+    const double rkx = kk.r.x + dtk * kk.v.x, rky = kk.r.y + dtk * kk.v.y;
     const D2 drx = D2{rkx, rkx} - rx, dry = D2{rky, rky} - ry;
-    const D2 dvx = D2{hk[D], hk[D]} - vx, dvy = D2{hk[D + 1], hk[D + 1]} - vy;
+    const D2 dvx = D2{kk.v.x, kk.v.x} - vx, dvy = D2{kk.v.y, kk.v.y} - vy;
     D2 drz = {0.0, 0.0}, dvz = {0.0, 0.0};
     D2 b = drx * dvx + dry * dvy;
     if constexpr (D == 3) {
-      const double rkz = hk[2] + dtk * hk[D + 2];
+      const double rkz = kk.r.z + dtk * kk.v.z;
       drz = D2{rkz, rkz} - rz;
-      dvz = D2{hk[D + 2], hk[D + 2]} - vz;
+      dvz = D2{kk.v.z, kk.v.z} - vz;
       b = b + drz * dvz;
     }
     D2 dr2 = drx * drx + dry * dry, dv2 = dvx * dvx + dvy * dvy;
@@ -797,7 +742,7 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
     for (int s = 0; s < ns[l]; ++s) {
       const double q2 = sq2[l][s];
       best[l].offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s]))), sk[l][s],
-                    stamp[sk[l][s]].counter);
+                    k_[sk[l][s]].counter);
     }
   store_top2(i, best[0]);
   store_top2(j, best[1]);
@@ -935,8 +880,8 @@ void Engine::process_cell(std::uint32_t i) {
   remove_cell(i);
   int& c = sc_[i].cell[d];
   c += dir;
-  if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d), publish(i);
-  else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d), publish(i);
+  if (c >= nc_[d]) c = 0, comp(k_[i].r, d) -= comp(L_, d);
+  else if (c < 0) c = nc_[d] - 1, comp(k_[i].r, d) += comp(L_, d);
   insert_cell(i);
   // keep the two best collisions found so far (the second promoted if the first partner
   // moved on and the second is still valid); scan only the new layer
@@ -1184,7 +1129,6 @@ void Engine::sort_by_cell() {
   permute(bg_time_);
   permute(id_);
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
-  for (std::uint32_t k = 0; k < n_; ++k) publish(k);
 }
 
 bool Engine::rebuild_if_due() {

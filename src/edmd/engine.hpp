@@ -22,7 +22,6 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <new>
 #include <numbers>
 #include <optional>
 #include <stdexcept>
@@ -43,21 +42,6 @@
 namespace grainbath::edmd {
 
 inline constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// Cache-line-aligned storage for the engine's compact candidate arrays (Engine::hot_,
-// Engine::stamp_): with the base at a line boundary a 32-byte disk record never straddles
-// two lines, and the 16-byte time stamps sit four to a line.
-template <class T>
-struct LineAlignedAllocator {
-  using value_type = T;
-  LineAlignedAllocator() = default;
-  template <class U>
-  LineAlignedAllocator(const LineAlignedAllocator<U>&) noexcept {}
-  T* allocate(std::size_t n) { return static_cast<T*>(::operator new(n * sizeof(T), std::align_val_t{64})); }
-  void deallocate(T* p, std::size_t) noexcept { ::operator delete(p, std::align_val_t{64}); }
-  template <class U>
-  bool operator==(const LineAlignedAllocator<U>&) const noexcept { return true; }
-};
 // Entity id for draws that belong to the whole system (heating choices), far above any
 // particle id.
 inline constexpr std::uint64_t kSystemEntity = std::uint64_t{1} << 62;
@@ -206,9 +190,6 @@ class Engine {
   double min_distance() const;
   // Heap property and one-entry-per-particle consistency (tests).
   bool calendar_valid() const { return heap_.valid(); }
-  // The compact candidate mirror (hot_, stamp_) equals the kinematic records bit for bit
-  // (tests: every path that changes a grain must refresh it).
-  bool candidate_mirror_consistent() const;
   std::uint64_t rebuilds() const { return rebuilds_; }
   // Replace velocities (e.g. rescaling during equilibration); rebuilds the calendar.
   void set_velocities(const std::vector<Vec3>& v);
@@ -285,7 +266,6 @@ class Engine {
   static_assert(sizeof(Sched) == 64, "the scheduling record is one cache line");
 
   void move_to(std::uint32_t i, double t);
-  void publish(std::uint32_t i);  // copy k_[i] into the candidate mirror (hot_, stamp_)
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -366,23 +346,6 @@ class Engine {
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
   std::vector<Sched> sc_;
   std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
-  // Candidate mirror, by slot: what the ballistic fast paths (scan_neighbours_d,
-  // predict_pair_d) read of a *candidate* grain, in records smaller than the 64-byte Kin.
-  // At large N those scans cost about one last-level miss per candidate record
-  // (docs/performance/edmd.md), so the record size is the lever: hot_ holds, per slot,
-  // the position and velocity components that exist in the run (2D: x, y, vx, vy =
-  // 32 bytes, two disks per cache line; 3D: x, y, z, vx, vy, vz = 48 bytes), stamp_ the
-  // local time and event counter (16 bytes, four per line; the counter is read only for
-  // the few candidates that survive the pair test). In the Morton storage order the
-  // members of neighbouring cells are neighbours in memory, so they share lines. The
-  // values are copies of k_ (publish(): move_to, trajectory_changed, the periodic wrap of
-  // a cell crossing, sort_by_cell), so the pair arithmetic is the same bits as with Kin.
-  struct Stamp {
-    double t = 0.0;
-    std::uint64_t counter = 0;
-  };
-  std::vector<double, LineAlignedAllocator<double>> hot_;  // 2 * dims_ doubles per slot
-  std::vector<Stamp, LineAlignedAllocator<Stamp>> stamp_;
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};
