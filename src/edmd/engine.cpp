@@ -301,6 +301,23 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
     }
 }
 
+void Engine::request_next_candidates(std::uint32_t r) const {
+  const auto& c = sc_[r].cell;
+  const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
+                        (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
+  if (!interior) return;
+  const int zr = dims_ == 3 ? 1 : 0;
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
+      for (int dx = -1; dx <= 1; ++dx) {
+        const std::uint32_t* m = cell_block(row + dx);
+        const std::uint32_t cnt = std::min(m[0], static_cast<std::uint32_t>(cap_));
+        for (std::uint32_t q = 1; q <= cnt; ++q) __builtin_prefetch(&k_[m[q]]);
+      }
+    }
+}
+
 void Engine::trajectory_changed(std::uint32_t i) {
   ++k_[i].counter;
   draw_background_time(i);

@@ -271,6 +271,7 @@ class Engine {
   // addresses come from lines the previous stage requested.
   void request_next_records(std::uint32_t r) const;     // its Sched and Kin lines
   void request_next_neighbourhood(std::uint32_t r) const;  // its partner, its cells' member rows
+  void request_next_candidates(std::uint32_t r) const;  // stage 3: the Kin of its cells' members
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -480,7 +481,9 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     // its partner and its cells' member rows, which arrive while the calendar finds the
     // next minimum. Hints only: no decision depends on them, the results are unchanged.
     const std::uint32_t next = heap_.runner_up();
-    if (next != heap_.kNoHint) request_next_records(next);
+    const bool hint = next != heap_.kNoHint;
+    if (hint) request_next_records(next);
+    bool stage3 = false;
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
@@ -493,6 +496,9 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
           if (promote_second(i)) schedule(i);  // the second candidate is still valid: no rescan
           else predict(i);
         } else {
+          // a collision is the longest event: stage 2 here, after the partner's miss (the
+          // next grain's Sched has arrived by now), and stage 3 at its end
+          if (hint) request_next_neighbourhood(next), stage3 = true;
           process_collision(law, i, ev.coll_partner);
         }
         break;
@@ -502,7 +508,13 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
       default:
         throw std::logic_error("edmd: a particle has no next event (a free particle in an unbounded box?)");
     }
-    if (next != heap_.kNoHint) request_next_neighbourhood(next);
+    if (stage3) {
+      // stage 3 for disks only: for spheres (27 cells, N = 1e5 mostly in L3) it measured
+      // slower (docs/performance/edmd.md, 2026-11-25 night)
+      if (dims_ == 2) request_next_candidates(next);
+    } else if (hint) {
+      request_next_neighbourhood(next);
+    }
   }
 }
 
