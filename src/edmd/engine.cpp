@@ -144,6 +144,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
               extra.push_back((oz * nc_[1] + oy) * nc_[0] + ox);
             }
       }
+  prefetch_next_ = n_ >= 50000;  // about 13 MB of Kin + Sched: beyond the per-core caches
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -301,21 +302,17 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
     }
 }
 
+// Disks only (the caller): three rows of three cells, each block [count, members...].
 void Engine::request_next_candidates(std::uint32_t r) const {
   const auto& c = sc_[r].cell;
-  const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
-                        (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
-  if (!interior) return;
-  const int zr = dims_ == 3 ? 1 : 0;
-  for (int dz = -zr; dz <= zr; ++dz)
-    for (int dy = -1; dy <= 1; ++dy) {
-      const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
-      for (int dx = -1; dx <= 1; ++dx) {
-        const std::uint32_t* m = cell_block(row + dx);
-        const std::uint32_t cnt = std::min(m[0], static_cast<std::uint32_t>(cap_));
-        for (std::uint32_t q = 1; q <= cnt; ++q) __builtin_prefetch(&k_[m[q]]);
-      }
-    }
+  if (!(c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1)) return;
+  const Kin* const k = k_.data();
+  const std::size_t stride = static_cast<std::size_t>(cap_) + 1;
+  for (int dy = -1; dy <= 1; ++dy) {
+    const std::uint32_t* m = cell_block(cell_index(c[0] - 1, c[1] + dy, 0));
+    for (int dx = 0; dx < 3; ++dx, m += stride)
+      for (std::uint32_t q = 1; q <= m[0]; ++q) __builtin_prefetch(k + m[q]);
+  }
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {

@@ -378,6 +378,10 @@ class Engine {
   std::uint64_t total_collisions_ = 0;   // never reset (schedules the automatic rebuilds)
   std::uint64_t rebuild_every_ = 0, next_rebuild_ = 0;
   bool at_rebuild_ = false;  // no event processed since the last rebuild / restore (state())
+  // Next-event prefetch on (advance()): only for systems whose records do not stay in the
+  // cache; at N = 1e4 it is pure overhead (+5 % instructions for spheres, +15 % for disks,
+  // docs/performance/edmd.md, 2026-11-25 night). Results do not depend on it.
+  bool prefetch_next_ = false;
   Counters c_;
 };
 
@@ -480,7 +484,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     // while this event is processed; stage 2 at the end of this event reads them to request
     // its partner and its cells' member rows, which arrive while the calendar finds the
     // next minimum. Hints only: no decision depends on them, the results are unchanged.
-    const std::uint32_t next = heap_.runner_up();
+    const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
     const bool hint = next != heap_.kNoHint;
     if (hint) request_next_records(next);
     bool stage3 = false;
