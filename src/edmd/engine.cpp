@@ -302,19 +302,6 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
     }
 }
 
-// Disks only (the caller): three rows of three cells, each block [count, members...].
-void Engine::request_next_candidates(std::uint32_t r) const {
-  const auto& c = sc_[r].cell;
-  if (!(c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1)) return;
-  const Kin* const k = k_.data();
-  const std::size_t stride = static_cast<std::size_t>(cap_) + 1;
-  for (int dy = -1; dy <= 1; ++dy) {
-    const std::uint32_t* m = cell_block(cell_index(c[0] - 1, c[1] + dy, 0));
-    for (int dx = 0; dx < 3; ++dx, m += stride)
-      for (std::uint32_t q = 1; q <= m[0]; ++q) __builtin_prefetch(k + m[q]);
-  }
-}
-
 void Engine::trajectory_changed(std::uint32_t i) {
   ++k_[i].counter;
   draw_background_time(i);

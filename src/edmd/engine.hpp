@@ -271,7 +271,6 @@ class Engine {
   // addresses come from lines the previous stage requested.
   void request_next_records(std::uint32_t r) const;     // its Sched and Kin lines
   void request_next_neighbourhood(std::uint32_t r) const;  // its partner, its cells' member rows
-  void request_next_candidates(std::uint32_t r) const;  // stage 3: the Kin of its cells' members
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -379,8 +378,7 @@ class Engine {
   std::uint64_t rebuild_every_ = 0, next_rebuild_ = 0;
   bool at_rebuild_ = false;  // no event processed since the last rebuild / restore (state())
   // Next-event prefetch on (advance()): only for systems whose records do not stay in the
-  // cache; at N = 1e4 it is pure overhead (+5 % instructions for spheres, +15 % for disks,
-  // docs/performance/edmd.md, 2026-11-25 night). Results do not depend on it.
+  // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
   Counters c_;
 };
@@ -485,9 +483,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     // its partner and its cells' member rows, which arrive while the calendar finds the
     // next minimum. Hints only: no decision depends on them, the results are unchanged.
     const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
-    const bool hint = next != heap_.kNoHint;
-    if (hint) request_next_records(next);
-    bool stage3 = false;
+    if (next != heap_.kNoHint) request_next_records(next);
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
@@ -500,9 +496,6 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
           if (promote_second(i)) schedule(i);  // the second candidate is still valid: no rescan
           else predict(i);
         } else {
-          // a collision is the longest event: stage 2 here, after the partner's miss (the
-          // next grain's Sched has arrived by now), and stage 3 at its end
-          if (hint) request_next_neighbourhood(next), stage3 = true;
           process_collision(law, i, ev.coll_partner);
         }
         break;
@@ -512,13 +505,9 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
       default:
         throw std::logic_error("edmd: a particle has no next event (a free particle in an unbounded box?)");
     }
-    if (stage3) {
-      // stage 3 for disks only: for spheres (27 cells, N = 1e5 mostly in L3) it measured
-      // slower (docs/performance/edmd.md, 2026-11-25 night)
-      if (dims_ == 2) request_next_candidates(next);
-    } else if (hint) {
-      request_next_neighbourhood(next);
-    }
+    // (a third stage, requesting the next grain's cell members' Kin, with stage 2 moved
+    // into the collision, measured slower: docs/performance/edmd.md, 2026-11-25 night)
+    if (next != heap_.kNoHint) request_next_neighbourhood(next);
   }
 }
 
