@@ -144,6 +144,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
               extra.push_back((oz * nc_[1] + oy) * nc_[0] + ox);
             }
       }
+  prefetch_next_ = n_ >= 50000;  // about 13 MB of Kin + Sched: beyond the per-core caches
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -273,6 +274,32 @@ void Engine::move_to(std::uint32_t i, double t) {
   }
   advance_piece(i, dt);
   k.t = t;
+}
+
+void Engine::request_next_records(std::uint32_t r) const {
+  __builtin_prefetch(&sc_[r]);
+  __builtin_prefetch(&k_[r]);
+}
+
+void Engine::request_next_neighbourhood(std::uint32_t r) const {
+  const Sched& s = sc_[r];
+  if (s.type == ev_collision) {
+    __builtin_prefetch(&k_[s.coll_partner]);  // the staleness test reads its counter first
+    __builtin_prefetch(&sc_[s.coll_partner]);
+  }
+  // the rows of r's 3^D block of cells (interior cells only: the rows are contiguous there),
+  // as scan_neighbours_d and predict_pair_d request them
+  const auto& c = s.cell;
+  const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
+                        (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
+  if (!interior) return;
+  const int zr = dims_ == 3 ? 1 : 0;
+  for (int dz = -zr; dz <= zr; ++dz)
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = cell_block(cell_index(c[0] - 1, c[1] + dy, c[2] + dz));
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
+    }
 }
 
 void Engine::trajectory_changed(std::uint32_t i) {

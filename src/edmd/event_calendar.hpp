@@ -52,6 +52,28 @@ class EventCalendar {
     if (!cached_) find_min();
     return min_key_;
   }
+  // The probable next top once top() has been processed and re-scheduled later (a prefetch
+  // hint only, never used for a decision): the earliest other entry of the current bucket
+  // (its nodes were just read by find_min), else the head of the next non-empty bucket
+  // within a few slots (the head, not necessarily that bucket's minimum: finding the
+  // minimum would read the other nodes, i.e. take the cache misses the hint is meant to
+  // hide). kNoHint if none is found. Call after top().
+  static constexpr std::uint32_t kNoHint = 0xffffffffu;  // = kNone
+  std::uint32_t runner_up() const {
+    const std::size_t m = heads_.size();
+    if (cur_ >= m) return kNoHint;
+    std::uint32_t best = kNone;
+    double best_key = std::numeric_limits<double>::infinity();
+    for (std::uint32_t k = heads_[cur_]; k != kNone; k = node_[k].next) {
+      if (k == min_) continue;
+      const double key = node_[k].key;
+      if (best == kNone || key < best_key || (key == best_key && k < best)) best = k, best_key = key;
+    }
+    if (best != kNone) return best;
+    for (std::size_t s = cur_ + 1; s < m && s <= cur_ + 8; ++s)
+      if (heads_[s] != kNone) return heads_[s];
+    return kNoHint;
+  }
   bool valid() const {
     for (std::size_t i = 0; i < node_.size(); ++i)
       if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow) return false;

@@ -28,6 +28,15 @@ class EventHeap {
   double key(std::uint32_t i) const { return heap_[pos_[i]].key; }
   std::uint32_t top() const { return heap_[0].id; }
   double top_key() const { return heap_[0].key; }
+  // The probable next top after top() is processed (prefetch hint only): the smallest child
+  // of the root. kNoHint if there is none.
+  static constexpr std::uint32_t kNoHint = 0xffffffffu;
+  std::uint32_t runner_up() const {
+    std::uint32_t best = kNoHint;
+    for (std::size_t k = 1; k <= 4 && k < heap_.size(); ++k)
+      if (best == kNoHint || less(heap_[k], heap_[pos_[best]])) best = heap_[k].id;
+    return best;
+  }
   bool empty() const { return heap_.empty(); }
   void update(std::uint32_t i, double key) {
     const std::size_t k = pos_[i];
