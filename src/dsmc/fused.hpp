@@ -40,7 +40,8 @@ namespace detail {
 // (add, mul, compare, min, max, truncation; no FMA, the AVX2 function does not enable it):
 // the SSE2 path (two particles per vector) and the AVX2 path (four) give the same cells
 // (tests/dsmc/test_dsmc_cell_order.cpp, DsmcStreamCells.*). Both return the first index
-// they did not process (hi - i < the group size remain).
+// they did not process (hi - i < the group size remain). With kCount = false the cells are
+// only stored (the fused step's prediction of the next step's cells, `cnt` unused).
 struct StreamCellsArgs {
   const double* pos[3];
   const double* vel[3];
@@ -51,7 +52,7 @@ struct StreamCellsArgs {
   double nx, ny;       // cells along x and y
 };
 
-template <int Dim, class Scalar>
+template <int Dim, bool kCount = true, class Scalar>
 inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, std::size_t hi, std::uint32_t* cell,
                                      std::uint32_t* cnt, Scalar&& scalar) {
   const __m128d dt2 = _mm_set1_pd(g.dt), zero = _mm_setzero_pd();
@@ -80,15 +81,17 @@ inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, st
     if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
     const __m128i kk = _mm_cvttpd_epi32(linear);
     _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+    if constexpr (kCount) {
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+    }
   }
   return i;
 }
 
 // The same with AVX2, four particles per vector and three-operand instructions: ~40 % of the
 // SSE2 path's instructions per particle (docs/performance/dsmc1.md).
-template <int Dim, class Scalar>
+template <int Dim, bool kCount = true, class Scalar>
 [[gnu::target("avx2")]] inline std::size_t stream_cells_avx2(const StreamCellsArgs& g, std::size_t i, std::size_t hi,
                                                              std::uint32_t* cell, std::uint32_t* cnt, Scalar&& scalar) {
   const __m256d dt4 = _mm256_set1_pd(g.dt), zero = _mm256_setzero_pd();
@@ -120,10 +123,12 @@ template <int Dim, class Scalar>
     if constexpr (Dim == 3) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, _mm256_add_pd(k[1], _mm256_mul_pd(ny, k[2]))));
     const __m128i kk = _mm256_cvttpd_epi32(linear);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + i), kk);
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 1))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 2))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 3))];
+    if constexpr (kCount) {
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 1))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 2))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 3))];
+    }
   }
   return i;
 }
