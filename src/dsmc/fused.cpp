@@ -98,9 +98,9 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // The same gather with AVX2, four slots at a time: the four old indices' values are loaded
 // one by one into a vector (the loads are random), the positions x + v dt of the four and the
 // test 0 <= x < L are computed in vectors and the new arrays stored four slots at a time
-// (contiguous). A group with a coordinate to wrap takes wrap_periodic per slot for that
-// axis. Only add, mul and ordered compares (no FMA): bitwise the positions of gather_slots
-// and of the separate-pass streaming (DsmcReproducibility compares the fused step, on this
+// (contiguous). A group with a coordinate to wrap is wrapped in the vector
+// (detail::wrap_periodic_avx2, wrap_periodic's operations). Only correctly rounded
+// operations (no FMA): bitwise the positions of gather_slots and of the separate-pass streaming (DsmcReproducibility compares the fused step, on this
 // path where the CPU has AVX2, with the separate passes). The prefetches are those of
 // gather_slots: the leading edge once per 8 slots, the lines of the slot kAhead ahead.
 // the values of four old indices in one vector (lane q from index q)
@@ -156,10 +156,8 @@ template <int Dim, bool kHazard>
           _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, _mm256_set1_pd(length[a]), _CMP_GE_OQ));
       if (_mm256_movemask_pd(outside) == 0) [[likely]] {
         _mm256_storeu_pd(to_pos[a] + j, p);
-      } else {
-        alignas(32) double lane[4];
-        _mm256_store_pd(lane, p);
-        for (int q = 0; q < 4; ++q) to_pos[a][j + q] = wrap_periodic(lane[q], length[a]);
+      } else {  // wrap_periodic in the vector (fused.hpp): the same positions
+        _mm256_storeu_pd(to_pos[a] + j, detail::wrap_periodic_avx2(p, _mm256_set1_pd(length[a]), outside));
       }
     }
     if constexpr (kHazard) _mm256_storeu_pd(hz + j, lanes(ohz, i0, i1, i2, i3));
