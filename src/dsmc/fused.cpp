@@ -100,8 +100,9 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // test 0 <= x < L are computed in vectors and the new arrays stored four slots at a time
 // (contiguous). A group with a coordinate to wrap is wrapped in the vector
 // (detail::wrap_periodic_avx2, wrap_periodic's operations). Only correctly rounded
-// operations (no FMA): bitwise the positions of gather_slots and of the separate-pass streaming (DsmcReproducibility compares the fused step, on this
-// path where the CPU has AVX2, with the separate passes). The prefetches are those of
+// operations (no FMA): bitwise the positions of gather_slots and of the separate-pass
+// streaming (DsmcReproducibility compares the fused step, on this path where the CPU has
+// AVX2, with the separate passes). The prefetches are those of
 // gather_slots: the leading edge once per 8 slots, the lines of the slot kAhead ahead.
 // the values of four old indices in one vector (lane q from index q)
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
