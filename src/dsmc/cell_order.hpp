@@ -120,26 +120,22 @@ inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
 }
 
 namespace detail {
-// The ranking of rank_int32 reading the cell's (old index, key) pairs where the scatter left
-// them (no copy into local arrays, no padding): the pairs past the cell's m are the next
-// cells', but only the m real keys are broadcast, so the ranks of the real lanes count real
-// keys only, and the other lanes' ranks are never read. Each vector of four keys is taken
-// from two unaligned loads of two pairs (the high 32-bit halves: a shuffle).
+// The ranking of rank_int32 reading the cell's keys and old indices where the scatter left
+// them (no copy into local arrays, no padding): the lanes past the cell's m keys hold the
+// next cells' keys, but only the m real keys are broadcast, so the ranks of the real lanes
+// count real keys only, and the other lanes' ranks are never read.
 template <std::size_t Q>
-inline void rank_pairs32(const std::uint64_t* __restrict pairs, std::size_t m, std::uint32_t* __restrict perm,
-                         std::uint64_t* __restrict id_out) {
+inline void rank_keys32(const std::int32_t* __restrict keys, const std::uint32_t* __restrict stable, std::size_t m,
+                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out) {
   using Int4 = std::int32_t __attribute__((vector_size(16)));
-  // unaligned loads of the 64-bit pairs as 32-bit lanes
-  using Int4u = std::int32_t __attribute__((vector_size(16), aligned(4), may_alias));
-  const auto* raw = reinterpret_cast<const Int4u*>(pairs);
+  using Int4u = std::int32_t __attribute__((vector_size(16), aligned(4)));  // unaligned loads
   Int4 kv[Q], rank[Q];
   for (std::size_t q = 0; q < Q; ++q) {
-    const Int4 lo = raw[2 * q], hi = raw[2 * q + 1];  // pairs 4q, 4q+1 | 4q+2, 4q+3 (index, key)
-    kv[q] = __builtin_shuffle(lo, hi, Int4{1, 3, 5, 7});
+    kv[q] = reinterpret_cast<const Int4u*>(keys)[q];
     rank[q] = Int4{0, 0, 0, 0};
   }
   for (std::size_t a = 0; a < m; ++a) {
-    const auto k = static_cast<std::int32_t>(pairs[a] >> 32);
+    const std::int32_t k = keys[a];
     const Int4 key = {k, k, k, k};
     for (std::size_t q = 0; q < Q; ++q) rank[q] -= key < kv[q];
   }
@@ -147,54 +143,48 @@ inline void rank_pairs32(const std::uint64_t* __restrict pairs, std::size_t m, s
   for (std::size_t q = 0; q < Q; ++q) reinterpret_cast<Int4*>(ranks)[q] = rank[q];
   for (std::size_t a = 0; a < m; ++a) {
     const auto r = static_cast<std::size_t>(ranks[a]);
-    perm[r] = static_cast<std::uint32_t>(pairs[a]);
-    id_out[r] = static_cast<std::uint32_t>(pairs[a] >> 32) ^ 0x80000000u;
+    perm[r] = stable[a];
+    id_out[r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
   }
 }
 }  // namespace detail
 
-// The padding order_cell_by_key32 may read past the last slot of `pairs`.
+// The padding order_cell_by_key32 may read past the last slot of `keys` and `stable`.
 inline constexpr std::size_t kKey32Padding = 4;
 
-// The (old index, key) pair of the fused step's scatter: the old index in the low 32 bits,
-// the key id ^ 2^31 (an int32 whose signed order is the order of the 32-bit ids) in the high.
-inline std::uint64_t index_key_pair(std::uint32_t old_index, std::uint64_t id) {
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(id) ^ 0x80000000u) << 32) | old_index;
-}
-
 // The order by id of order_cell_by_id, for the fused step when every id is below 2^32: the
-// scatter leaves each slot's (old index, key) pair (index_key_pair; one 8-byte store per
-// particle, one cache line per cell cursor) in `pairs`, in the stable counting-sort order;
-// this writes the slots [b0, b1) of `perm` and `id_out` in id order. Reads `pairs` (padded by
-// kKey32Padding past the last slot; read-only while the cells are ordered, so the reads past
-// a cell race with no writer) up to three slots past b1, and saves the copy of every key and
-// index into local arrays that order_cell_by_id makes. The same order: cells above 32
-// particles are handed to order_cell_by_id (`id`: the ids in the old order).
-inline void order_cell_by_key32(const std::uint64_t* __restrict pairs, std::uint32_t* __restrict perm,
-                                std::uint64_t* __restrict id_out, const std::uint64_t* __restrict id, std::size_t b0,
-                                std::size_t b1) {
+// scatter leaves the cell's old indices in `stable` (the stable counting-sort order) and the
+// keys id ^ 2^31 as int32 in `keys` (the signed compare then orders the ids); this writes
+// the slots [b0, b1) of `perm` and `id_out` in id order. Reads `keys` and `stable` (arrays
+// padded by kKey32Padding past the last slot; read-only while the cells are ordered, so the
+// reads past a cell race with no writer) up to three slots past b1, and saves the copy of
+// every key and index into local arrays that order_cell_by_id makes. The same order: cells
+// above 32 particles are handed to order_cell_by_id (`id`: the ids in the old order).
+inline void order_cell_by_key32(const std::uint32_t* __restrict stable, const std::int32_t* __restrict keys,
+                                std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
+                                const std::uint64_t* __restrict id, std::size_t b0, std::size_t b1) {
   const std::size_t m = b1 - b0;
   switch ((m + 3) / 4) {
     case 0: return;
     case 1:
       if (m == 1) {
-        perm[b0] = static_cast<std::uint32_t>(pairs[b0]);
-        id_out[b0] = static_cast<std::uint32_t>(pairs[b0] >> 32) ^ 0x80000000u;
+        perm[b0] = stable[b0];
+        id_out[b0] = static_cast<std::uint32_t>(keys[b0]) ^ 0x80000000u;
         return;
       }
-      detail::rank_pairs32<1>(pairs + b0, m, perm + b0, id_out + b0);
+      detail::rank_keys32<1>(keys + b0, stable + b0, m, perm + b0, id_out + b0);
       return;
-    case 2: detail::rank_pairs32<2>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 3: detail::rank_pairs32<3>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 4: detail::rank_pairs32<4>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 5: detail::rank_pairs32<5>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 6: detail::rank_pairs32<6>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 7: detail::rank_pairs32<7>(pairs + b0, m, perm + b0, id_out + b0); return;
-    case 8: detail::rank_pairs32<8>(pairs + b0, m, perm + b0, id_out + b0); return;
+    case 2: detail::rank_keys32<2>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 3: detail::rank_keys32<3>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 4: detail::rank_keys32<4>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 5: detail::rank_keys32<5>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 6: detail::rank_keys32<6>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 7: detail::rank_keys32<7>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
+    case 8: detail::rank_keys32<8>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
     default:
       for (std::size_t j = b0; j < b1; ++j) {
-        perm[j] = static_cast<std::uint32_t>(pairs[j]);
-        id_out[j] = static_cast<std::uint32_t>(pairs[j] >> 32) ^ 0x80000000u;
+        perm[j] = stable[j];
+        id_out[j] = static_cast<std::uint32_t>(keys[j]) ^ 0x80000000u;
       }
       order_cell_by_id(perm, id_out, id, b0, b1);
   }

@@ -206,7 +206,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   w.cell.resize(n);
   if (predict) w.next_cell.resize(n);
   w.perm.resize(n);
-  w.index_key.resize(n + kKey32Padding);  // order_cell_by_key32 reads up to 3 slots past a cell
+  w.stable.resize(n + kKey32Padding);  // order_cell_by_key32 reads up to 3 slots past a cell
+  w.key32.resize(n + kKey32Padding);
   const bool hazard = !p.bath_hazard.empty();
   const int max_threads = omp_get_max_threads();
   if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
@@ -232,7 +233,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict next_cell = predict ? w.next_cell.data() : nullptr;
   std::uint32_t* __restrict perm = w.perm.data();
-  std::uint64_t* __restrict index_key = w.index_key.data();
+  std::uint32_t* __restrict stable = w.stable.data();
+  std::int32_t* __restrict key32 = w.key32.data();
   // per thread: an id of this thread's particles has a bit above 31 (then the cells are
   // ordered through the 64-bit ids, order_cell_by_id)
   std::vector<unsigned char> wide_ids(static_cast<std::size_t>(max_threads), 0);
@@ -312,15 +314,15 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
 #pragma omp barrier
 #pragma omp single
     counting_sort_offsets(counts, threads, cells, start);
-    // scatter: the id travels with the index as a 32-bit key in one 8-byte pair (one store
-    // and one cursor line per cell instead of two), so the in-cell order reads the cell's
-    // keys in place (order_cell_by_key32)
+    // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
+    // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
     std::uint64_t any_id = 0;
     for (std::size_t i = lo; i < hi; ++i) {
       const std::uint32_t slot = cnt[cell[i]]++;
+      stable[slot] = static_cast<std::uint32_t>(i);
       const std::uint64_t d = id[i];
       any_id |= d;
-      index_key[slot] = index_key_pair(static_cast<std::uint32_t>(i), d);
+      key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
     }
     wide_ids[static_cast<std::size_t>(t)] = (any_id >> 32) != 0;
 #pragma omp barrier
@@ -334,11 +336,11 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       if (!wide) {
-        for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(index_key, perm, id_out, id, start[k], start[k + 1]);
+        for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
       } else {
         for (std::size_t j = start[k0]; j < start[k1]; ++j) {
-          perm[j] = static_cast<std::uint32_t>(index_key[j]);
-          id_out[j] = id[perm[j]];
+          perm[j] = stable[j];
+          id_out[j] = id[stable[j]];
         }
         for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
       }

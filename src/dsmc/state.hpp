@@ -55,10 +55,11 @@ struct SortScratch {
   // Particles so that the gather into cell order writes the new arrays while it reads these
   // (replaces `gather`): x, y, z, vx, vy, vz, bath residual
   std::vector<double> previous[7];
-  // fused step: the stable counting-sort order (new slot -> old index) with the ids as
-  // 32-bit keys (id ^ 2^31), one (index, key) pair per slot (index_key_pair), from which each
-  // cell is put in id order into `perm` and `id` (order_cell_by_key32, src/dsmc/cell_order.hpp)
-  std::vector<std::uint64_t> index_key;
+  // fused step: the stable counting-sort order (new slot -> old index) and the ids as
+  // 32-bit keys in that order (id ^ 2^31), from which each cell is put in id order into
+  // `perm` and `id` (order_cell_by_key32, src/dsmc/cell_order.hpp)
+  std::vector<std::uint32_t> stable;
+  std::vector<std::int32_t> key32;
   // fused step without a bath: the cell of every particle after the next streaming,
   // cell(wrap(x + v dt)) of the state the step leaves, computed per block right after its
   // collisions while the block is in cache (so the next step need not read x and v from

@@ -58,8 +58,8 @@ TEST(DsmcCellOrder, OrdersByIdInEveryBranch) {
   }
 }
 
-// The fused step's variant (order_cell_by_key32): the cell's (old index, 32-bit key
-// id ^ 2^31) pairs (index_key_pair), read in place with other cells' entries (random junk)
+// The fused step's variant (order_cell_by_key32): the cell's old indices in `stable` and its
+// 32-bit keys id ^ 2^31 in `keys`, read in place with other cells' entries (random junk)
 // before and after it, up to the padding at the array end; the same order and ids as
 // std::sort by id, and nothing written outside the cell.
 void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
@@ -76,21 +76,22 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
   std::sort(id.begin(), id.end());
   if (std::unique(id.begin(), id.end()) != id.end()) return;  // distinct ids only (never fails at these sizes)
   std::shuffle(id.begin(), id.end(), gen);
-  std::vector<std::uint64_t> pairs(n + kKey32Padding);
-  for (auto& v : pairs) v = gen();  // junk in the padding
+  std::vector<std::uint32_t> stable(n + kKey32Padding);
+  std::vector<std::int32_t> keys(n + kKey32Padding);
+  for (auto& k : keys) k = static_cast<std::int32_t>(gen());  // junk in the padding
+  for (auto& v : stable) v = static_cast<std::uint32_t>(gen());
   std::vector<std::uint32_t> old(n);
   std::iota(old.begin(), old.end(), 0u);
   std::shuffle(old.begin(), old.end(), gen);
   for (std::size_t j = 0; j < n; ++j) {
-    pairs[j] = grainbath::dsmc::index_key_pair(old[j], id[old[j]]);
-    ASSERT_EQ(static_cast<std::uint32_t>(pairs[j]), old[j]);
-    ASSERT_EQ(static_cast<std::int32_t>(pairs[j] >> 32), static_cast<std::int32_t>(static_cast<std::uint32_t>(id[old[j]]) ^ 0x80000000u));
+    stable[j] = old[j];
+    keys[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(id[old[j]]) ^ 0x80000000u);
   }
-  std::vector<std::uint32_t> expected(old.begin() + static_cast<long>(b0), old.begin() + static_cast<long>(b1));
+  std::vector<std::uint32_t> expected(stable.begin() + static_cast<long>(b0), stable.begin() + static_cast<long>(b1));
   std::sort(expected.begin(), expected.end(), [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; });
   std::vector<std::uint32_t> perm(n, 0xdeadbeefu);
   std::vector<std::uint64_t> id_out(n, 0xdeadbeefull);
-  order_cell_by_key32(pairs.data(), perm.data(), id_out.data(), id.data(), b0, b1);
+  order_cell_by_key32(stable.data(), keys.data(), perm.data(), id_out.data(), id.data(), b0, b1);
   for (std::size_t j = b0; j < b1; ++j) {
     EXPECT_EQ(perm[j], expected[j - b0]) << "m " << m << " slot " << j;
     EXPECT_EQ(id_out[j], id[perm[j]]) << "m " << m << " slot " << j;
