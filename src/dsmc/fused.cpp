@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "dsmc/cell_order.hpp"
+#include "dsmc/decomposition.hpp"
 #include "dsmc/spatial.hpp"
 #include "operators/random.hpp"
 
@@ -97,10 +98,11 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // The same gather with AVX2, four slots at a time: the four old indices' values are loaded
 // one by one into a vector (the loads are random), the positions x + v dt of the four and the
 // test 0 <= x < L are computed in vectors and the new arrays stored four slots at a time
-// (contiguous). A group with a coordinate to wrap takes wrap_periodic per slot for that
-// axis. Only add, mul and ordered compares (no FMA): bitwise the positions of gather_slots
-// and of the separate-pass streaming (DsmcReproducibility compares the fused step, on this
-// path where the CPU has AVX2, with the separate passes). The prefetches are those of
+// (contiguous). A group with a coordinate to wrap is wrapped in the vector
+// (detail::wrap_periodic_avx2, wrap_periodic's operations). Only correctly rounded
+// operations (no FMA): bitwise the positions of gather_slots and of the separate-pass
+// streaming (DsmcReproducibility compares the fused step, on this path where the CPU has
+// AVX2, with the separate passes). The prefetches are those of
 // gather_slots: the leading edge once per 8 slots, the lines of the slot kAhead ahead.
 // the values of four old indices in one vector (lane q from index q)
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
@@ -155,10 +157,8 @@ template <int Dim, bool kHazard>
           _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, _mm256_set1_pd(length[a]), _CMP_GE_OQ));
       if (_mm256_movemask_pd(outside) == 0) [[likely]] {
         _mm256_storeu_pd(to_pos[a] + j, p);
-      } else {
-        alignas(32) double lane[4];
-        _mm256_store_pd(lane, p);
-        for (int q = 0; q < 4; ++q) to_pos[a][j + q] = wrap_periodic(lane[q], length[a]);
+      } else {  // wrap_periodic in the vector (fused.hpp): the same positions
+        _mm256_storeu_pd(to_pos[a] + j, detail::wrap_periodic_avx2(p, _mm256_set1_pd(length[a]), outside));
       }
     }
     if constexpr (kHazard) _mm256_storeu_pd(hz + j, lanes(ohz, i0, i1, i2, i3));
@@ -183,6 +183,16 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   if (n >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
   SortScratch& w = s.sort;
   std::vector<double>().swap(w.gather);  // not used here
+  // The cells of this step's streaming, if the previous fused step predicted them
+  // (SortScratch::next_cell): it did so for this step number, and the arrays are still the
+  // ones it left (no reorder, no resize since). Then the streaming pass below only counts,
+  // reading 4 bytes per particle instead of x and v (48 B, from DRAM at 1e6: the arrays
+  // are read again by the gather). Without a bath nothing changes x or v between two steps;
+  // with one (bath_substep kicks v in place) no prediction is made.
+  const bool predicted = w.next_cell_step == s.step && w.next_cell.size() == n && w.next_cell_x == p.x.data() &&
+                         w.next_cell_vx == p.vx.data();
+  const bool predict = !medium_present(c);
+  if (predicted) w.cell.swap(w.next_cell);
   // the state before the step moves to the scratch arrays; Particles receives the new order
   std::vector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
   const double* previous[7] = {};
@@ -194,6 +204,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   }
   w.id.resize(n);
   w.cell.resize(n);
+  if (predict) w.next_cell.resize(n);
   w.perm.resize(n);
   w.stable.resize(n + kKey32Padding);  // order_cell_by_key32 reads up to 3 slots past a cell
   w.key32.resize(n + kKey32Padding);
@@ -220,6 +231,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const std::size_t lead = (reach * n + cells - 1) / cells + 64;
   std::size_t* start = s.cell_start.data();
   std::uint32_t* __restrict cell = w.cell.data();
+  std::uint32_t* __restrict next_cell = predict ? w.next_cell.data() : nullptr;
   std::uint32_t* __restrict perm = w.perm.data();
   std::uint32_t* __restrict stable = w.stable.data();
   std::int32_t* __restrict key32 = w.key32.data();
@@ -246,6 +258,32 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const GatherArrays arrays{{ox, oy, oz, ovx, ovy, ovz, ohz}, {x, y, z, vx, vy, vz, hz}};
   const double length[3] = {Lx, Ly, Lz};
   const bool avx2 = Philox4x32Lanes::have_avx2();
+  // the cell index kernels' arguments for this step's streaming (previous arrays) and for
+  // the prediction of the next step's (the new arrays after the collisions)
+  const bool simd_cells = cells < 0x80000000u;
+  const detail::StreamCellsArgs stream_args{{ox, oy, oz},
+                                            {ovx, ovy, ovz},
+                                            dt,
+                                            {Lx, Ly, Lz},
+                                            {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+                                            {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+                                             static_cast<double>(grid.cells[2]) - 1.0},
+                                            static_cast<double>(grid.cells[0]),
+                                            static_cast<double>(grid.cells[1])};
+  detail::StreamCellsArgs next_args = stream_args;
+  for (int a = 0; a < 3; ++a) {
+    next_args.pos[a] = a == 0 ? x : a == 1 ? y : z;
+    next_args.vel[a] = a == 0 ? vx : a == 1 ? vy : vz;
+  }
+  // the next step's cell of slot j: the streaming pass's expression on the state after the
+  // collisions (the next step's previous arrays), so the same cell as that pass would give
+  auto predict_one = [&](std::size_t j) {
+    const double xj = wrap_periodic(x[j] + vx[j] * dt, Lx);
+    double yj = 0.0, zj = 0.0;
+    if constexpr (Dim > 1) yj = wrap_periodic(y[j] + vy[j] * dt, Ly);
+    if constexpr (Dim > 2) zj = wrap_periodic(z[j] + vz[j] * dt, Lz);
+    next_cell[j] = grid(xj, yj, zj);
+  };
 #pragma omp parallel
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -264,20 +302,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       ++cnt[k];
     };
     std::size_t i = lo;
-    if (cells < 0x80000000u) {
+    if (predicted) {
+      for (; i < hi; ++i) ++cnt[cell[i]];  // the cells are known: the counts only
+    } else if (simd_cells) {
       // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
       // AVX2 where the CPU has it, else SSE2; the same cells on both
-      const detail::StreamCellsArgs g{{ox, oy, oz},
-                                      {ovx, ovy, ovz},
-                                      dt,
-                                      {Lx, Ly, Lz},
-                                      {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
-                                      {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
-                                       static_cast<double>(grid.cells[2]) - 1.0},
-                                      static_cast<double>(grid.cells[0]),
-                                      static_cast<double>(grid.cells[1])};
-      i = Philox4x32Lanes::have_avx2() ? detail::stream_cells_avx2<Dim>(g, i, hi, cell, cnt, stream_one)
-                                       : detail::stream_cells_sse2<Dim>(g, i, hi, cell, cnt, stream_one);
+      i = avx2 ? detail::stream_cells_avx2<Dim>(stream_args, i, hi, cell, cnt, stream_one)
+               : detail::stream_cells_sse2<Dim>(stream_args, i, hi, cell, cnt, stream_one);
     }
     for (; i < hi; ++i) stream_one(i);
 #pragma omp barrier
@@ -330,11 +361,22 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
         collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters);
       }
+      if (predict) {  // the block's cells for the next step, while its x and v are in cache
+        std::size_t j = start[k0];
+        const std::size_t j1 = start[k1];
+        if (simd_cells)
+          j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, j1, next_cell, nullptr, predict_one)
+                   : detail::stream_cells_sse2<Dim, false>(next_args, j, j1, next_cell, nullptr, predict_one);
+        for (; j < j1; ++j) predict_one(j);
+      }
       per_block[blk] = counters;
     }
   }
   p.id.swap(w.id);
   w.cell_fresh = false;
+  w.next_cell_step = predict ? s.step + 1 : -1;
+  w.next_cell_x = p.x.data();
+  w.next_cell_vx = p.vx.data();
 }
 
 }  // namespace

@@ -40,7 +40,8 @@ namespace detail {
 // (add, mul, compare, min, max, truncation; no FMA, the AVX2 function does not enable it):
 // the SSE2 path (two particles per vector) and the AVX2 path (four) give the same cells
 // (tests/dsmc/test_dsmc_cell_order.cpp, DsmcStreamCells.*). Both return the first index
-// they did not process (hi - i < the group size remain).
+// they did not process (hi - i < the group size remain). With kCount = false the cells are
+// only stored (the fused step's prediction of the next step's cells, `cnt` unused).
 struct StreamCellsArgs {
   const double* pos[3];
   const double* vel[3];
@@ -51,7 +52,7 @@ struct StreamCellsArgs {
   double nx, ny;       // cells along x and y
 };
 
-template <int Dim, class Scalar>
+template <int Dim, bool kCount = true, class Scalar>
 inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, std::size_t hi, std::uint32_t* cell,
                                      std::uint32_t* cnt, Scalar&& scalar) {
   const __m128d dt2 = _mm_set1_pd(g.dt), zero = _mm_setzero_pd();
@@ -80,17 +81,32 @@ inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, st
     if constexpr (Dim == 3) linear = _mm_add_pd(k[0], _mm_mul_pd(nx, _mm_add_pd(k[1], _mm_mul_pd(ny, k[2]))));
     const __m128i kk = _mm_cvttpd_epi32(linear);
     _mm_storel_epi64(reinterpret_cast<__m128i*>(cell + i), kk);
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+    if constexpr (kCount) {
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(_mm_shuffle_epi32(kk, 1)))];
+    }
   }
   return i;
 }
 
+// wrap_periodic (src/dsmc/spatial.hpp) of the lanes of x flagged in `outside` (all bits set
+// where x < 0 or x >= L), the others unchanged: x - L floor(x / L) by the same correctly
+// rounded operations (divide, floor, multiply, subtract; no FMA: target avx2 does not enable
+// it), then a result >= L (x = -tiny) becomes +0: bitwise the scalar function's positions.
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256d wrap_periodic_avx2(__m256d x, __m256d L, __m256d outside) {
+  const __m256d wrapped = _mm256_sub_pd(x, _mm256_mul_pd(L, _mm256_floor_pd(_mm256_div_pd(x, L))));
+  return _mm256_blendv_pd(x, _mm256_andnot_pd(_mm256_cmp_pd(wrapped, L, _CMP_GE_OQ), wrapped), outside);
+}
+
 // The same with AVX2, four particles per vector and three-operand instructions: ~40 % of the
-// SSE2 path's instructions per particle (docs/performance/dsmc1.md).
-template <int Dim, class Scalar>
+// SSE2 path's instructions per particle (docs/performance/dsmc1.md). A group with a
+// coordinate to wrap is wrapped in the vector (wrap_periodic's operations), not handed to
+// `scalar` (kept in the signature for symmetry with the SSE2 path; never called): the
+// scalar lambda cost ~3 % of the DSMC-1 step (8 % of the groups of four have a particle
+// crossing a face).
+template <int Dim, bool kCount = true, class Scalar>
 [[gnu::target("avx2")]] inline std::size_t stream_cells_avx2(const StreamCellsArgs& g, std::size_t i, std::size_t hi,
-                                                             std::uint32_t* cell, std::uint32_t* cnt, Scalar&& scalar) {
+                                                             std::uint32_t* cell, std::uint32_t* cnt, [[maybe_unused]] Scalar&& scalar) {
   const __m256d dt4 = _mm256_set1_pd(g.dt), zero = _mm256_setzero_pd();
   __m256d len[3], inv[3], top[3];
   for (int a = 0; a < 3; ++a) {
@@ -100,30 +116,28 @@ template <int Dim, class Scalar>
   }
   const __m256d nx = _mm256_set1_pd(g.nx), ny = _mm256_set1_pd(g.ny);
   for (; i + 4 <= hi; i += 4) {
-    __m256d k[3], outside = zero;
+    __m256d k[3];
     for (int a = 0; a < Dim; ++a) {
-      const __m256d xa = _mm256_add_pd(_mm256_loadu_pd(g.pos[a] + i), _mm256_mul_pd(_mm256_loadu_pd(g.vel[a] + i), dt4));
-      // ordered, quiet compares: false for NaN, as SSE2's cmplt/cmpge
-      outside = _mm256_or_pd(outside, _mm256_or_pd(_mm256_cmp_pd(xa, zero, _CMP_LT_OQ), _mm256_cmp_pd(xa, len[a], _CMP_GE_OQ)));
+      __m256d xa = _mm256_add_pd(_mm256_loadu_pd(g.pos[a] + i), _mm256_mul_pd(_mm256_loadu_pd(g.vel[a] + i), dt4));
+      // ordered, quiet compares: false for NaN, as SSE2's cmplt/cmpge (and wrap_periodic's)
+      const __m256d outside = _mm256_or_pd(_mm256_cmp_pd(xa, zero, _CMP_LT_OQ), _mm256_cmp_pd(xa, len[a], _CMP_GE_OQ));
+      if (_mm256_movemask_pd(outside) != 0) [[unlikely]] {
+        xa = wrap_periodic_avx2(xa, len[a], outside);
+      }
       const __m256d f = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xa, inv[a]), zero), top[a]);
       k[a] = _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(f));
-    }
-    if (_mm256_movemask_pd(outside) != 0) [[unlikely]] {
-      scalar(i);
-      scalar(i + 1);
-      scalar(i + 2);
-      scalar(i + 3);
-      continue;
     }
     __m256d linear = k[0];
     if constexpr (Dim == 2) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, k[1]));
     if constexpr (Dim == 3) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, _mm256_add_pd(k[1], _mm256_mul_pd(ny, k[2]))));
     const __m128i kk = _mm256_cvttpd_epi32(linear);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + i), kk);
-    ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 1))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 2))];
-    ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 3))];
+    if constexpr (kCount) {
+      ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 1))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 2))];
+      ++cnt[static_cast<std::uint32_t>(_mm_extract_epi32(kk, 3))];
+    }
   }
   return i;
 }

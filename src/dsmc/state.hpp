@@ -60,7 +60,18 @@ struct SortScratch {
   // `perm` and `id` (order_cell_by_key32, src/dsmc/cell_order.hpp)
   std::vector<std::uint32_t> stable;
   std::vector<std::int32_t> key32;
-  static constexpr std::size_t fused_bytes_per_particle = 4 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
+  // fused step without a bath: the cell of every particle after the next streaming,
+  // cell(wrap(x + v dt)) of the state the step leaves, computed per block right after its
+  // collisions while the block is in cache (so the next step need not read x and v from
+  // memory a second time). Valid for the step `next_cell_step` only, and only while the
+  // arrays are those the step left (`next_cell_x`, `next_cell_vx`, size): anything else
+  // that reorders the particles swaps or resizes them; nothing else changes x or v between
+  // two fused steps without a bath (src/dsmc/driver.cpp), and a restart starts with -1.
+  std::vector<std::uint32_t> next_cell;
+  std::int64_t next_cell_step = -1;
+  const double* next_cell_x = nullptr;
+  const double* next_cell_vx = nullptr;
+  static constexpr std::size_t fused_bytes_per_particle = 5 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
 struct State {

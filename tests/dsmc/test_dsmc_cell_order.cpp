@@ -122,8 +122,9 @@ TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {
 // The fused step's cell index in SIMD (detail::stream_cells_sse2 / _avx2, src/dsmc/fused.hpp):
 // both paths must give the cells of the scalar path, CellGrid(wrap_periodic(x + v dt)),
 // particle by particle, and the same counts, for particles that stay inside, leave through a
-// face, land on a cell face or on the upper box face, and a NaN velocity. Fails if a clamp,
-// a compare or the linear index differs in one path.
+// face (also to -tiny, and several box lengths), land on a cell face or on the upper box face,
+// and a NaN velocity. Fails if a clamp, a compare, the AVX2 path's wrap or the linear index
+// differs in one path.
 template <int Dim>
 void check_stream_cells(std::uint32_t seed) {
   using namespace grainbath::dsmc;
@@ -153,6 +154,11 @@ void check_stream_cells(std::uint32_t seed) {
       } else if (r == 2) {  // through a face
         pos[a][i] = unit(gen) < 0.5 ? 0.01 : length[a] - 0.01;
         vel[a][i] = pos[a][i] < 1.0 ? -1.0 : 1.0;
+      } else if (r == 3) {  // to -tiny: x + L rounds to L, wrap_periodic gives 0
+        pos[a][i] = 0.0;
+        vel[a][i] = -1e-300;
+      } else if (r == 4) {  // several box lengths away (floor(x / L) = +-3)
+        vel[a][i] = (unit(gen) < 0.5 ? -3.0 : 3.0) * length[a] / dt;
       }
     }
   }
@@ -197,6 +203,18 @@ void check_stream_cells(std::uint32_t seed) {
     for (; i < n; ++i) one(i);
     for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell[j], ref[j]) << (path ? "AVX2" : "SSE2") << " Dim " << Dim << " particle " << j;
     EXPECT_EQ(count, ref_count) << (path ? "AVX2" : "SSE2") << " Dim " << Dim;
+    // without the counts (the fused step's prediction of the next step's cells): the same
+    // cells, and `cnt` is not touched
+    std::vector<std::uint32_t> cell_only(n, 0xffffffffu), untouched(cells, 0);
+    auto only = scalar_into(cell_only, untouched);
+    auto store_only = [&](std::size_t q) {
+      std::vector<std::uint32_t> scratch(cells, 0);
+      scalar_into(cell_only, scratch)(q);
+    };
+    std::size_t q = path == 0 ? detail::stream_cells_sse2<Dim, false>(g, 0, n, cell_only.data(), nullptr, store_only)
+                              : detail::stream_cells_avx2<Dim, false>(g, 0, n, cell_only.data(), nullptr, store_only);
+    for (; q < n; ++q) only(q);
+    for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell_only[j], ref[j]) << (path ? "AVX2" : "SSE2") << " no counts, particle " << j;
   }
 }
 

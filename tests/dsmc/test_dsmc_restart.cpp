@@ -107,6 +107,21 @@ law = "constant"
 e = 0.85
 )";
 
+// The same box without a medium: the fused step then predicts each step's cells at the end
+// of the previous one (SortScratch::next_cell, not checkpointed); the resumed run's first
+// step streams from x and v instead and must give the same cells.
+const char* kPeriodicNoBathHead = R"(
+[domain]
+dimensions = 3
+length = [2.0, 2.0, 2.0]
+cells = [6, 6, 6]
+[grains]
+temperature = 1.2
+[restitution]
+law = "constant"
+e = 0.85
+)";
+
 // Rough grains (issue #6): spins and the Trot series must be in the checkpoint; sliding
 // (mu = 0.5), the medium acting on the translation.
 // kHomogeneous with the power law replaced by Walton's rule
@@ -139,6 +154,9 @@ void check_exact_continuation(const std::string& toml, const std::string& tag) {
 TEST(DsmcRestart, HomogeneousContinuesBitwise) { check_exact_continuation(kHomogeneous, "hom"); }
 TEST(DsmcRestart, SpatialContinuesBitwise) { check_exact_continuation(std::string(kSpatialHead) + kSpatialRun, "spa"); }
 TEST(DsmcRestart, PeriodicBoxWithBathContinuesBitwise) { check_exact_continuation(std::string(kPeriodicHead) + kSpatialRun, "per"); }
+TEST(DsmcRestart, PeriodicBoxWithoutBathContinuesBitwise) {
+  check_exact_continuation(std::string(kPeriodicNoBathHead) + kSpatialRun, "pernb");
+}
 TEST(DsmcRestart, RoughHomogeneousContinuesBitwise) { check_exact_continuation(rough_homogeneous(), "rough"); }
 
 TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
