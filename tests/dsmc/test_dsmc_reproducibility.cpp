@@ -108,6 +108,30 @@ wall_temperature = 1.5
   }
 }
 
+// The case fused at 1 and 2 threads and as separate passes (GRAINBATH_DSMC_UNFUSED): the same
+// physics keys (state.hash included) and time series, bitwise. Returns the separate run.
+namespace {
+grainbath::testing::CaseRun expect_fused_equals_separate(const std::string& toml, std::uint64_t seed,
+                                                         const std::string& tag) {
+  const auto fused1 = run_dsmc(toml, seed, 1, tag + "1");
+  const auto fused2 = run_dsmc(toml, seed, 2, tag + "2");
+  ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
+  auto separate = run_dsmc(toml, seed, 1, tag + "-separate");
+  ::unsetenv("GRAINBATH_DSMC_UNFUSED");
+  for (const auto& k : physics_keys(separate.summary)) {
+    EXPECT_NE(fused1.summary.get(k), nullptr) << k;
+    if (fused1.summary.get(k) == nullptr || fused2.summary.get(k) == nullptr) continue;
+    EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
+    EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
+  }
+  for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
+    EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
+    EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
+  }
+  return separate;
+}
+}  // namespace
+
 // A fully periodic box takes the fused stream-sort-collide step (src/dsmc/fused.cpp); it
 // must give bitwise the results of the separate passes (stream, sort_by_cell, per-cell
 // collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads, in 3, 2 and 1
@@ -127,20 +151,7 @@ cells = [16]
 )"}) {
     SCOPED_TRACE(domain);
     const std::string toml = std::string(domain) + kSpatialRest;
-    const auto fused1 = run_dsmc(toml, 5, 1, "fused1");
-    const auto fused2 = run_dsmc(toml, 5, 2, "fused2");
-    ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
-    const auto separate = run_dsmc(toml, 5, 1, "separate");
-    ::unsetenv("GRAINBATH_DSMC_UNFUSED");
-    for (const auto& k : physics_keys(separate.summary)) {
-      ASSERT_NE(fused1.summary.get(k), nullptr) << k;
-      EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
-      EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
-    }
-    for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
-      EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
-      EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
-    }
+    const auto separate = expect_fused_equals_separate(toml, 5, "fused");
     EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
     EXPECT_GT(separate.summary.number("counters.bath_collisions"), 0.0);
   }
@@ -180,20 +191,7 @@ cells = [16]
 )"}) {
       SCOPED_TRACE(std::string(domain) + law);
       const std::string toml = std::string(domain) + rest + law;
-      const auto fused1 = run_dsmc(toml, 7, 1, "nbfused1");
-      const auto fused2 = run_dsmc(toml, 7, 2, "nbfused2");
-      ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
-      const auto separate = run_dsmc(toml, 7, 1, "nbseparate");
-      ::unsetenv("GRAINBATH_DSMC_UNFUSED");
-      for (const auto& k : physics_keys(separate.summary)) {
-        ASSERT_NE(fused1.summary.get(k), nullptr) << k;
-        EXPECT_EQ(*fused1.summary.get(k), *separate.summary.get(k)) << k;
-        EXPECT_EQ(*fused2.summary.get(k), *separate.summary.get(k)) << k;
-      }
-      for (const char* name : {"/timeseries/temperature", "/timeseries/velocity", "/timeseries/pressure_tensor"}) {
-        EXPECT_EQ(fused1.series(name), separate.series(name)) << name;
-        EXPECT_EQ(fused2.series(name), separate.series(name)) << name;
-      }
+      const auto separate = expect_fused_equals_separate(toml, 7, "nbfused");
       EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
       EXPECT_EQ(separate.summary.number("counters.bath_collisions"), 0.0);
     }
