@@ -4,7 +4,9 @@
 // Why: the reproducibility checks (1 vs 2 threads, 1 vs 2 MPI ranks, SIMD vs baseline paths,
 // restart vs straight run) compare summary.json and results.h5, whose statistics can miss a
 // change of one ulp in a position (docs/PERFORMANCE.md, "Reproducible"). The fingerprint sees
-// every bit of every stored per-particle value.
+// every bit of the values the caller offers: DSMC offers every stored per-particle value
+// (positions, velocities, bath residual, spins; src/dsmc/output.cpp), EDMD the positions,
+// velocities and spins (not the engine's internal event bookkeeping; src/edmd/driver.cpp).
 //
 // It is a sum over particles (mod 2^64) of a per-particle hash of (id, the IEEE bit patterns of
 // its values), so it does not depend on the storage order (cell order, rank order after a
