@@ -111,6 +111,20 @@ wall_temperature = 1.5
 // The case fused at 1 and 2 threads and as separate passes (GRAINBATH_DSMC_UNFUSED): the same
 // physics keys (state.hash included) and time series, bitwise. Returns the separate run.
 namespace {
+// fully periodic boxes in 3, 2 and 1 dimensions: all take the fused step
+const char* const kPeriodicDomains[] = {kPeriodicBox3d, R"(
+[domain]
+dimensions = 2
+length = [2.0, 1.0]
+cells = [10, 5]
+)",
+                                        R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [16]
+)"};
+
 grainbath::testing::CaseRun expect_fused_equals_separate(const std::string& toml, std::uint64_t seed,
                                                          const std::string& tag) {
   const auto fused1 = run_dsmc(toml, seed, 1, tag + "1");
@@ -137,18 +151,7 @@ grainbath::testing::CaseRun expect_fused_equals_separate(const std::string& toml
 // collisions), which GRAINBATH_DSMC_UNFUSED selects, at 1 and 2 threads, in 3, 2 and 1
 // dimensions; with a bath (the residual is gathered with the particles) and inelastic grains.
 TEST(DsmcReproducibility, FusedPeriodicStepEqualsSeparatePasses) {
-  for (const char* domain : {kPeriodicBox3d, R"(
-[domain]
-dimensions = 2
-length = [2.0, 1.0]
-cells = [10, 5]
-)",
-                             R"(
-[domain]
-dimensions = 1
-length = [2.0]
-cells = [16]
-)"}) {
+  for (const char* domain : kPeriodicDomains) {
     SCOPED_TRACE(domain);
     const std::string toml = std::string(domain) + kSpatialRest;
     const auto separate = expect_fused_equals_separate(toml, 5, "fused");
@@ -177,18 +180,7 @@ every = 0.1
 steady_from = 0.3
 )";
   for (const char* law : {"[restitution]\nlaw = \"constant\"\ne = 0.8\n", "[restitution]\nlaw = \"elastic\"\n"}) {
-    for (const char* domain : {kPeriodicBox3d, R"(
-[domain]
-dimensions = 2
-length = [2.0, 1.0]
-cells = [10, 5]
-)",
-                               R"(
-[domain]
-dimensions = 1
-length = [2.0]
-cells = [16]
-)"}) {
+    for (const char* domain : kPeriodicDomains) {
       SCOPED_TRACE(std::string(domain) + law);
       const std::string toml = std::string(domain) + rest + law;
       const auto separate = expect_fused_equals_separate(toml, 7, "nbfused");
