@@ -330,6 +330,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
   const std::int64_t checkpoint_steps =
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
+  // Anything added to this loop that changes x or v between two fused steps must also set
+  // s.sort.next_cell_step = -1: without a medium the fused step reuses the cells it computed
+  // after the previous step's collisions (src/dsmc/fused.cpp, SortScratch::next_cell).
   for (; s.step < c.steps;) {
     if (bath_on) bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds);
     if (fused) {
