@@ -8,18 +8,22 @@
 namespace grainbath::dsmc {
 
 namespace detail {
-// Ranking of m <= 4 Q 32-bit keys (padded to 4 Q with INT32_MAX): Q vectors of four.
+// Ranking of m <= 4 Q 32-bit keys: Q vectors of four, loaded unaligned from `keys`.
 // Transposed: each key in turn is broadcast and compared with all Q vectors, and every
 // element whose key is larger counts it (rank[q] -= key_a < kv[q], true is -1). After m
-// broadcasts rank[q] holds the ranks of four elements at once: no horizontal sum per element
-// (the pads count too, but their ranks are not read; a pad is never below a real key).
+// broadcasts rank[q] holds the ranks of four elements at once: no horizontal sum per element.
+// Only the m real keys are broadcast, so the lanes past them (order_cell_by_id's INT32_MAX
+// pads, or the next cells' keys where order_cell_by_key32 reads the scatter's arrays in
+// place) count nothing towards the real lanes, and their own ranks are never read.
+// Writes perm[rank] = stable[a] and id_out[rank] = the id of key a.
 template <std::size_t Q>
-inline void rank_int32(const std::int32_t* __restrict keys, std::size_t m, const std::uint32_t* __restrict slots,
-                       std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0) {
+inline void rank_keys32(const std::int32_t* __restrict keys, const std::uint32_t* __restrict stable, std::size_t m,
+                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out) {
   using Int4 = std::int32_t __attribute__((vector_size(16)));
+  using Int4u = std::int32_t __attribute__((vector_size(16), aligned(4)));  // unaligned loads
   Int4 kv[Q], rank[Q];
   for (std::size_t q = 0; q < Q; ++q) {
-    kv[q] = reinterpret_cast<const Int4*>(keys)[q];
+    kv[q] = reinterpret_cast<const Int4u*>(keys)[q];
     rank[q] = Int4{0, 0, 0, 0};
   }
   for (std::size_t a = 0; a < m; ++a) {
@@ -31,8 +35,8 @@ inline void rank_int32(const std::int32_t* __restrict keys, std::size_t m, const
   for (std::size_t q = 0; q < Q; ++q) reinterpret_cast<Int4*>(ranks)[q] = rank[q];
   for (std::size_t a = 0; a < m; ++a) {
     const auto r = static_cast<std::size_t>(ranks[a]);
-    perm[b0 + r] = slots[a];
-    id_out[b0 + r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
+    perm[r] = stable[a];
+    id_out[r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
   }
 }
 }  // namespace detail
@@ -69,14 +73,14 @@ inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
       // pad: never smaller than a key (the largest key is INT32_MAX itself)
       for (std::size_t a = m; a < 4 * quads; ++a) keys[a] = std::numeric_limits<std::int32_t>::max();
       switch (quads) {
-        case 1: detail::rank_int32<1>(keys, m, slots, perm, id_out, b0); return;
-        case 2: detail::rank_int32<2>(keys, m, slots, perm, id_out, b0); return;
-        case 3: detail::rank_int32<3>(keys, m, slots, perm, id_out, b0); return;
-        case 4: detail::rank_int32<4>(keys, m, slots, perm, id_out, b0); return;
-        case 5: detail::rank_int32<5>(keys, m, slots, perm, id_out, b0); return;
-        case 6: detail::rank_int32<6>(keys, m, slots, perm, id_out, b0); return;
-        case 7: detail::rank_int32<7>(keys, m, slots, perm, id_out, b0); return;
-        case 8: detail::rank_int32<8>(keys, m, slots, perm, id_out, b0); return;
+        case 1: detail::rank_keys32<1>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 2: detail::rank_keys32<2>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 3: detail::rank_keys32<3>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 4: detail::rank_keys32<4>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 5: detail::rank_keys32<5>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 6: detail::rank_keys32<6>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 7: detail::rank_keys32<7>(keys, slots, m, perm + b0, id_out + b0); return;
+        case 8: detail::rank_keys32<8>(keys, slots, m, perm + b0, id_out + b0); return;
         default: break;
       }
       const auto* kv = reinterpret_cast<const Int4*>(keys);
@@ -118,36 +122,6 @@ inline void order_cell_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   }
   for (std::size_t a = b0; a < b1; ++a) id_out[a] = id[perm[a]];
 }
-
-namespace detail {
-// The ranking of rank_int32 reading the cell's keys and old indices where the scatter left
-// them (no copy into local arrays, no padding): the lanes past the cell's m keys hold the
-// next cells' keys, but only the m real keys are broadcast, so the ranks of the real lanes
-// count real keys only, and the other lanes' ranks are never read.
-template <std::size_t Q>
-inline void rank_keys32(const std::int32_t* __restrict keys, const std::uint32_t* __restrict stable, std::size_t m,
-                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out) {
-  using Int4 = std::int32_t __attribute__((vector_size(16)));
-  using Int4u = std::int32_t __attribute__((vector_size(16), aligned(4)));  // unaligned loads
-  Int4 kv[Q], rank[Q];
-  for (std::size_t q = 0; q < Q; ++q) {
-    kv[q] = reinterpret_cast<const Int4u*>(keys)[q];
-    rank[q] = Int4{0, 0, 0, 0};
-  }
-  for (std::size_t a = 0; a < m; ++a) {
-    const std::int32_t k = keys[a];
-    const Int4 key = {k, k, k, k};
-    for (std::size_t q = 0; q < Q; ++q) rank[q] -= key < kv[q];
-  }
-  alignas(16) std::int32_t ranks[4 * Q];
-  for (std::size_t q = 0; q < Q; ++q) reinterpret_cast<Int4*>(ranks)[q] = rank[q];
-  for (std::size_t a = 0; a < m; ++a) {
-    const auto r = static_cast<std::size_t>(ranks[a]);
-    perm[r] = stable[a];
-    id_out[r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
-  }
-}
-}  // namespace detail
 
 // The padding order_cell_by_key32 may read past the last slot of `keys` and `stable`.
 inline constexpr std::size_t kKey32Padding = 4;
