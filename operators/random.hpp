@@ -17,10 +17,12 @@
 #include <emmintrin.h>
 #include <immintrin.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <numbers>
 #include <string_view>
 
@@ -323,16 +325,63 @@ class CounterRng {
 // x86-64 has no vector 64x64->128 multiply, so Philox4x64 does not vectorise; Philox4x32's
 // 32x32->64 multiplies are exactly PMULUDQ. Each block's four 32-bit words sit in the low
 // halves of 64-bit lanes (one lane per block); PMULUDQ ignores the high halves, so the low
-// products may carry garbage there until the output is masked. Integer arithmetic only:
-// the SSE2 (baseline x86-64) and AVX2 paths give the same bits, which the test checks
+// products may carry garbage there until the output is masked. The lane code is written once
+// (operators/philox_lanes.inc) and compiled for SSE2 (baseline x86-64, two lanes) and AVX2
+// (four lanes); integer arithmetic only, so both give the same bits, which the tests check
 // against Random123's scalar r123::Philox4x32 (tests/operators/test_random.cpp).
 //
 // The block "words8" of (key; c0, c1, c2, base) are the four Philox4x32 blocks with counters
 // (c0, c1, c2, base + j), j = 0..3, packed as eight 64-bit words:
 //   word j     = out_j[0] | out_j[1] << 32,   word 4 + j = out_j[2] | out_j[3] << 32.
+namespace detail {
+inline constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;  // multipliers
+inline constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;  // Weyl key bumps
+
+namespace philox_sse2 {
+typedef unsigned long long U __attribute__((vector_size(16)));
+inline constexpr int kLanes = 2;
+inline U mul_lo32(U a, U b) { return reinterpret_cast<U>(_mm_mul_epu32(reinterpret_cast<__m128i>(a), reinterpret_cast<__m128i>(b))); }
+// one group per register: lanes (block 0, block 1)
+inline void store_words4(std::uint64_t* w, U first, U second) {
+  std::memcpy(w, &first, sizeof first);
+  std::memcpy(w + 2, &second, sizeof second);
+}
+#include "operators/philox_lanes.inc"
+}  // namespace philox_sse2
+
+// The AVX2 copy: every function up to the pop is compiled for AVX2 (integer instructions
+// only). Only called when the CPU has AVX2.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+namespace philox_avx2 {
+typedef unsigned long long U __attribute__((vector_size(32)));
+inline constexpr int kLanes = 4;
+inline U mul_lo32(U a, U b) {
+  return reinterpret_cast<U>(_mm256_mul_epu32(reinterpret_cast<__m256i>(a), reinterpret_cast<__m256i>(b)));
+}
+// two groups per register: lanes (a block 0, a block 1, b block 0, b block 1), so a's words
+// are the low 128 bits of `first` and of `second`, b's the high ones
+inline void store_words4(std::uint64_t* w, U first, U second) {
+  const __m256i f = reinterpret_cast<__m256i>(first), s = reinterpret_cast<__m256i>(second);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w), _mm256_permute2x128_si256(f, s, 0x20));
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4), _mm256_permute2x128_si256(f, s, 0x31));
+}
+#include "operators/philox_lanes.inc"
+}  // namespace philox_avx2
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+}  // namespace detail
+
 struct Philox4x32Lanes {
-  static constexpr std::uint32_t kM0 = 0xD2511F53u, kM1 = 0xCD9E8D57u;
-  static constexpr std::uint32_t kW0 = 0x9E3779B9u, kW1 = 0xBB67AE85u;
+  static constexpr std::uint32_t kM0 = detail::kPhiloxM0, kM1 = detail::kPhiloxM1;
+  static constexpr std::uint32_t kW0 = detail::kPhiloxW0, kW1 = detail::kPhiloxW1;
 
   // Scalar reference by Random123 (also the per-grain path): the same eight words.
   // Blocks = 4 gives words8, Blocks = 2 words4 (block j's outputs in words j and Blocks + j).
@@ -352,79 +401,15 @@ struct Philox4x32Lanes {
     blocks_scalar<4>(key, c0, c1, c2, base, w);
   }
 
-  // The ten round keys of Philox4x32-10 (the key bumped by the Weyl constants), broadcast.
-  static void round_keys_sse2(std::uint64_t key, __m128i* k0, __m128i* k1) {
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
-  }
-  [[gnu::target("avx2"), gnu::always_inline]] static inline void round_keys_avx2(std::uint64_t key, __m256i* k0,
-                                                                                 __m256i* k1) {
-    for (int r = 0; r < 10; ++r) {
-      k0[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key) + r * kW0));
-      k1[r] = _mm256_set1_epi64x(static_cast<std::uint32_t>(static_cast<std::uint32_t>(key >> 32) + r * kW1));
-    }
-  }
-
-  // n groups of eight words, group a with counters (c0[a], c1[a], c2, base): SSE2, two
-  // blocks per vector.
+  // n groups of eight words, group a with counters (c0[a], c1[a], c2, base): two blocks per
+  // SSE2 register, four per AVX2 register (philox_lanes.inc).
   static void words8_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                           std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    __m128i k0[10], k1[10];
-    round_keys_sse2(key, k0, k1);
-    const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
-    const __m128i x2i = _mm_set1_epi64x(c2);
-    for (std::size_t a = 0; a < n; ++a) {
-      for (std::uint32_t h = 0; h < 4; h += 2) {
-        __m128i x0 = _mm_set1_epi64x(c0[a]), x1 = _mm_set1_epi64x(c1[a]), x2 = x2i;
-        __m128i x3 = _mm_set_epi64x(base + h + 1, base + h);
-        for (int r = 0; r < 10; ++r) {
-          const __m128i p0 = _mm_mul_epu32(x0, m0), p1 = _mm_mul_epu32(x2, m1);
-          x0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p1, 32), x1), k0[r]);
-          x2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p0, 32), x3), k1[r]);
-          x1 = p1;
-          x3 = p0;
-        }
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 8 * a + h),
-                         _mm_or_si128(_mm_and_si128(x0, lo), _mm_slli_epi64(x1, 32)));
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 8 * a + 4 + h),
-                         _mm_or_si128(_mm_and_si128(x2, lo), _mm_slli_epi64(x3, 32)));
-      }
-    }
+    detail::philox_sse2::words8(key, c0, c1, c2, base, n, w);
   }
-
-  // The same with AVX2, four blocks (one group) per vector. Integer instructions only.
-  [[gnu::target("avx2")]] static void words8_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
-                                                  std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    __m256i k0[10], k1[10];
-    round_keys_avx2(key, k0, k1);
-    const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
-    const __m256i x3i = _mm256_set_epi64x(base + 3, base + 2, base + 1, base);
-    // Round 0 in scalar code: only the fourth counter word differs between the four blocks
-    // of a group, and it enters round 0 through an xor only, so the round's products
-    // c2 M1 (the same for every group) and c0 M0 (the same for the four blocks) are taken
-    // once, not four times in the lanes (the same bits: integer arithmetic).
-    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
-    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
-    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
-    for (std::size_t a = 0; a < n; ++a) {
-      const std::uint64_t p0s = static_cast<std::uint64_t>(c0[a]) * kM0;
-      __m256i x0 = _mm256_set1_epi64x(static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0);
-      __m256i x2 = _mm256_xor_si256(_mm256_set1_epi64x(static_cast<std::uint32_t>(p0s >> 32) ^ k1r0), x3i);
-      __m256i x1 = _mm256_set1_epi64x(x1s), x3 = _mm256_set1_epi64x(static_cast<std::uint32_t>(p0s));
-      for (int r = 1; r < 10; ++r) {
-        const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
-        x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0[r]);
-        x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1[r]);
-        x1 = p1;
-        x3 = p0;
-      }
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 8 * a),
-                          _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32)));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 8 * a + 4),
-                          _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32)));
-    }
+  static void words8_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    detail::philox_avx2::words8(key, c0, c1, c2, base, n, w);
   }
 
   // Whether the AVX2 paths run: the CPU has AVX2 and the environment does not ask for the
@@ -449,71 +434,15 @@ struct Philox4x32Lanes {
     blocks_scalar<2>(key, c0, c1, c2, base, w);
   }
 
-  // n groups of four words, group a with counters (c0[a], c1[a], c2, base): SSE2, the two
-  // blocks of a group in one vector (round 0 in scalar code, as in words8_avx2).
+  // n groups of four words, group a with counters (c0[a], c1[a], c2, base): one group per
+  // SSE2 register, two per AVX2 register.
   static void words4_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                           std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    __m128i k0[10], k1[10];
-    round_keys_sse2(key, k0, k1);
-    const __m128i m0 = _mm_set1_epi64x(kM0), m1 = _mm_set1_epi64x(kM1), lo = _mm_set1_epi64x(0xffffffffll);
-    const __m128i x3i = _mm_set_epi64x(base + 1, base);
-    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
-    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
-    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
-    for (std::size_t a = 0; a < n; ++a) {
-      const std::uint64_t p0s = static_cast<std::uint64_t>(c0[a]) * kM0;
-      __m128i x0 = _mm_set1_epi64x(static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0);
-      __m128i x2 = _mm_xor_si128(_mm_set1_epi64x(static_cast<std::uint32_t>(p0s >> 32) ^ k1r0), x3i);
-      __m128i x1 = _mm_set1_epi64x(x1s), x3 = _mm_set1_epi64x(static_cast<std::uint32_t>(p0s));
-      for (int r = 1; r < 10; ++r) {
-        const __m128i p0 = _mm_mul_epu32(x0, m0), p1 = _mm_mul_epu32(x2, m1);
-        x0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p1, 32), x1), k0[r]);
-        x2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(p0, 32), x3), k1[r]);
-        x1 = p1;
-        x3 = p0;
-      }
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4 * a), _mm_or_si128(_mm_and_si128(x0, lo), _mm_slli_epi64(x1, 32)));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4 * a + 2),
-                       _mm_or_si128(_mm_and_si128(x2, lo), _mm_slli_epi64(x3, 32)));
-    }
+    detail::philox_sse2::words4(key, c0, c1, c2, base, n, w);
   }
-
-  // The same with AVX2, two groups (grains) per vector; an odd last group by words4_sse2.
-  // Integer instructions only.
-  [[gnu::target("avx2")]] static void words4_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1,
-                                                  std::uint32_t c2, std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    __m256i k0[10], k1[10];
-    round_keys_avx2(key, k0, k1);
-    const __m256i m0 = _mm256_set1_epi64x(kM0), m1 = _mm256_set1_epi64x(kM1), lo = _mm256_set1_epi64x(0xffffffffll);
-    const __m256i x3i = _mm256_set_epi64x(base + 1, base, base + 1, base);
-    const std::uint32_t k0r0 = static_cast<std::uint32_t>(key), k1r0 = static_cast<std::uint32_t>(key >> 32);
-    const std::uint64_t p1s = static_cast<std::uint64_t>(c2) * kM1;
-    const std::uint32_t x1s = static_cast<std::uint32_t>(p1s);
-    std::size_t a = 0;
-    for (; a + 2 <= n; a += 2) {
-      // lanes (grain a block 0, block 1, grain a + 1 block 0, block 1); round 0 in scalar code
-      const std::uint64_t pa = static_cast<std::uint64_t>(c0[a]) * kM0, pb = static_cast<std::uint64_t>(c0[a + 1]) * kM0;
-      const long long x0a = static_cast<std::uint32_t>(p1s >> 32) ^ c1[a] ^ k0r0,
-                      x0b = static_cast<std::uint32_t>(p1s >> 32) ^ c1[a + 1] ^ k0r0;
-      const long long x2a = static_cast<std::uint32_t>(pa >> 32) ^ k1r0, x2b = static_cast<std::uint32_t>(pb >> 32) ^ k1r0;
-      const long long x3a = static_cast<std::uint32_t>(pa), x3b = static_cast<std::uint32_t>(pb);
-      __m256i x0 = _mm256_set_epi64x(x0b, x0b, x0a, x0a);
-      __m256i x2 = _mm256_xor_si256(_mm256_set_epi64x(x2b, x2b, x2a, x2a), x3i);
-      __m256i x1 = _mm256_set1_epi64x(x1s), x3 = _mm256_set_epi64x(x3b, x3b, x3a, x3a);
-      for (int r = 1; r < 10; ++r) {
-        const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
-        x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0[r]);
-        x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1[r]);
-        x1 = p1;
-        x3 = p0;
-      }
-      // (a w0, a w1, b w0, b w1) and (a w2, a w3, b w2, b w3) -> a's four words, b's four
-      const __m256i first = _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32));
-      const __m256i second = _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4 * a), _mm256_permute2x128_si256(first, second, 0x20));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4 * a + 4), _mm256_permute2x128_si256(first, second, 0x31));
-    }
-    if (a < n) words4_sse2(key, c0 + a, c1 + a, c2, base, n - a, w + 4 * a);
+  static void words4_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
+                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
+    detail::philox_avx2::words4(key, c0, c1, c2, base, n, w);
   }
 
   static void words4(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
@@ -583,58 +512,14 @@ class Philox4x32Words {
   // instead of words8's table of ten broadcast keys, which cost more than the rounds
   // themselves when only four blocks are wanted (~230 instructions per call measured).
   // Integer arithmetic only: the SSE2 and AVX2 paths give the same bits
-  // (tests/operators/test_random.cpp checks them against words8_scalar).
+  // (tests/dsmc/test_dsmc_pair_draw.cpp checks them against words8_scalar).
   static void group_sse2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
                          std::uint64_t* w) {
-    using L = Philox4x32Lanes;
-    const __m128i m0 = _mm_set1_epi64x(L::kM0), m1 = _mm_set1_epi64x(L::kM1), lo = _mm_set1_epi64x(0xffffffffll);
-    const __m128i w0 = _mm_set1_epi64x(L::kW0), w1 = _mm_set1_epi64x(L::kW1);
-    __m128i k0 = _mm_set1_epi64x(static_cast<std::uint32_t>(key)), k1 = _mm_set1_epi64x(static_cast<std::uint32_t>(key >> 32));
-    // blocks base, base + 1 (a) and base + 2, base + 3 (b), interleaved
-    __m128i a0 = _mm_set1_epi64x(c0), a1 = _mm_set1_epi64x(c1), a2 = _mm_set1_epi64x(c2);
-    __m128i a3 = _mm_set_epi64x(static_cast<std::uint32_t>(base + 1), base);
-    __m128i b0 = a0, b1 = a1, b2 = a2, b3 = _mm_set_epi64x(static_cast<std::uint32_t>(base + 3), static_cast<std::uint32_t>(base + 2));
-    for (int r = 0; r < 10; ++r) {
-      const __m128i pa0 = _mm_mul_epu32(a0, m0), pa1 = _mm_mul_epu32(a2, m1);
-      const __m128i pb0 = _mm_mul_epu32(b0, m0), pb1 = _mm_mul_epu32(b2, m1);
-      a0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pa1, 32), a1), k0);
-      a2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pa0, 32), a3), k1);
-      b0 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pb1, 32), b1), k0);
-      b2 = _mm_xor_si128(_mm_xor_si128(_mm_srli_epi64(pb0, 32), b3), k1);
-      a1 = pa1;
-      a3 = pa0;
-      b1 = pb1;
-      b3 = pb0;
-      k0 = _mm_add_epi32(k0, w0);  // the high halves stay 0: W sits in the low 32 bits
-      k1 = _mm_add_epi32(k1, w1);
-    }
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(w), _mm_or_si128(_mm_and_si128(a0, lo), _mm_slli_epi64(a1, 32)));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 2), _mm_or_si128(_mm_and_si128(b0, lo), _mm_slli_epi64(b1, 32)));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 4), _mm_or_si128(_mm_and_si128(a2, lo), _mm_slli_epi64(a3, 32)));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(w + 6), _mm_or_si128(_mm_and_si128(b2, lo), _mm_slli_epi64(b3, 32)));
+    detail::philox_sse2::group(key, c0, c1, c2, base, w);
   }
-
-  [[gnu::target("avx2")]] static void group_avx2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2,
-                                                 std::uint32_t base, std::uint64_t* w) {
-    using L = Philox4x32Lanes;
-    const __m256i m0 = _mm256_set1_epi64x(L::kM0), m1 = _mm256_set1_epi64x(L::kM1), lo = _mm256_set1_epi64x(0xffffffffll);
-    const __m256i w0 = _mm256_set1_epi64x(L::kW0), w1 = _mm256_set1_epi64x(L::kW1);
-    __m256i k0 = _mm256_set1_epi64x(static_cast<std::uint32_t>(key));
-    __m256i k1 = _mm256_set1_epi64x(static_cast<std::uint32_t>(key >> 32));
-    __m256i x0 = _mm256_set1_epi64x(c0), x1 = _mm256_set1_epi64x(c1), x2 = _mm256_set1_epi64x(c2);
-    __m256i x3 = _mm256_set_epi64x(static_cast<std::uint32_t>(base + 3), static_cast<std::uint32_t>(base + 2),
-                                   static_cast<std::uint32_t>(base + 1), base);
-    for (int r = 0; r < 10; ++r) {
-      const __m256i p0 = _mm256_mul_epu32(x0, m0), p1 = _mm256_mul_epu32(x2, m1);
-      x0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), x1), k0);
-      x2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), x3), k1);
-      x1 = p1;
-      x3 = p0;
-      k0 = _mm256_add_epi32(k0, w0);
-      k1 = _mm256_add_epi32(k1, w1);
-    }
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w), _mm256_or_si256(_mm256_and_si256(x0, lo), _mm256_slli_epi64(x1, 32)));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(w + 4), _mm256_or_si256(_mm256_and_si256(x2, lo), _mm256_slli_epi64(x3, 32)));
+  static void group_avx2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
+                         std::uint64_t* w) {
+    detail::philox_avx2::group(key, c0, c1, c2, base, w);
   }
 
  private:
