@@ -5,26 +5,15 @@
 #include <cmath>
 #include <random>
 
+#include "tests/support/stat.hpp"
+
 namespace grainbath::closures::test {
 
 using Vec = std::array<double, 3>;
 inline double dot(const Vec& a, const Vec& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 // Running mean and standard error of a (weighted) estimator.
-struct Stat {
-  double sum = 0.0, sum2 = 0.0;
-  long n = 0;
-  void add(double x) {
-    sum += x;
-    sum2 += x * x;
-    ++n;
-  }
-  double mean() const { return sum / n; }
-  double se() const {
-    const double m = mean();
-    return std::sqrt(std::max(0.0, sum2 / n - m * m) / (n - 1));
-  }
-};
+using Stat = test_support::Stat;
 
 struct Sampler {
   std::mt19937_64 rng;

@@ -7,24 +7,13 @@
 #include <numbers>
 #include <random>
 
+#include "tests/support/stat.hpp"
+
 #include "operators/walton.hpp"
 
 namespace grainbath::rough_test {
 
-struct Stat {  // running mean and standard error
-  double sum = 0.0, sum2 = 0.0;
-  long n = 0;
-  void add(double x) {
-    sum += x;
-    sum2 += x * x;
-    ++n;
-  }
-  double mean() const { return sum / n; }
-  double se() const {
-    const double m = mean();
-    return std::sqrt(std::max(0.0, sum2 / n - m * m) / (n - 1));
-  }
-};
+using Stat = test_support::Stat;  // running mean and standard error
 
 // Self-normalised weighted mean sum(w y)/sum(w) with its delta-method standard error (for
 // averages over the collision-weighted distribution, where the weight's own noise cancels).
