@@ -147,7 +147,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
   prefetch_next_ = n_ >= 50000;  // about 13 MB of Kin + Sched: beyond the per-core caches
 #ifndef GRAINBATH_EDMD_HEAP
   // spheres: the calendar look-ahead replaces the runner-up hint (docs/performance/edmd.md,
-  // 2026-11-26: +7 % median at N = 1e5; for disks at N = 1e6 no gain, see there)
+  // 2026-11-26: +3 % median at N = 1e5; for disks at N = 1e6 no gain, see there)
   prefetch_ahead_ = prefetch_next_ && dims_ == 3;
   if (prefetch_ahead_) prefetch_next_ = false;
 #endif

@@ -409,7 +409,7 @@ class Engine {
   // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
   // Calendar look-ahead on instead (calendar build, spheres, N >= 50 000): in 2D it hid the
-  // misses as well but cost as much CPU time in instructions as it saved (docs/performance/edmd.md).
+  // misses as well (simulated) but gave no CPU-time gain at N = 1e6 (docs/performance/edmd.md).
   bool prefetch_ahead_ = false;
   Counters c_;
 };
