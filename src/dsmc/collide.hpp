@@ -164,11 +164,6 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   double* __restrict vx = p.vx.data() + begin;
   double* __restrict vy = p.vy.data() + begin;
   double* __restrict vz = p.vz.data() + begin;
-  // The first candidate's word is drawn before the bound: its group of Philox rounds (a chain
-  // of ~60 cycles of latency, Philox4x32Words::refill) then runs while the out-of-order core
-  // computes the bound, which does not depend on it. The same word either way (the draw
-  // sequence of a (cell, step) does not depend on when it is drawn); unused if no candidate.
-  std::uint64_t first_word = rng.bits64();
   double g_max = pair_speed_bound(vx, vy, vz, count);
   if (g_max <= 0.0) return;
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
@@ -178,7 +173,7 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   // from the low and high halves of one Philox word (below_from: exact)
   const auto n32 = static_cast<std::uint32_t>(count);
   for (std::uint64_t k = 0; k < candidates; ++k) {
-    const std::uint64_t word = k == 0 ? first_word : rng.bits64();
+    const std::uint64_t word = rng.bits64();
     const std::uint32_t i = below_from(static_cast<std::uint32_t>(word), n32, rng);
     std::uint32_t j = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, rng);
     if (j >= i) ++j;
