@@ -35,7 +35,7 @@ namespace detail {
 // The tiled block order (fused_step) is taken when a z plane of the previous arrays and ids
 // (56 B per particle) exceeds 4 MiB (DSMC-1: 1.4 MB at 1e6, plain order; 6.6 MB at 1e7,
 // tiled), with tiles whose three-plane window, (tile_rows + 2) rows x 3 planes, is about
-// 3 MiB (DSMC-1 at 1e7: 11 rows; 4 to 16 rows measured within 5 % of each other, 2 rows
+// 3 MiB (DSMC-1 at 1e7: 11 rows; 4 to 16 rows measured alike within the noise, 2 rows
 // slower: docs/performance/dsmc1.md).
 std::size_t fused_tile_rows(std::size_t particles, const std::array<int, 3>& cells) {
   constexpr double kTiledPlaneBytes = 4.0 * 1024 * 1024, kTileWindowBytes = 3.0 * 1024 * 1024;
