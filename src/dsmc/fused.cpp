@@ -28,21 +28,55 @@ namespace {
 // from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
 
+}  // namespace
+
+namespace detail {
+
+// The tiled block order (fused_step) is taken when a z plane of the previous arrays and ids
+// (56 B per particle) exceeds 4 MiB (DSMC-1: 1.4 MB at 1e6, plain order; 6.6 MB at 1e7,
+// tiled), with tiles whose three-plane window, (tile_rows + 2) rows x 3 planes, is about
+// 3 MiB (DSMC-1 at 1e7: 11 rows; 4 to 16 rows measured alike within the noise, 2 rows
+// slower: docs/performance/dsmc1.md).
+std::size_t fused_tile_rows(std::size_t particles, const std::array<int, 3>& cells) {
+  constexpr double kTiledPlaneBytes = 4.0 * 1024 * 1024, kTileWindowBytes = 3.0 * 1024 * 1024;
+  const auto ny = static_cast<std::size_t>(cells[1]);
+  const double bytes_per_slot =
+      56.0 * static_cast<double>(particles) / (static_cast<double>(cells[0]) * cells[1] * cells[2]);
+  const double row_bytes = bytes_per_slot * static_cast<double>(cells[0]);
+  if (row_bytes * static_cast<double>(ny) <= kTiledPlaneBytes) return ny;
+  const auto window_rows = static_cast<std::size_t>(kTileWindowBytes / (3.0 * row_bytes));
+  return std::min(ny, window_rows > 4 ? window_rows - 2 : std::size_t{2});
+}
+
+}  // namespace detail
+
+namespace {
+
 // The previous arrays (x, y, z, vx, vy, vz, bath residual) and the new ones.
 struct GatherArrays {
   const double* from[7];
   double* to[7];
 };
 
+// Where the gather fetches the previous arrays ahead of its sweep: per chunk of 8 slots
+// starting at slot c, one line of each array at c + offset[w] (modulo n: the box is
+// periodic), and of the old ids when `id` is set (they are read by the ranking of a later
+// block). See fused_step for the offsets of each block order.
+struct WindowFetch {
+  std::size_t offset[3];
+  int count;
+  const std::uint64_t* id;
+};
+
 // The gather of slots [j0, j1) from the previous arrays, streaming the positions on the way
 // (the same expression as the separate-pass streaming). A function with the pointers as
 // restrict locals, not a lambda: through a lambda's captures GCC reloads every pointer after
 // each store (measured slower, see docs/performance/dsmc1.md). Per chunk of 8 slots the
-// leading edge of the window is fetched; per slot the lines of the particle kAhead slots
+// window ahead is fetched (WindowFetch); per slot the lines of the particle kAhead slots
 // ahead (the last kAhead slots of the block have none: a loop of their own, no test per slot).
 template <int Dim, bool kHazard>
 void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
-                  std::size_t n, std::size_t lead, double dt, const double* length) {
+                  std::size_t n, const WindowFetch& window, double dt, const double* length) {
   const double* __restrict ox = arrays.from[0];
   const double* __restrict oy = arrays.from[1];
   const double* __restrict oz = arrays.from[2];
@@ -70,15 +104,19 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
   const std::size_t jp = j1 - j0 > kAhead ? j1 - kAhead : j0;
   for (std::size_t j = j0; j < j1;) {
     const std::size_t e = std::min(j1, (j | 7) + 1);  // the end of this chunk of 8
-    if ((j & 7) == 0 && j + lead < n) {
-      const std::size_t f = j + lead;
-      __builtin_prefetch(ox + f);
-      if constexpr (Dim > 1) __builtin_prefetch(oy + f);
-      if constexpr (Dim > 2) __builtin_prefetch(oz + f);
-      __builtin_prefetch(ovx + f);
-      __builtin_prefetch(ovy + f);
-      __builtin_prefetch(ovz + f);
-      if constexpr (kHazard) __builtin_prefetch(ohz + f);
+    if ((j & 7) == 0) {
+      for (int w = 0; w < window.count; ++w) {
+        std::size_t f = j + window.offset[w];
+        if (f >= n) f -= n;
+        __builtin_prefetch(ox + f);
+        if constexpr (Dim > 1) __builtin_prefetch(oy + f);
+        if constexpr (Dim > 2) __builtin_prefetch(oz + f);
+        __builtin_prefetch(ovx + f);
+        __builtin_prefetch(ovy + f);
+        __builtin_prefetch(ovz + f);
+        if constexpr (kHazard) __builtin_prefetch(ohz + f);
+        if (window.id != nullptr) __builtin_prefetch(window.id + f);
+      }
     }
     for (const std::size_t ep = std::min(e, jp); j < ep; ++j) {
       const std::uint32_t f = perm[j + kAhead];
@@ -103,7 +141,7 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // operations (no FMA): bitwise the positions of gather_slots and of the separate-pass
 // streaming (DsmcReproducibility compares the fused step, on this path where the CPU has
 // AVX2, with the separate passes). The prefetches are those of
-// gather_slots: the leading edge once per 8 slots, the lines of the slot kAhead ahead.
+// gather_slots: the window ahead once per 8 slots, the lines of the slot kAhead ahead.
 // the values of four old indices in one vector (lane q from index q)
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
                                                                  std::uint32_t i2, std::uint32_t i3) {
@@ -112,8 +150,8 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 
 template <int Dim, bool kHazard>
 [[gnu::target("avx2")]] void gather_slots_avx2(const GatherArrays& arrays, const std::uint32_t* __restrict perm,
-                                               std::size_t j0, std::size_t j1, std::size_t n, std::size_t lead, double dt,
-                                               const double* length) {
+                                               std::size_t j0, std::size_t j1, std::size_t n, const WindowFetch& window,
+                                               double dt, const double* length) {
   const double* __restrict ox = arrays.from[0];
   const double* __restrict oy = arrays.from[1];
   const double* __restrict oz = arrays.from[2];
@@ -145,7 +183,14 @@ template <int Dim, bool kHazard>
   std::size_t j = j0;
   for (; j + 4 <= j1; j += 4) {
     const std::size_t c8 = (j + 7) & ~std::size_t{7};  // the multiple of 8 in [j, j + 4), if any
-    if (c8 < j + 4 && c8 + lead < n) fetch(c8 + lead);
+    if (c8 < j + 4) {
+      for (int w = 0; w < window.count; ++w) {
+        std::size_t f = c8 + window.offset[w];
+        if (f >= n) f -= n;
+        fetch(f);
+        if (window.id != nullptr) __builtin_prefetch(window.id + f);
+      }
+    }
     for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q) fetch(perm[j + q + kAhead]);
     const std::uint32_t i0 = perm[j], i1 = perm[j + 1], i2 = perm[j + 2], i3 = perm[j + 3];
     for (int a = 0; a < 3; ++a) {
@@ -229,6 +274,36 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // fetched ahead, one line of each array per 8 particles.
   const std::size_t reach = 1 + c.domain.cells[0] * (1 + (Dim > 1 ? c.domain.cells[1] : 0));
   const std::size_t lead = (reach * n + cells - 1) / cells + 64;
+  // The order of the blocks. Each line of the previous arrays is used three times in the
+  // sweep, by the new cells of its own z plane and of the planes above and below, i.e. one
+  // and two planes of the sweep apart. Where three planes of the previous arrays stay in the
+  // last-level cache (DSMC-1 at 1e6: 3 x 1.4 MB with the ids) the plain order of the blocks
+  // is best (measured, docs/performance/dsmc1.md). At 1e7 (86^3 cells: 6.6 MB a plane) the
+  // second and third uses go back to DRAM, so the blocks are taken in tiles of `tile_rows`
+  // rows of cells along y, each tile swept through all z planes: a line is then used again
+  // within (tile_rows + 2) rows of three planes (~3 MB), and only the rows on a tile's edges
+  // are read twice from memory. The block order changes nothing in the results: a block's
+  // cells are ordered, gathered, collided and predicted from its own slots, its counters go
+  // to per_block[blk] and are summed in block order (fused_periodic_step), and its random
+  // words are keyed by cell and step.
+  const std::size_t nx = c.domain.cells[0], ny = Dim > 1 ? c.domain.cells[1] : 1, nz = Dim > 2 ? c.domain.cells[2] : 1;
+  const std::size_t plane = nx * ny;
+  std::size_t tile_rows = Dim == 3 ? detail::fused_tile_rows(n, c.domain.cells) : ny;
+  if (const char* forced = std::getenv("GRAINBATH_DSMC_TILE_ROWS"); forced != nullptr && Dim == 3)
+    tile_rows = std::max<std::size_t>(1, std::strtoull(forced, nullptr, 10));  // tests: the tiled order in small boxes
+  const bool tiled = tile_rows < ny;
+  std::vector<std::size_t> block_order(blocks);
+  if (tiled) {
+    std::vector<std::pair<std::size_t, std::size_t>> keyed(blocks);  // (tile, z, y, x of the first cell), block
+    for (std::size_t b = 0; b < blocks; ++b) {
+      const std::size_t k = b * kCellBlock, ix = k % nx, iy = (k / nx) % ny, iz = k / plane;
+      keyed[b] = {(((iy / tile_rows) * nz + iz) * ny + iy) * nx + ix, b};
+    }
+    std::sort(keyed.begin(), keyed.end());
+    for (std::size_t b = 0; b < blocks; ++b) block_order[b] = keyed[b].second;
+  } else {
+    for (std::size_t b = 0; b < blocks; ++b) block_order[b] = b;
+  }
   std::size_t* start = s.cell_start.data();
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict next_cell = predict ? w.next_cell.data() : nullptr;
@@ -332,9 +407,31 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2
 #pragma omp for schedule(static)
-    for (std::size_t blk = 0; blk < blocks; ++blk) {
+    for (std::size_t ordinal = 0; ordinal < blocks; ++ordinal) {
+      const std::size_t blk = block_order[ordinal];
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
+      // What the gather fetches ahead. Plain order: the leading edge of the window, `lead`
+      // slots ahead. Tiled: while a block of row y, plane z is gathered, the rows the tile
+      // will need two planes on (old cells of plane z + 2; the new start of a cell stands
+      // for its old start, they differ by the net flow across a few faces): row y + 1, and
+      // for the blocks of the tile's first row also rows y and y - 1, so that the tile's
+      // rows -1 .. tile_rows of plane z + 2 are all fetched during plane z; the old ids
+      // with them (the ranking of plane z + 2 reads them).
+      WindowFetch window{{}, 0, nullptr};
+      if (tiled) {
+        window.id = id;
+        auto ahead = [&](std::size_t shift) {
+          window.offset[window.count++] = (start[(k0 + shift) % cells] + n - start[k0]) % n;
+        };
+        ahead(2 * plane + nx);
+        if ((k0 / nx) % ny % tile_rows == 0) {
+          ahead(2 * plane);
+          ahead(2 * plane + cells - nx);
+        }
+      } else {
+        window.offset[window.count++] = lead % n;
+      }
       if (!wide) {
         for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
       } else {
@@ -346,13 +443,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       }
       if (avx2) {
         if (hazard)
-          gather_slots_avx2<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+          gather_slots_avx2<Dim, true>(arrays, perm, start[k0], start[k1], n, window, dt, length);
         else
-          gather_slots_avx2<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+          gather_slots_avx2<Dim, false>(arrays, perm, start[k0], start[k1], n, window, dt, length);
       } else if (hazard) {
-        gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+        gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, window, dt, length);
       } else {
-        gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, lead, dt, length);
+        gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, window, dt, length);
       }
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];

@@ -7,6 +7,7 @@
 #include <emmintrin.h>
 #include <immintrin.h>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -29,6 +30,12 @@ void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vec
                          std::size_t block_cells);
 
 namespace detail {
+
+// The rows of cells along y per tile of the fused step's block order for `particles` in a 3-D
+// box of cells[0..2] cells: cells[1] (the plain order) while a z plane of the previous
+// arrays stays in the last-level cache, fewer for large boxes (fused.cpp, fused_step).
+// GRAINBATH_DSMC_TILE_ROWS overrides it (tests: the tiled order in small boxes).
+std::size_t fused_tile_rows(std::size_t particles, const std::array<int, 3>& cells);
 
 // The cell index of the streaming pass in SIMD. A group of particles whose streamed
 // positions x + v dt all lie in [0, L) (wrap_periodic leaves them as they are: ~96 % of pairs
