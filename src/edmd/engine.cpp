@@ -145,12 +145,6 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
             }
       }
   prefetch_next_ = n_ >= 50000;  // about 13 MB of Kin + Sched: beyond the per-core caches
-#ifndef GRAINBATH_EDMD_HEAP
-  // spheres: the calendar look-ahead replaces the runner-up hint (docs/performance/edmd.md,
-  // 2026-11-26: +3 % median at N = 1e5; for disks at N = 1e6 no gain, see there)
-  prefetch_ahead_ = prefetch_next_ && dims_ == 3;
-  if (prefetch_ahead_) prefetch_next_ = false;
-#endif
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -287,7 +281,7 @@ void Engine::request_next_records(std::uint32_t r) const {
   __builtin_prefetch(&k_[r]);
 }
 
-void Engine::request_next_neighbourhood(std::uint32_t r, bool cell_layer) const {
+void Engine::request_next_neighbourhood(std::uint32_t r) const {
   const Sched& s = sc_[r];
   if (s.type == ev_collision) {
     __builtin_prefetch(&k_[s.coll_partner]);  // the staleness test reads its counter first
@@ -295,14 +289,10 @@ void Engine::request_next_neighbourhood(std::uint32_t r, bool cell_layer) const 
   }
   // the rows of r's 3^D block of cells (interior cells only: the rows are contiguous there),
   // as scan_neighbours_d and predict_pair_d request them
-  std::array<int, 3> c = s.cell;
-  if (cell_layer && s.type == ev_cell) {
-    // process_cell tests the kept partner's counter, moves r from cell c to c + dir and
-    // scans the new layer c + 2 dir: the 3^D block around c + dir holds all three
-    if (s.coll_time < kInf) __builtin_prefetch(&k_[s.coll_partner]);
-    c[s.aux >> 1] += (s.aux & 1) ? 1 : -1;
-  }
-  if (!interior_cell(c)) return;
+  const auto& c = s.cell;
+  const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
+                        (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
+  if (!interior) return;
   const int zr = dims_ == 3 ? 1 : 0;
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
@@ -311,97 +301,6 @@ void Engine::request_next_neighbourhood(std::uint32_t r, bool cell_layer) const 
       __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
     }
 }
-
-#ifndef GRAINBATH_EDMD_HEAP
-void Engine::request_cell_members(int cell) const {
-  const std::uint32_t* m = cell_block(cell);
-  // the count may be changed by then (hint only): never read past the block
-  const std::uint32_t cnt = std::min<std::uint32_t>(m[0], static_cast<std::uint32_t>(cap_));
-  for (std::uint32_t q = 1; q <= cnt; ++q) __builtin_prefetch(&k_[m[q]]);
-}
-
-// Stage 5 of the look-ahead: the rows requested at stage 4 have arrived; request the Kin
-// of the candidates r's event will scan (a collision, a stale event: the 3^D block; a
-// cell crossing: the new layer only) and, for a collision, the partner's rows.
-void Engine::request_members(std::uint32_t r) const {
-  const Sched& s = sc_[r];
-  const auto& c = s.cell;
-  if (s.type == ev_cell) {
-    const int d = s.aux >> 1, dir = (s.aux & 1) ? 1 : -1;
-    std::array<int, 3> l = c;  // the layer scanned after the crossing
-    l[d] += 2 * dir;
-    int lo[3] = {-1, -1, dims_ == 3 ? -1 : 0}, hi[3] = {1, 1, dims_ == 3 ? 1 : 0};
-    lo[d] = hi[d] = 0;
-    for (int e = 0; e < dims_; ++e)
-      if (l[e] + lo[e] < 0 || l[e] + hi[e] >= nc_[e]) return;  // a wrapped layer: no hint
-    for (int dz = lo[2]; dz <= hi[2]; ++dz)
-      for (int dy = lo[1]; dy <= hi[1]; ++dy)
-        for (int dx = lo[0]; dx <= hi[0]; ++dx) request_cell_members(cell_index(l[0] + dx, l[1] + dy, l[2] + dz));
-    return;
-  }
-  const int zr = dims_ == 3 ? 1 : 0;
-  if (interior_cell(c))
-    for (int dz = -zr; dz <= zr; ++dz)
-      for (int dy = -1; dy <= 1; ++dy) {
-        const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
-        for (int dx = -1; dx <= 1; ++dx) request_cell_members(row + dx);
-      }
-  if (s.type == ev_collision) {
-    const auto& cj = sc_[s.coll_partner].cell;  // requested at stage 4
-    if (!interior_cell(cj)) return;
-    for (int dz = -zr; dz <= zr; ++dz)
-      for (int dy = -1; dy <= 1; ++dy) {
-        const std::uint32_t* row = cell_block(cell_index(cj[0] - 1, cj[1] + dy, cj[2] + dz));
-        __builtin_prefetch(row);
-        __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
-      }
-  }
-}
-
-// Stage 6: the partner's cells that predict_pair_d scans beyond r's block (union_extra_)
-void Engine::request_partner_members(std::uint32_t r) const {
-  const Sched& s = sc_[r];
-  if (s.type != ev_collision) return;
-  const auto& ci = s.cell;
-  const auto& cj = sc_[s.coll_partner].cell;
-  if (!interior_cell(ci) || !interior_cell(cj)) return;
-  const int d[3] = {cj[0] - ci[0], cj[1] - ci[1], cj[2] - ci[2]};
-  for (int e = 0; e < 3; ++e)
-    if (d[e] < -1 || d[e] > 1) return;  // not neighbours (any more): no hint
-  const int ci_index = cell_index(ci[0], ci[1], ci[2]);
-  for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) request_cell_members(ci_index + off);
-}
-
-void Engine::request_calendar_ahead() {
-  const std::size_t cur = heap_.current_bucket(), m = heap_.bucket_count();
-  // a new window (re-based calendar, rebuild, restore) or a jump: start over from here
-  if (ahead_cur_ == ~std::size_t{0} || cur < ahead_cur_ || cur > ahead_cur_ + kAheadHeadNode)
-    for (auto& d : ahead_done_) d = cur;
-  ahead_cur_ = cur;
-  constexpr std::size_t dist[kAheadStages] = {kAheadHeadNode, kAheadSecondNode, kAheadRecords,
-                                              kAheadNeighbourhood, kAheadMembers, kAheadPartnerMembers};
-  for (int stage = 0; stage < kAheadStages; ++stage) {
-    const std::size_t last = std::min(cur + dist[stage], m - 1);
-    for (std::size_t s = std::max(ahead_done_[stage], cur) + 1; s <= last; ++s) {
-      switch (stage) {
-        case 0: heap_.request_head_node(s); break;
-        case 1: heap_.request_second_node(s); break;
-        case 2: heap_.for_each_in_bucket(s, [this](std::uint32_t k) { request_next_records(k); }); break;
-        case 3:
-          heap_.for_each_in_bucket(s, [this](std::uint32_t k) {
-            request_next_neighbourhood(k, true);
-            // a collision partner's calendar entry is moved by the event (update -> unlink)
-            if (sc_[k].type == ev_collision) heap_.request_node(sc_[k].coll_partner);
-          });
-          break;
-        case 4: heap_.for_each_in_bucket(s, [this](std::uint32_t k) { request_members(k); }); break;
-        default: heap_.for_each_in_bucket(s, [this](std::uint32_t k) { request_partner_members(k); });
-      }
-    }
-    if (last > ahead_done_[stage]) ahead_done_[stage] = last;
-  }
-}
-#endif
 
 void Engine::trajectory_changed(std::uint32_t i) {
   ++k_[i].counter;
@@ -1211,9 +1110,6 @@ void Engine::rebuild_calendar() {
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
   heap_.reset(n_, 0.0, calendar_width_);
   for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);
-#endif
-#ifndef GRAINBATH_EDMD_HEAP
-  ahead_cur_ = ~std::size_t{0};  // the calendar was refilled: restart the look-ahead
 #endif
   at_rebuild_ = true;
 }

@@ -270,31 +270,7 @@ class Engine {
   // probable next event is requested one event ahead, in two stages so that each stage's
   // addresses come from lines the previous stage requested.
   void request_next_records(std::uint32_t r) const;     // its Sched and Kin lines
-  // its partner, its cells' member rows; `cell_layer`: for a cell crossing the rows around
-  // the new cell instead (the old cell, the new one and the layer to be scanned) and the
-  // kept partner's Kin (the calendar look-ahead; the runner-up hint keeps the plain rows)
-  void request_next_neighbourhood(std::uint32_t r, bool cell_layer = false) const;
-#ifndef GRAINBATH_EDMD_HEAP
-  // Calendar look-ahead for spheres (docs/performance/edmd.md, 2026-11-26): a software
-  // pipeline over the next buckets of the calendar, whose entries are (99.6 % of the time)
-  // the next events. Called once per event; each stage handles the buckets that have come
-  // within its distance since the last call, reading only lines an earlier stage (one
-  // bucket, i.e. one or two events, before) requested. Hints only.
-  void request_calendar_ahead();
-  // stage distances in buckets (about two entries, one or two events, each)
-  static constexpr std::size_t kAheadHeadNode = 6;       // the bucket's first calendar node
-  static constexpr std::size_t kAheadSecondNode = 5;     // its second node
-  static constexpr std::size_t kAheadRecords = 4;        // each entry's Sched and Kin
-  static constexpr std::size_t kAheadNeighbourhood = 3;  // partner, cell rows, partner's node
-  static constexpr std::size_t kAheadMembers = 2;        // the members' Kin, partner's rows
-  static constexpr std::size_t kAheadPartnerMembers = 1;  // the partner's other cells' members
-  static constexpr int kAheadStages = 6;
-  std::size_t ahead_cur_ = ~std::size_t{0};      // the bucket at the last call (~0: restart)
-  std::size_t ahead_done_[kAheadStages] = {};    // per stage: the last bucket it handled
-  void request_cell_members(int cell) const;            // its members' Kin lines
-  void request_members(std::uint32_t r) const;          // stage 5
-  void request_partner_members(std::uint32_t r) const;  // stage 6
-#endif
+  void request_next_neighbourhood(std::uint32_t r) const;  // its partner, its cells' member rows
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -332,10 +308,6 @@ class Engine {
   void insert_cell(std::uint32_t i);
   void remove_cell(std::uint32_t i);
   int cell_index(int cx, int cy, int cz) const { return (cz * nc_[1] + cy) * nc_[0] + cx; }
-  bool interior_cell(const std::array<int, 3>& c) const {  // no neighbour across a face
-    return c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
-           (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
-  }
   void assign_cell(std::uint32_t i);
   double pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const;
   void process_cell(std::uint32_t i);
@@ -408,9 +380,6 @@ class Engine {
   // Next-event prefetch on (advance()): only for systems whose records do not stay in the
   // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
-  // Calendar look-ahead on instead (calendar build, spheres, N >= 50 000): in 2D it hid the
-  // misses as well (simulated) but gave no CPU-time gain at N = 1e6 (docs/performance/edmd.md).
-  bool prefetch_ahead_ = false;
   Counters c_;
 };
 
@@ -513,10 +482,6 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     // while this event is processed; stage 2 at the end of this event reads them to request
     // its partner and its cells' member rows, which arrive while the calendar finds the
     // next minimum. Hints only: no decision depends on them, the results are unchanged.
-    // Spheres instead run the calendar look-ahead, several events deep (prefetch_ahead_).
-#ifndef GRAINBATH_EDMD_HEAP
-    if (prefetch_ahead_) request_calendar_ahead();
-#endif
     const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
     if (next != heap_.kNoHint) request_next_records(next);
     const Sched& ev = sc_[i];

@@ -74,33 +74,6 @@ class EventCalendar {
       if (heads_[s] != kNone) return heads_[s];
     return kNoHint;
   }
-  // Look-ahead over the buckets for the engine's prefetch pipeline (docs/performance/edmd.md,
-  // 2026-11-26): the entries of the next few buckets are, with few exceptions, the next
-  // events, so their records can be requested several events early. Hints only: nothing
-  // here changes the calendar or any decision.
-  std::size_t current_bucket() const { return cur_; }  // the bucket of the last top()
-  std::size_t bucket_count() const { return heads_.size(); }
-  // stage "list head": request bucket s's first node (heads_ is read in order: cached)
-  void request_head_node(std::size_t s) const {
-    const std::uint32_t h = heads_[s];
-    if (h != kNone) __builtin_prefetch(&node_[h]);
-  }
-  // stage "list body": the first node was requested one stage earlier; request the next
-  // one, so that a walk of the bucket one stage later finds the usual two nodes cached
-  void request_second_node(std::size_t s) const {
-    const std::uint32_t h = heads_[s];
-    if (h == kNone) return;
-    const std::uint32_t nx = node_[h].next;
-    if (nx != kNone) __builtin_prefetch(&node_[nx]);
-  }
-  // calls f(k) for each entry k of bucket s (list order)
-  template <class F>
-  void for_each_in_bucket(std::size_t s, F&& f) const {
-    for (std::uint32_t k = heads_[s]; k != kNone; k = node_[k].next) f(k);
-  }
-  // an entry that will be updated soon (a coming collision's partner): its node, which
-  // unlink() reads
-  void request_node(std::uint32_t k) const { __builtin_prefetch(&node_[k]); }
   bool valid() const {
     for (std::size_t i = 0; i < node_.size(); ++i)
       if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow) return false;
