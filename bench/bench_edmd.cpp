@@ -11,8 +11,11 @@
 #include <sys/resource.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 
 #include "edmd/edmd.hpp"
+#include "edmd/event_calendar.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
@@ -55,11 +58,47 @@ void BM_Edmd(benchmark::State& state, int dims, double packing) {
   state.counters["bytes_per_particle"] = rss * 1024.0 * 1024.0 / static_cast<double>(n);
 }
 
+// The event calendar alone, with the engine's update pattern and sizes: N entries with
+// exponential delays (mean 1 per entry, the engine's bucket width 2 * mean delay / N); per
+// event the minimum is popped and re-scheduled, and so is a partner a few slots away (a
+// collision partner is a spatial neighbour, near in the Morton-sorted slots). Measures what
+// the calendar's own memory traffic costs per event at N = 1e4 and 1e6, to separate it from
+// the rest of the engine's slowdown (docs/PERFORMANCE.md, "EDMD at N = 10^6").
+void BM_Calendar(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  std::uint64_t x = 0x9e3779b97f4a7c15ull;
+  auto exp1 = [&x] {  // splitmix64 -> Exp(1)
+    std::uint64_t z = (x += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return -std::log((static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53);
+  };
+  EventCalendar cal;
+  cal.reset(n, 0.0, 2.0 / n);
+  for (std::uint32_t i = 0; i < n; ++i) cal.update(i, exp1());
+  auto event = [&] {
+    const std::uint32_t i = cal.top();
+    const double t = cal.top_key();
+    cal.update(i, t + exp1());
+    const std::uint32_t j = (i + 1 + static_cast<std::uint32_t>(x & 7)) % n;
+    cal.update(j, t + exp1());
+  };
+  for (std::uint64_t e = 0; e < 5ull * n; ++e) event();  // past the first re-base
+  const std::uint64_t chunk = 200000;
+  for (auto _ : state)
+    for (std::uint64_t e = 0; e < chunk; ++e) event();
+  state.counters["events_per_second"] =
+      benchmark::Counter(static_cast<double>(chunk) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
 }  // namespace
 
 BENCHMARK_CAPTURE(BM_Edmd, spheres_phi0.30, 3, 0.30)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Edmd, spheres_phi0.45, 3, 0.45)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Edmd, disks_nu0.50, 2, 0.50)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK_CAPTURE(BM_Edmd, disks_nu0.70, 2, 0.70)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+BENCHMARK(BM_Calendar)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 BENCHMARK_MAIN();
