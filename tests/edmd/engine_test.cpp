@@ -4,19 +4,13 @@
 #include <cmath>
 
 #include "edmd/edmd.hpp"
+#include "tests/edmd/config_support.hpp"
 #include "edmd/theory.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
 
-namespace {
-Config config_from(const std::string& toml) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  return c;
-}
-}  // namespace
+using grainbath::edmd::testing::config_from;
 
 TEST(EdmdEngine, ElasticEnergyAndMomentumConservedToRoundOff) {
   for (int dims : {2, 3}) {

@@ -6,19 +6,16 @@
 #include <cmath>
 
 #include "edmd/edmd.hpp"
+#include "tests/edmd/config_support.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
 
+using grainbath::edmd::testing::config_from;
+
 namespace {
-Config config_from(const std::string& toml) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  return c;
-}
 
 // Independent tally of the same collisions: totals of J_a r_b, of the energy changes and
 // of the direction of the impulse.

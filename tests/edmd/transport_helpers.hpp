@@ -7,15 +7,10 @@
 #include "edmd/edmd.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/transport.hpp"
+#include "tests/edmd/config_support.hpp"
 
 namespace grainbath::edmd::testing {
 
-Config config_from(const std::string& toml) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  return c;
-}
 inline double comp(const Vec3& v, int d) { return d == 0 ? v.x : d == 1 ? v.y : v.z; }
 
 // 2D disks with Bizon's restitution (eq. 18, e_c = 0.7, v0 = 1) driven by the air table with

@@ -11,20 +11,14 @@
 
 #include "core/run_support.hpp"
 #include "edmd/edmd.hpp"
+#include "tests/edmd/config_support.hpp"
 #include "edmd/profile.hpp"
 #include "edmd/theory.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
 
-namespace {
-Config config_from(const std::string& toml) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  return c;
-}
-}  // namespace
+using grainbath::edmd::testing::config_from;
 
 TEST(DrivingWalls, OneCollisionGivesTheRuleEnergyAndMomentum) {
   EngineSetup s;
