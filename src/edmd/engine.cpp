@@ -848,45 +848,25 @@ void Engine::schedule(std::uint32_t i) {
   }
   Sched& s = sc_[i];
   const auto& c = s.cell;
-  const Vec3 ai = accelerated_ ? a_[i] : Vec3{};
+  const Vec3 ai = a_[i];  // accelerated (air table): ballistic grains took schedule_d above
   for (int d = 0; d < dims_; ++d) {
     const double x = comp(ki.r, d), v = comp(ki.v, d), acc = comp(ai, d);
     const double lo = c[d] * comp(w_, d), hi = lo + comp(w_, d);
     const bool low_wall = walls_[d] && c[d] == 0;
     const bool high_wall = walls_[d] && c[d] == nc_[d] - 1;
-    if (!accelerated_) {
-      if (v > 0.0) {
-        const double bound = high_wall ? comp(L_, d) - 0.5 : hi;
-        const double tc = t + std::max(0.0, (bound - x) / v);
-        if (tc < best) {
-          best = tc;
-          type = high_wall ? ev_wall : ev_cell;
-          aux = static_cast<std::uint8_t>(2 * d + 1);
-        }
-      } else if (v < 0.0) {
-        const double bound = low_wall ? 0.5 : lo;
-        const double tc = t + std::max(0.0, (bound - x) / v);
-        if (tc < best) {
-          best = tc;
-          type = low_wall ? ev_wall : ev_cell;
-          aux = static_cast<std::uint8_t>(2 * d);
-        }
-      }
-    } else {
-      const double bh = high_wall ? comp(L_, d) - 0.5 : hi;
-      const double bl = low_wall ? 0.5 : lo;
-      const double th = (x >= bh && v > 0.0) ? 0.0 : quadratic_hit(x, v, acc, bh, 1.0);
-      const double tl = (x <= bl && v < 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl, -1.0);
-      if (t + th < best) {
-        best = t + th;
-        type = high_wall ? ev_wall : ev_cell;
-        aux = static_cast<std::uint8_t>(2 * d + 1);
-      }
-      if (t + tl < best) {
-        best = t + tl;
-        type = low_wall ? ev_wall : ev_cell;
-        aux = static_cast<std::uint8_t>(2 * d);
-      }
+    const double bh = high_wall ? comp(L_, d) - 0.5 : hi;
+    const double bl = low_wall ? 0.5 : lo;
+    const double th = (x >= bh && v > 0.0) ? 0.0 : quadratic_hit(x, v, acc, bh, 1.0);
+    const double tl = (x <= bl && v < 0.0) ? 0.0 : quadratic_hit(x, v, acc, bl, -1.0);
+    if (t + th < best) {
+      best = t + th;
+      type = high_wall ? ev_wall : ev_cell;
+      aux = static_cast<std::uint8_t>(2 * d + 1);
+    }
+    if (t + tl < best) {
+      best = t + tl;
+      type = low_wall ? ev_wall : ev_cell;
+      aux = static_cast<std::uint8_t>(2 * d);
     }
   }
   if (s.coll_time < best) {
