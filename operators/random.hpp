@@ -401,16 +401,6 @@ struct Philox4x32Lanes {
     blocks_scalar<4>(key, c0, c1, c2, base, w);
   }
 
-  // n groups of eight words, group a with counters (c0[a], c1[a], c2, base): two blocks per
-  // SSE2 register, four per AVX2 register (philox_lanes.inc).
-  static void words8_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
-                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    detail::philox_sse2::words8(key, c0, c1, c2, base, n, w);
-  }
-  static void words8_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
-                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    detail::philox_avx2::words8(key, c0, c1, c2, base, n, w);
-  }
 
   // Whether the AVX2 paths run: the CPU has AVX2 and the environment does not ask for the
   // baseline (GRAINBATH_SIMD=sse2, read once; every path gives the same bits, so this only
@@ -434,32 +424,22 @@ struct Philox4x32Lanes {
     blocks_scalar<2>(key, c0, c1, c2, base, w);
   }
 
-  // n groups of four words, group a with counters (c0[a], c1[a], c2, base): one group per
-  // SSE2 register, two per AVX2 register.
-  static void words4_sse2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
-                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    detail::philox_sse2::words4(key, c0, c1, c2, base, n, w);
-  }
-  static void words4_avx2(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
-                          std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    detail::philox_avx2::words4(key, c0, c1, c2, base, n, w);
-  }
 
   static void words4(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                      std::uint32_t base, std::size_t n, std::uint64_t* w) {
     if (have_avx2())
-      words4_avx2(key, c0, c1, c2, base, n, w);
+      detail::philox_avx2::words4(key, c0, c1, c2, base, n, w);
     else
-      words4_sse2(key, c0, c1, c2, base, n, w);
+      detail::philox_sse2::words4(key, c0, c1, c2, base, n, w);
   }
 
   // The fastest path this CPU has (the same bits on every path).
   static void words8(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                      std::uint32_t base, std::size_t n, std::uint64_t* w) {
     if (have_avx2())
-      words8_avx2(key, c0, c1, c2, base, n, w);
+      detail::philox_avx2::words8(key, c0, c1, c2, base, n, w);
     else
-      words8_sse2(key, c0, c1, c2, base, n, w);
+      detail::philox_sse2::words8(key, c0, c1, c2, base, n, w);
   }
 };
 
@@ -507,27 +487,14 @@ class Philox4x32Words {
   // How many groups of eight words this generator has computed (for tests).
   std::uint32_t groups_used() const { return group_; }
 
-  // One group of eight words, the same bits as Philox4x32Lanes::words8 with n = 1, for a
-  // single call: the round keys are advanced in a register (k + r W, one add per round)
-  // instead of words8's table of ten broadcast keys, which cost more than the rounds
-  // themselves when only four blocks are wanted (~230 instructions per call measured).
-  // Integer arithmetic only: the SSE2 and AVX2 paths give the same bits
-  // (tests/dsmc/test_dsmc_pair_draw.cpp checks them against words8_scalar).
-  static void group_sse2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
-                         std::uint64_t* w) {
-    detail::philox_sse2::group(key, c0, c1, c2, base, w);
-  }
-  static void group_avx2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
-                         std::uint64_t* w) {
-    detail::philox_avx2::group(key, c0, c1, c2, base, w);
-  }
-
  private:
   [[gnu::noinline]] void refill() {
+    // one group of eight words, the same bits as words8 with n = 1 (philox_lanes.inc group():
+    // the round keys advanced in a register instead of words8's table, cheaper for one group)
     if (Philox4x32Lanes::have_avx2())
-      group_avx2(seed_, c0_, c1_, c2_, 4u * group_, words_);
+      detail::philox_avx2::group(seed_, c0_, c1_, c2_, 4u * group_, words_);
     else
-      group_sse2(seed_, c0_, c1_, c2_, 4u * group_, words_);
+      detail::philox_sse2::group(seed_, c0_, c1_, c2_, 4u * group_, words_);
     ++group_;
     used_ = 0;
   }

@@ -81,7 +81,7 @@ TEST(DsmcPairDraw, OrderedPairsAreUniform) {
 }
 
 // The collision words of a cell (Philox4x32Words): one group of eight words is computed by
-// group_sse2 / group_avx2 with the round keys advanced in a register; both must give
+// detail::philox_sse2::group / philox_avx2::group with the round keys advanced in a register; both must give
 // Random123's scalar Philox4x32 words (words8_scalar) for keys and counters with high bits
 // and block bases up to the 2^32 wrap. Fails if a round key, a multiplier or the word
 // packing differs.
@@ -92,10 +92,10 @@ TEST(DsmcCollisionWords, GroupPathsEqualRandom123) {
         const std::uint32_t c0 = a * 2654435761u, c1 = (a % 256) << 24 | (a * 40503u & 0xffffffu), c2 = a * 97u + 123456789u;
         std::uint64_t ref[8], sse2[8] = {}, avx2[8] = {};
         Philox4x32Lanes::words8_scalar(key, c0, c1, c2, base, ref);
-        Philox4x32Words::group_sse2(key, c0, c1, c2, base, sse2);
+        grainbath::detail::philox_sse2::group(key, c0, c1, c2, base, sse2);
         for (int j = 0; j < 8; ++j) ASSERT_EQ(sse2[j], ref[j]) << "key " << key << " base " << base << " a " << a;
         if (Philox4x32Lanes::have_avx2()) {
-          Philox4x32Words::group_avx2(key, c0, c1, c2, base, avx2);
+          grainbath::detail::philox_avx2::group(key, c0, c1, c2, base, avx2);
           for (int j = 0; j < 8; ++j) ASSERT_EQ(avx2[j], ref[j]) << "key " << key << " base " << base << " a " << a;
         }
       }

@@ -276,10 +276,10 @@ TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
     for (const std::uint32_t base : {0u, 4u, 4000000000u}) {
       std::vector<std::uint64_t> ref(8 * n), sse2(8 * n, 0), avx2(8 * n, 0);
       for (std::size_t a = 0; a < n; ++a) Philox4x32Lanes::words8_scalar(key, c0[a], c1[a], 123456789u, base, &ref[8 * a]);
-      Philox4x32Lanes::words8_sse2(key, c0.data(), c1.data(), 123456789u, base, n, sse2.data());
+      detail::philox_sse2::words8(key, c0.data(), c1.data(), 123456789u, base, n, sse2.data());
       EXPECT_EQ(sse2, ref);
       if (Philox4x32Lanes::have_avx2()) {
-        Philox4x32Lanes::words8_avx2(key, c0.data(), c1.data(), 123456789u, base, n, avx2.data());
+        detail::philox_avx2::words8(key, c0.data(), c1.data(), 123456789u, base, n, avx2.data());
         EXPECT_EQ(avx2, ref);
       }
       std::vector<std::uint64_t> best(8 * n, 0);
@@ -298,10 +298,10 @@ TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
           ASSERT_EQ(ref4[4 * a + 2], ref[8 * a + 4]);
           ASSERT_EQ(ref4[4 * a + 3], ref[8 * a + 5]);
         }
-        Philox4x32Lanes::words4_sse2(key, c0.data(), c1.data(), 123456789u, base, m, sse4.data());
+        detail::philox_sse2::words4(key, c0.data(), c1.data(), 123456789u, base, m, sse4.data());
         EXPECT_EQ(sse4, ref4) << m;  // (including the untouched words after the last group)
         if (Philox4x32Lanes::have_avx2()) {
-          Philox4x32Lanes::words4_avx2(key, c0.data(), c1.data(), 123456789u, base, m, avx4.data());
+          detail::philox_avx2::words4(key, c0.data(), c1.data(), 123456789u, base, m, avx4.data());
           EXPECT_EQ(avx4, ref4) << m;
         }
         Philox4x32Lanes::words4(key, c0.data(), c1.data(), 123456789u, base, m, best4.data());
