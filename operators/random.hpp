@@ -127,6 +127,21 @@ inline const ZigguratTable kExponentialZiggurat{ZigguratLayers<256>::build(
 inline const ZigguratTable& ZigguratTable::normal() { return kNormalZiggurat; }
 inline const ZigguratTable& ZigguratTable::exponential() { return kExponentialZiggurat; }
 
+// Uniform direction on the unit sphere from any generator with uniform() on (0, 1)
+// (Marsaglia 1972: a point uniform in the unit disk, s = u^2 + v^2, maps to
+// (2u sqrt(1-s), 2v sqrt(1-s), 1 - 2s)); no trigonometry.
+template <class Rng>
+Vec3 marsaglia_unit_vector(Rng& rng) {
+  double u, v, s;
+  do {
+    u = 2.0 * rng.uniform() - 1.0;
+    v = 2.0 * rng.uniform() - 1.0;
+    s = u * u + v * v;
+  } while (s >= 1.0);
+  const double r = 2.0 * std::sqrt(1.0 - s);
+  return {u * r, v * r, 1.0 - 2.0 * s};
+}
+
 class CounterRng {
  public:
   using Philox = r123::Philox4x64;
@@ -214,18 +229,8 @@ class CounterRng {
 
   Vec3 normal3() { return {normal(), normal(), normal()}; }
 
-  // Uniform direction on the unit sphere (Marsaglia 1972: a point uniform in the unit disk,
-  // s = u^2 + v^2, maps to (2u sqrt(1-s), 2v sqrt(1-s), 1 - 2s)); no trigonometry.
-  Vec3 unit_vector() {
-    double u, v, s;
-    do {
-      u = 2.0 * uniform() - 1.0;
-      v = 2.0 * uniform() - 1.0;
-      s = u * u + v * v;
-    } while (s >= 1.0);
-    const double r = 2.0 * std::sqrt(1.0 - s);
-    return {u * r, v * r, 1.0 - 2.0 * s};
-  }
+  // Uniform direction on the unit sphere (marsaglia_unit_vector).
+  Vec3 unit_vector() { return marsaglia_unit_vector(*this); }
 
   // Unit exponential by the ziggurat; the tail beyond r is r + Exp(1) (memorylessness).
   // Exact; no logarithm on the fast path.
@@ -472,17 +477,8 @@ class Philox4x32Words {
   // Uniform on the open interval (0, 1), as CounterRng::uniform.
   double uniform() { return (static_cast<double>(bits64() >> 11) + 0.5) * 0x1.0p-53; }
 
-  // Uniform direction on the unit sphere, as CounterRng::unit_vector (Marsaglia 1972).
-  Vec3 unit_vector() {
-    double u, v, s;
-    do {
-      u = 2.0 * uniform() - 1.0;
-      v = 2.0 * uniform() - 1.0;
-      s = u * u + v * v;
-    } while (s >= 1.0);
-    const double r = 2.0 * std::sqrt(1.0 - s);
-    return {u * r, v * r, 1.0 - 2.0 * s};
-  }
+  // Uniform direction on the unit sphere, as CounterRng::unit_vector (marsaglia_unit_vector).
+  Vec3 unit_vector() { return marsaglia_unit_vector(*this); }
 
   // How many groups of eight words this generator has computed (for tests).
   std::uint32_t groups_used() const { return group_; }
