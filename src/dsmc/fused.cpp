@@ -292,18 +292,22 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   if (const char* forced = std::getenv("GRAINBATH_DSMC_TILE_ROWS"); forced != nullptr && Dim == 3)
     tile_rows = std::max<std::size_t>(1, std::strtoull(forced, nullptr, 10));  // tests: the tiled order in small boxes
   const bool tiled = tile_rows < ny;
-  std::vector<std::size_t> block_order(blocks);
-  if (tiled) {
-    std::vector<std::pair<std::size_t, std::size_t>> keyed(blocks);  // (tile, z, y, x of the first cell), block
+  if (!tiled) {
+    w.block_order.clear();
+  } else if (w.block_order.size() != blocks || w.block_order_rows != tile_rows || w.block_order_plane != plane) {
+    // built once per run (the grid is fixed), not per step
+    std::vector<std::pair<std::size_t, std::uint32_t>> keyed(blocks);  // (tile, z, y, x of the first cell), block
     for (std::size_t b = 0; b < blocks; ++b) {
       const std::size_t k = b * kCellBlock, ix = k % nx, iy = (k / nx) % ny, iz = k / plane;
-      keyed[b] = {(((iy / tile_rows) * nz + iz) * ny + iy) * nx + ix, b};
+      keyed[b] = {(((iy / tile_rows) * nz + iz) * ny + iy) * nx + ix, static_cast<std::uint32_t>(b)};
     }
     std::sort(keyed.begin(), keyed.end());
-    for (std::size_t b = 0; b < blocks; ++b) block_order[b] = keyed[b].second;
-  } else {
-    for (std::size_t b = 0; b < blocks; ++b) block_order[b] = b;
+    w.block_order.resize(blocks);
+    for (std::size_t b = 0; b < blocks; ++b) w.block_order[b] = keyed[b].second;
+    w.block_order_rows = tile_rows;
+    w.block_order_plane = plane;
   }
+  const std::uint32_t* block_order = tiled ? w.block_order.data() : nullptr;
   std::size_t* start = s.cell_start.data();
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict next_cell = predict ? w.next_cell.data() : nullptr;
@@ -408,7 +412,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     // block is in L2
 #pragma omp for schedule(static)
     for (std::size_t ordinal = 0; ordinal < blocks; ++ordinal) {
-      const std::size_t blk = block_order[ordinal];
+      const std::size_t blk = block_order != nullptr ? block_order[ordinal] : ordinal;
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       // What the gather fetches ahead. Plain order: the leading edge of the window, `lead`

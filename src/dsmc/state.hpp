@@ -71,6 +71,11 @@ struct SortScratch {
   std::int64_t next_cell_step = -1;
   const double* next_cell_x = nullptr;
   const double* next_cell_vx = nullptr;
+  // fused step, large boxes: the blocks in their tiled order (fused.cpp, fused_step), for
+  // `block_order_rows` rows per tile and `block_order_plane` cells per z plane; built once
+  // (the grid does not change within a run), empty while the plain order is used
+  std::vector<std::uint32_t> block_order;
+  std::size_t block_order_rows = 0, block_order_plane = 0;
   static constexpr std::size_t fused_bytes_per_particle = 5 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
