@@ -64,8 +64,7 @@ void BM_Edmd(benchmark::State& state, int dims, double packing) {
 // collision partner is a spatial neighbour, near in the Morton-sorted slots). Measures what
 // the calendar's own memory traffic costs per event at N = 1e4 and 1e6, to separate it from
 // the rest of the engine's slowdown (docs/PERFORMANCE.md, "EDMD at N = 10^6").
-void BM_Calendar(benchmark::State& state) {
-  const auto n = static_cast<std::uint32_t>(state.range(0));
+void calendar_events(benchmark::State& state, std::uint32_t n, double width) {
   std::uint64_t x = 0x9e3779b97f4a7c15ull;
   auto exp1 = [&x] {  // splitmix64 -> Exp(1)
     std::uint64_t z = (x += 0x9e3779b97f4a7c15ull);
@@ -75,7 +74,7 @@ void BM_Calendar(benchmark::State& state) {
     return -std::log((static_cast<double>(z >> 11) + 0.5) * 0x1.0p-53);
   };
   EventCalendar cal;
-  cal.reset(n, 0.0, 2.0 / n);
+  cal.reset(n, 0.0, width);
   for (std::uint32_t i = 0; i < n; ++i) cal.update(i, exp1());
   auto event = [&] {
     const std::uint32_t i = cal.top();
@@ -91,6 +90,15 @@ void BM_Calendar(benchmark::State& state) {
   state.counters["events_per_second"] =
       benchmark::Counter(static_cast<double>(chunk) * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
 }
+void BM_Calendar(benchmark::State& state) {
+  const auto n = static_cast<std::uint32_t>(state.range(0));
+  calendar_events(state, n, 2.0 / n);  // the engine's width: 2 x mean delay / N
+}
+// The same at N = 1e6 with the bucket width w / N, w = range(0) / 4 (the engine's: w = 2).
+void BM_CalendarWidth(benchmark::State& state) {
+  const std::uint32_t n = 1000000;
+  calendar_events(state, n, static_cast<double>(state.range(0)) / 4.0 / n);
+}
 
 }  // namespace
 
@@ -100,5 +108,6 @@ BENCHMARK_CAPTURE(BM_Edmd, disks_nu0.50, 2, 0.50)->Arg(10000)->Arg(1000000)->Uni
 BENCHMARK_CAPTURE(BM_Edmd, disks_nu0.70, 2, 0.70)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 BENCHMARK(BM_Calendar)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+BENCHMARK(BM_CalendarWidth)->Arg(2)->Arg(4)->Arg(8)->Arg(16)->Arg(32)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 BENCHMARK_MAIN();
