@@ -28,6 +28,10 @@ struct PairStatistics {
   void init(int d, Vec3 box, std::array<bool, 3> w, double r_max, double grb, double cb);
   // Adds one snapshot: positions x, velocities v (mean velocity removed by the caller).
   void add(const std::vector<Vec3>& x, const std::vector<Vec3>& v, double temperature);
+  // The pairs of one snapshot by the direct O(N^2) sum (used for small boxes, and by the tests
+  // as the reference for add()'s cell search); does not count a snapshot.
+  void add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
+  void accumulate(const Vec3& dr, const Vec3& vi, const Vec3& vj);
   // g(r) at bin centres (ideal-gas normalisation for a periodic box).
   std::vector<double> gr() const;
   std::vector<double> gr_radii() const;
