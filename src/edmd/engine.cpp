@@ -685,20 +685,31 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
       buf[nb++] = m[q];
     }
   };
-  // request every row of cells first (independent misses in flight together), then gather
+  // request every row of cells first, and j's cells outside i's block (their member counts
+  // were the largest stall of this function at N = 10^6 when read after i's: perf,
+  // docs/performance/edmd.md): independent misses in flight together; then gather
+  const bool adjacent = std::abs(d[0]) <= 1 && std::abs(d[1]) <= 1 && std::abs(d[2]) <= 1;
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const std::uint32_t* row = cell_block(cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz));
       __builtin_prefetch(row);
       __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
     }
+  if (adjacent) {
+    const int ci_index = cell_index(ci[0], ci[1], ci[2]);
+    for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) {
+      const std::uint32_t* block = cell_block(ci_index + off);
+      __builtin_prefetch(block);
+      __builtin_prefetch(block + cap_);
+    }
+  }
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(ci[0], ci[1] + dy, ci[2] + dz);
       for (int dx = -1; dx <= 1; ++dx) add_cell(row + dx);
     }
   // then j's cells that are not i's, in the order of j's own scan (table: union_extra_)
-  if (std::abs(d[0]) <= 1 && std::abs(d[1]) <= 1 && std::abs(d[2]) <= 1) {
+  if (adjacent) {
     const int ci_index = cell_index(ci[0], ci[1], ci[2]);
     for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) add_cell(ci_index + off);
   } else {
@@ -773,8 +784,15 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
     }
   store_top2(i, best[0]);
   store_top2(j, best[1]);
-  schedule(i);
-  schedule(j);
+  // Both new event times first, then the calendar lines both updates will touch are
+  // requested together (the bucket heads, known only now, and the list neighbours), so that
+  // their misses overlap instead of following one another (schedule_d's largest stall at
+  // N = 10^6; docs/performance/edmd.md). The updates are the same, in the same order.
+  const double ti = next_event_d<D>(i), tj = next_event_d<D>(j);
+  heap_.request_update(i, ti);
+  heap_.request_update(j, tj);
+  heap_.update(i, ti);
+  heap_.update(j, tj);
 }
 
 void Engine::predict(std::uint32_t i) {
@@ -787,7 +805,7 @@ void Engine::predict(std::uint32_t i) {
 // (faces by increasing direction, then the stored collision), the loop over directions
 // unrolled.
 template <int D>
-void Engine::schedule_d(std::uint32_t i) {
+double Engine::next_event_d(std::uint32_t i) {
   const Kin& ki = k_[i];
   const double t = ki.t;
   double best = kInf;
@@ -827,7 +845,12 @@ void Engine::schedule_d(std::uint32_t i) {
   }
   s.type = type;
   s.aux = aux;
-  heap_.update(i, best);
+  return best;
+}
+
+template <int D>
+void Engine::schedule_d(std::uint32_t i) {
+  heap_.update(i, next_event_d<D>(i));
 }
 
 // Next event of i = earliest of its stored best collision, its cell faces / walls and its

@@ -280,6 +280,8 @@ class Engine {
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   template <int D>
   void schedule_d(std::uint32_t i);  // schedule() for ballistic grains
+  template <int D>
+  double next_event_d(std::uint32_t i);  // schedule_d without the calendar update: sets type, returns the time
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
   template <int D>
   bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
@@ -490,6 +492,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
         // the partner's scheduling record is needed only after its kinematics (counter,
         // move_to): request it now so that the two misses overlap
         __builtin_prefetch(&sc_[ev.coll_partner]);
+        heap_.request(ev.coll_partner);  // its calendar node, for the re-schedule at the end
         if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);

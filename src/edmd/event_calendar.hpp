@@ -74,6 +74,15 @@ class EventCalendar {
       if (heads_[s] != kNone) return heads_[s];
     return kNoHint;
   }
+  // Prefetch hints (no state changes): the node of i; the lines update(i, key) will touch.
+  void request(std::uint32_t i) const { __builtin_prefetch(&node_[i]); }
+  void request_update(std::uint32_t i, double key) const {
+    const Node& e = node_[i];
+    if (e.prev != kNone) __builtin_prefetch(&node_[e.prev]);
+    if (e.next != kNone) __builtin_prefetch(&node_[e.next]);
+    const std::uint32_t s = slot_for(key);
+    if (s != kOverflow) __builtin_prefetch(&heads_[s]);
+  }
   bool valid() const {
     for (std::size_t i = 0; i < node_.size(); ++i)
       if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow) return false;

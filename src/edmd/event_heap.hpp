@@ -38,6 +38,9 @@ class EventHeap {
     return best;
   }
   bool empty() const { return heap_.empty(); }
+  // prefetch hints of the calendar's interface: nothing to request here
+  void request(std::uint32_t) const {}
+  void request_update(std::uint32_t, double) const {}
   void update(std::uint32_t i, double key) {
     const std::size_t k = pos_[i];
     const Entry e{key, i};
