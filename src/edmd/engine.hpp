@@ -486,6 +486,8 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     // next minimum. Hints only: no decision depends on them, the results are unchanged.
     const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
     if (next != heap_.kNoHint) request_next_records(next);
+    // the calendar's next buckets: their nodes, and the records of their grains
+    if (prefetch_next_) heap_.request_ahead([this](std::uint32_t r) { request_next_records(r); });
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
