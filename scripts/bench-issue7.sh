@@ -3,10 +3,11 @@
 # otherwise idle machine (the 1-minute load average is logged before every run; on a shared
 # machine wall times are upper bounds). Usage:
 #   scripts/bench-issue7.sh BUILD_DIR OUT_DIR [REPEATS] [MPI_BUILD_DIR]
-# BUILD_DIR needs the targets bench_dsmc, bench_edmd and bench_memory; MPI_BUILD_DIR (optional) a grainbath
+# BUILD_DIR needs the targets bench_dsmc, bench_edmd, bench_memory and grainbath; MPI_BUILD_DIR (optional) a grainbath
 # built with -DGRAINBATH_MPI=ON, for the 1-process vs 2-rank figure of the DSMC-1 case.
 # Writes OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
-# (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd) and OUT_DIR/mpi.txt.
+# (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd), OUT_DIR/edmd-case.txt
+# (10^6 disks as a case: engine and whole-run rates) and OUT_DIR/mpi.txt.
 set -eu
 build=$1
 out=$2
@@ -31,6 +32,18 @@ echo "== memory latency ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/memory.tx
 echo "== EDMD ($(date -u +%H:%M:%S), $(uptime))"
 sh "$here/scripts/bench-edmd.sh" "$build" "$out/edmd" "$reps"
 "$py" "$here/scripts/bench-edmd-table.py" "$out/edmd" | tee "$out/edmd.txt"
+
+echo "== EDMD as a case ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/edmd-case.txt"
+# bench/edmd-disks1e6: 10^6 disks over 13 collisions per disk with the default measurements
+# (calendar re-bases, a rebuild, pair statistics included): engine and whole-run rates
+r=1
+while [ "$r" -le "$reps" ]; do
+  dir="$out/edmd-case-r$r"
+  load=$(cut -d' ' -f1 /proc/loadavg)
+  "$build/grainbath" run "$here/bench/edmd-disks1e6" --out "$dir" -q > /dev/null
+  "$py" -c "import json,sys; p=json.load(open(sys.argv[1]))['performance']; print('rep $r load=$load wall_seconds=%.2f engine_seconds=%.2f collisions_per_second=%.0f overall_collisions_per_second=%.0f' % (p['wall_seconds'], p['engine_seconds'], p['collisions_per_second'], p['overall_collisions_per_second']))" "$dir/summary.json" | tee -a "$out/edmd-case.txt"
+  r=$((r + 1))
+done
 
 if [ -n "$mpibuild" ]; then
   # DSMC-1 as a case (bench/mpi-dsmc1, 200 steps): the same build as a plain process and as
