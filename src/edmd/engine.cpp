@@ -1100,7 +1100,8 @@ void Engine::rebuild_calendar() {
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
 #else
   // predict everyone into a provisional calendar, then size the buckets from the mean delay
-  // to the next event (about two events per bucket) and re-insert
+  // to the next event (about half an event per bucket near the front; EventCalendar::reset)
+  // and re-insert
   heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
   std::vector<double> ev_time(n_);
@@ -1109,7 +1110,7 @@ void Engine::rebuild_calendar() {
   std::size_t finite = 0;
   for (std::uint32_t i = 0; i < n_; ++i)
     if (std::isfinite(ev_time[i])) sum += ev_time[i], ++finite;
-  calendar_width_ = finite ? 2.0 * (sum / finite) / static_cast<double>(n_) : 1.0;
+  calendar_width_ = finite ? 0.5 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
   heap_.reset(n_, 0.0, calendar_width_);
   for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);

@@ -6,7 +6,7 @@
 // is re-based when exhausted); later ones wait in an overflow list and are re-bucketed
 // when the window moves. Each bucket is an intrusive doubly-linked list. The minimum is the
 // smallest (time, index) in the first non-empty bucket, found by scanning that bucket
-// (a few entries when width ~ 2 / event rate). The order is the same total order as
+// (less than one entry on average: width ~ 1 / (2 x event rate)). The order is the same total order as
 // EventHeap's (time, then index), so the two calendars give bitwise identical runs.
 // An entry's key and links live in one 32-byte record (two per cache line): an update
 // touches three entries (itself and its list neighbours), one cache miss each instead of
@@ -26,7 +26,12 @@ class EventCalendar {
  public:
   // n entries, all at +inf; `width` the bucket width in time, window starting at `base`.
   void reset(std::size_t n, double base, double width) {
-    const std::size_t m = std::max<std::size_t>(64, std::bit_ceil(2 * n));
+    // 8n buckets: with the engine's width (a quarter of the mean delay per N) the window
+    // spans 4 mean delays, as 2n buckets of 4 times the width did, but a bucket near the
+    // front holds about half an entry instead of two, so find_min walks fewer nodes (each a
+    // cache miss at N = 10^6): 10^6 disks 1.09-1.12x faster, 10^4 unchanged
+    // (docs/performance/edmd.md). heads_ costs 32 bytes per entry.
+    const std::size_t m = std::max<std::size_t>(64, std::bit_ceil(8 * n));
     heads_.assign(m, kNone);
     node_.assign(n, Node{});
     overflow_head_ = kNone;
@@ -90,8 +95,9 @@ class EventCalendar {
   // Stage 1, kAhead buckets ahead: each bucket's first node (heads_ is read in order);
   // stage 2, kAhead/2 ahead: the second node, from the first node's next (requested by
   // stage 1 half a window earlier), and on_entry(k) for both entries (the engine requests
-  // their grains' records). A bucket holds about two entries, and the window moves about
-  // half a bucket per event. kAhead = 16 measured the same as 8; a third stage requesting
+  // their grains' records). A bucket holds about half an entry near the front (the engine's
+  // width, engine.cpp rebuild_calendar), and the window moves about two buckets per event.
+  // kAhead = 16 and 32 measured the same as 8; a third stage requesting
   // the grains' neighbourhoods two buckets ahead measured slower (docs/performance/edmd.md).
   template <class OnEntry>
   void request_ahead(OnEntry&& on_entry) {
