@@ -154,8 +154,8 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
 // Thread-count independence: the final order is (cell, global id), a function of the state
 // alone; how the counting sort splits the work cannot show in it. The counting sort is
 // stable (per-thread counts over static chunks, offsets in (cell, thread) order), so each
-// cell receives runs that are already in id order and the insertion sort that finishes it
-// does little work. Then every array is gathered through one scratch buffer. Nothing is
+// cell receives runs that are already in id order, which the in-cell ranking or merge sort
+// finishes (src/dsmc/cell_order.hpp). Then every array is gathered through one scratch buffer. Nothing is
 // allocated once the scratch has reached its size.
 void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed) {
   Particles& p = s.particles;

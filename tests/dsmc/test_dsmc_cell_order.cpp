@@ -1,6 +1,6 @@
 // The in-cell order of the cell sort (src/dsmc/cell_order.hpp) must be the order by global
 // id whichever branch sorts the cell (32-bit integer ranking, double ranking for ids >= 2^32,
-// insertion sort for cells above 64 particles): the fused and the general sort share it,
+// natural merge sort for cells above 64 particles): the fused and the general sort share it,
 // and the results at any thread or rank count depend on it.
 #include <gtest/gtest.h>
 
@@ -107,6 +107,55 @@ TEST(DsmcCellOrder, Key32VariantOrdersByIdInPlace) {
   for (std::size_t m : {0u, 1u, 2u, 3u, 4u, 5u, 7u, 8u, 9u, 15u, 16u, 17u, 23u, 24u, 25u, 31u, 32u, 33u, 64u, 65u, 200u})
     for (std::size_t after : {0u, 1u, 2u, 3u, 40u})
       for (std::uint32_t rep = 0; rep < 3; ++rep) check_key32_cell(m, after, 1000u * rep + 17u * static_cast<std::uint32_t>(m + after));
+}
+
+// Cells above 64 particles as a step leaves them: r runs, each ascending in id, their ids
+// interleaved (particles from r neighbouring cells), also one run (already ordered), the
+// worst case of m runs of one (descending ids) and ids above 2^32; against std::sort.
+void check_runs_cell(std::size_t m, std::size_t runs, std::uint64_t id_offset, std::uint32_t seed) {
+  std::mt19937_64 gen(seed);
+  const std::size_t n = m + 7, b0 = 4, b1 = b0 + m;
+  std::vector<std::uint64_t> id(n);
+  std::vector<std::uint64_t> pool(n);
+  for (std::size_t i = 0; i < n; ++i) pool[i] = id_offset + 3 * i + gen() % 3;  // distinct
+  std::shuffle(pool.begin(), pool.end(), gen);
+  id = pool;
+  // the cell's slots: old indices b0..b1 split at random cut points into `runs` pieces, each
+  // piece sorted by id (the stable scatter of id-ordered source cells)
+  std::vector<std::uint32_t> perm(n);
+  std::iota(perm.begin(), perm.end(), 0u);
+  std::shuffle(perm.begin() + static_cast<long>(b0), perm.begin() + static_cast<long>(b1), gen);
+  std::vector<std::size_t> cuts = {b0, b1};
+  for (std::size_t r = 1; r < runs; ++r) cuts.push_back(b0 + gen() % (m + 1));
+  std::sort(cuts.begin(), cuts.end());
+  const auto by_id = [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; };
+  for (std::size_t r = 0; r + 1 < cuts.size(); ++r)
+    std::sort(perm.begin() + static_cast<long>(cuts[r]), perm.begin() + static_cast<long>(cuts[r + 1]), by_id);
+  if (runs >= m)  // descending: every slot is a run of its own
+    std::sort(perm.begin() + static_cast<long>(b0), perm.begin() + static_cast<long>(b1),
+              [&](std::uint32_t a, std::uint32_t b) { return id[a] > id[b]; });
+  std::vector<std::uint64_t> id_out(n, 0xdeadbeefull);
+  for (std::size_t j = b0; j < b1; ++j) id_out[j] = id[perm[j]];
+  std::vector<std::uint32_t> expected(perm.begin() + static_cast<long>(b0), perm.begin() + static_cast<long>(b1));
+  std::sort(expected.begin(), expected.end(), by_id);
+  const std::vector<std::uint32_t> before = perm;
+  order_cell_by_id(perm.data(), id_out.data(), id.data(), b0, b1);
+  for (std::size_t j = b0; j < b1; ++j) {
+    ASSERT_EQ(perm[j], expected[j - b0]) << "m " << m << " runs " << runs << " slot " << j;
+    ASSERT_EQ(id_out[j], id[perm[j]]) << "m " << m << " runs " << runs << " slot " << j;
+  }
+  for (std::size_t j = 0; j < n; ++j)
+    if (j < b0 || j >= b1) {
+      EXPECT_EQ(perm[j], before[j]);
+      EXPECT_EQ(id_out[j], 0xdeadbeefull);
+    }
+}
+
+TEST(DsmcCellOrder, LargeCellsOfAscendingRuns) {
+  std::uint32_t seed = 1;
+  for (std::size_t m : {65u, 66u, 100u, 127u, 2000u, 5001u})
+    for (std::size_t runs : {1u, 2u, 3u, 5u, 8u, 64u, 65u, 5001u})
+      for (std::uint64_t offset : {0ull, 0x1'0000'0000ull}) check_runs_cell(m, std::min(runs, m), offset, ++seed);
 }
 
 TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {

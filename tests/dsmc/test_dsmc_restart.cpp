@@ -157,6 +157,35 @@ TEST(DsmcRestart, PeriodicBoxWithBathContinuesBitwise) { check_exact_continuatio
 TEST(DsmcRestart, PeriodicBoxWithoutBathContinuesBitwise) {
   check_exact_continuation(std::string(kPeriodicNoBathHead) + kSpatialRun, "pernb");
 }
+// A 1D periodic line in an isobaric temperature profile (cases/thermal-gradient in small):
+// the fused step with a non-uniform medium, whose value at each grain is kept from one
+// step's second half-substep for the next step's first (LocalBathCache, src/dsmc/driver.cpp,
+// not checkpointed): the resumed run evaluates it afresh at its first step and must match.
+const char* kIsobaricLine = R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [8]
+boundaries = ["periodic"]
+[grains]
+temperature = 1.0
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.05
+profile = "isobaric_sine"
+amplitude = 0.3
+wavenumber_index = 1
+[restitution]
+law = "elastic"
+)";
+TEST(DsmcRestart, PeriodicLineInIsobaricMediumContinuesBitwise) {
+  // no rebalance step (which drops the cache) at the resume step 50: a stale cache would show
+  std::string run = kSpatialRun;
+  run.replace(run.find("[dsmc]\n"), 7, "[dsmc]\nrebalance_every = 0\n");
+  check_exact_continuation(std::string(kIsobaricLine) + run, "iso");
+}
 TEST(DsmcRestart, RoughHomogeneousContinuesBitwise) { check_exact_continuation(rough_homogeneous(), "rough"); }
 
 TEST(DsmcRestart, CorruptNewestCheckpointFallsBackToPrevious) {
