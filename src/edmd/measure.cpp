@@ -26,22 +26,36 @@ void PairStatistics::init(int d, Vec3 box, std::array<bool, 3> w, double r_max, 
 }
 
 // One pair (i, j) at separation dr (the nearest image, j minus i): g(r) and the velocity
-// correlations (Bizon eqs. 25-26). Pairs at r >= rmax are ignored.
-inline void PairStatistics::accumulate(const Vec3& dr, const Vec3& vi, const Vec3& vj) {
+// correlations (Bizon eqs. 25-26) into the histograms `h`. Pairs at r >= rmax are ignored.
+namespace {
+struct PairHistograms {
+  double* gr;
+  double *par, *perp, *count;
+  std::size_t gr_bins, corr_bins;
+};
+inline void accumulate_pair(const PairHistograms& h, double rmax, double gr_bin, double corr_bin, const Vec3& dr,
+                            const Vec3& vi, const Vec3& vj) {
   const double r2 = norm2(dr);
   if (r2 >= rmax * rmax) return;
   const double r = std::sqrt(r2);
   const std::size_t b = static_cast<std::size_t>(r / gr_bin);
-  if (b < gr_counts.size()) gr_counts[b] += 1.0;
+  if (b < h.gr_bins) h.gr[b] += 1.0;
   const std::size_t c = static_cast<std::size_t>(r / corr_bin);
-  if (c < corr_counts.size() && r > 0.0) {
+  if (c < h.corr_bins && r > 0.0) {
     const Vec3 k = (1.0 / r) * dr;
     const double p1 = dot(vi, k), p2 = dot(vj, k);
     const Vec3 q1 = vi - p1 * k, q2 = vj - p2 * k;
-    corr_par[c] += p1 * p2;
-    corr_perp[c] += dot(q1, q2);
-    corr_counts[c] += 1.0;
+    h.par[c] += p1 * p2;
+    h.perp[c] += dot(q1, q2);
+    h.count[c] += 1.0;
   }
+}
+}  // namespace
+
+void PairStatistics::accumulate(const Vec3& dr, const Vec3& vi, const Vec3& vj) {
+  const PairHistograms h{gr_counts.data(), corr_par.data(), corr_perp.data(), corr_counts.data(), gr_counts.size(),
+                         corr_counts.size()};
+  accumulate_pair(h, rmax, gr_bin, corr_bin, dr, vi, vj);
 }
 
 void PairStatistics::add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v) {
@@ -120,13 +134,25 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
     for (int dy = -s; dy <= s; ++dy)
       for (int dx = -s; dx <= s; ++dx)
         if (dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)))) shell.push_back({{dx, dy, dz}});
-  for (int cz = 0; cz < nc[2]; ++cz)
-    for (int cy = 0; cy < nc[1]; ++cy)
+  // The rows of cells (cy, cz) in a fixed number of chunks of consecutive rows, each with its
+  // own histograms, summed in chunk order at the end: the threads ([run] threads) share the
+  // chunks, and the sums do not depend on how many there are.
+  const std::size_t rows = static_cast<std::size_t>(nc[1]) * nc[2];
+  const std::size_t chunks = std::min<std::size_t>(rows, 64);
+  const std::size_t gb = gr_counts.size(), cb = corr_counts.size(), width = gb + 3 * cb;
+  std::vector<double> part(chunks * width, 0.0);
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::size_t k = 0; k < chunks; ++k) {
+    double* base = &part[k * width];
+    const PairHistograms h{base, base + gb, base + gb + cb, base + gb + 2 * cb, gb, cb};
+    for (std::size_t row = rows * k / chunks; row < rows * (k + 1) / chunks; ++row) {
+      const int cy = static_cast<int>(row % static_cast<std::size_t>(nc[1]));
+      const int cz = static_cast<int>(row / static_cast<std::size_t>(nc[1]));
       for (int cx = 0; cx < nc[0]; ++cx) {
         const std::size_t a = (static_cast<std::size_t>(cz) * nc[1] + cy) * nc[0] + cx;
         const std::uint32_t a0 = start[a], a1 = start[a + 1];
         for (std::uint32_t i = a0; i < a1; ++i)
-          for (std::uint32_t j = i + 1; j < a1; ++j) accumulate(xs[j] - xs[i], vs[i], vs[j]);
+          for (std::uint32_t j = i + 1; j < a1; ++j) accumulate_pair(h, rmax, gr_bin, corr_bin, xs[j] - xs[i], vs[i], vs[j]);
         for (const Offset& o : shell) {
           const int c[3] = {cx + o.d[0], cy + o.d[1], cz + o.d[2]};
           int w[3];
@@ -148,10 +174,21 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
           const std::uint32_t b0 = start[b], b1 = start[b + 1];
           for (std::uint32_t i = a0; i < a1; ++i) {
             const Vec3 xi = xs[i] - shift;  // i seen from the neighbour's image
-            for (std::uint32_t j = b0; j < b1; ++j) accumulate(xs[j] - xi, vs[i], vs[j]);
+            for (std::uint32_t j = b0; j < b1; ++j) accumulate_pair(h, rmax, gr_bin, corr_bin, xs[j] - xi, vs[i], vs[j]);
           }
         }
       }
+    }
+  }
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const double* base = &part[k * width];
+    for (std::size_t q = 0; q < gb; ++q) gr_counts[q] += base[q];
+    for (std::size_t q = 0; q < cb; ++q) {
+      corr_par[q] += base[gb + q];
+      corr_perp[q] += base[gb + cb + q];
+      corr_counts[q] += base[gb + 2 * cb + q];
+    }
+  }
 }
 
 std::vector<double> PairStatistics::gr_radii() const {
