@@ -52,13 +52,9 @@ inline void accumulate_pair(const PairHistograms& h, double rmax, double gr_bin,
 }
 }  // namespace
 
-void PairStatistics::accumulate(const Vec3& dr, const Vec3& vi, const Vec3& vj) {
+void PairStatistics::add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v) {
   const PairHistograms h{gr_counts.data(), corr_par.data(), corr_perp.data(), corr_counts.data(), gr_counts.size(),
                          corr_counts.size()};
-  accumulate_pair(h, rmax, gr_bin, corr_bin, dr, vi, vj);
-}
-
-void PairStatistics::add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v) {
   for (std::size_t i = 0; i < x.size(); ++i)
     for (std::size_t j = i + 1; j < x.size(); ++j) {
       Vec3 dr = x[j] - x[i];
@@ -69,7 +65,7 @@ void PairStatistics::add_all_pairs(const std::vector<Vec3>& x, const std::vector
         c -= l * std::round(c / l);
       }
       if (dims == 2) dr.z = 0.0;
-      accumulate(dr, v[i], v[j]);
+      accumulate_pair(h, rmax, gr_bin, corr_bin, dr, v[i], v[j]);
     }
 }
 

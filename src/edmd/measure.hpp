@@ -31,7 +31,6 @@ struct PairStatistics {
   // The pairs of one snapshot by the direct O(N^2) sum (used for small boxes, and by the tests
   // as the reference for add()'s cell search); does not count a snapshot.
   void add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
-  void accumulate(const Vec3& dr, const Vec3& vi, const Vec3& vj);
   // g(r) at bin centres (ideal-gas normalisation for a periodic box).
   std::vector<double> gr() const;
   std::vector<double> gr_radii() const;

@@ -360,6 +360,7 @@ TEST(EdmdMeasure, PairStatisticsCellSearchEqualsDirectSum) {
     EXPECT_EQ(cells.gr_counts, cells2.gr_counts);
     EXPECT_EQ(cells.corr_par, cells2.corr_par);
     EXPECT_EQ(cells.corr_perp, cells2.corr_perp);
+    EXPECT_EQ(cells.corr_counts, cells2.corr_counts);
     direct.add_all_pairs(x, v);
     double pairs = 0.0;
     for (std::size_t b = 0; b < direct.gr_counts.size(); ++b) {
