@@ -27,7 +27,11 @@ struct PairStatistics {
 
   void init(int d, Vec3 box, std::array<bool, 3> w, double r_max, double grb, double cb);
   // Adds one snapshot: positions x, velocities v (mean velocity removed by the caller).
-  void add(const std::vector<Vec3>& x, const std::vector<Vec3>& v, double temperature);
+  // The pair loop runs in AVX2 lanes where the CPU has them (GRAINBATH_SIMD=sse2: not);
+  // PairKernel::scalar forces the one-pair-at-a-time loop. Both give the same bits (tested).
+  enum class PairKernel { automatic, scalar };
+  void add(const std::vector<Vec3>& x, const std::vector<Vec3>& v, double temperature,
+           PairKernel kernel = PairKernel::automatic);
   // The pairs of one snapshot by the direct O(N^2) sum (used for small boxes, and by the tests
   // as the reference for add()'s cell search); does not count a snapshot.
   void add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v);

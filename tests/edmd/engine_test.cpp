@@ -315,7 +315,7 @@ TEST(EdmdEngine, CollisionSequenceMatchesAllPairsReference) {
 // direct O(N^2) sum with explicit nearest images counts, bin by bin, and give the same
 // correlation sums up to round-off (the summation order differs). Periodic and walled boxes,
 // 2D and 3D, a box too small for the grid, positions slightly outside the box included; the
-// same sums at 1 and 2 threads.
+// same sums at 1 and 2 threads, and with the AVX2 and the scalar pair loop.
 TEST(EdmdMeasure, PairStatisticsCellSearchEqualsDirectSum) {
   struct Box {
     int dims;
@@ -361,6 +361,14 @@ TEST(EdmdMeasure, PairStatisticsCellSearchEqualsDirectSum) {
     EXPECT_EQ(cells.corr_par, cells2.corr_par);
     EXPECT_EQ(cells.corr_perp, cells2.corr_perp);
     EXPECT_EQ(cells.corr_counts, cells2.corr_counts);
+    // nor on the kernel: the AVX2 lanes (where the CPU has them) give the one-pair loop's bits
+    PairStatistics scalar;
+    scalar.init(box.dims, box.L, box.walls, box.rmax, 0.05, 0.25);
+    scalar.add(x, v, 1.0, PairStatistics::PairKernel::scalar);
+    EXPECT_EQ(cells.gr_counts, scalar.gr_counts);
+    EXPECT_EQ(cells.corr_par, scalar.corr_par);
+    EXPECT_EQ(cells.corr_perp, scalar.corr_perp);
+    EXPECT_EQ(cells.corr_counts, scalar.corr_counts);
     direct.add_all_pairs(x, v);
     double pairs = 0.0;
     for (std::size_t b = 0; b < direct.gr_counts.size(); ++b) {
