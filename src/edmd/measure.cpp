@@ -59,8 +59,9 @@ inline void accumulate_pair(const PairHistograms& h, double rmax, double gr_bin,
 // candidates j is read four at a time by the AVX2 kernel below.
 struct SortedGrains {
   std::vector<double> x, y, z, vx, vy, vz;
+  // three spare grains after the last, read (and ignored) by the last AVX2 group of a run
   void resize(std::size_t n) {
-    for (auto* a : {&x, &y, &z, &vx, &vy, &vz}) a->resize(n);
+    for (auto* a : {&x, &y, &z, &vx, &vy, &vz}) a->assign(n + 3, 0.0);
   }
   Vec3 position(std::size_t k) const { return {x[k], y[k], z[k]}; }
   Vec3 velocity(std::size_t k) const { return {vx[k], vy[k], vz[k]}; }
@@ -77,34 +78,37 @@ void pair_run_scalar(const PairHistograms& h, const PairBins& p, const SortedGra
   for (std::size_t j = j0; j < j1; ++j) accumulate_pair(h, p.rmax, p.gr_bin, p.corr_bin, g.position(j) - xi, vi, g.velocity(j));
 }
 
-// The same in four AVX2 lanes: distances, square roots, the three divisions and the
-// correlation products of four candidates at once (the IEEE operations of accumulate_pair,
-// in its order, no FMA: the same values bit for bit), then the histograms are incremented
-// lane by lane in j order, so the sums are bitwise those of pair_run_scalar. At N = 10^6
-// disks with rmax = 10 the pair loop was a sixth of a run (perf, docs/performance/edmd.md).
 // dot(a, b) of vec3.hpp in four lanes: (ax bx + ay by) + az bz
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d dot3(__m256d ax, __m256d ay, __m256d az, __m256d bx,
                                                                __m256d by, __m256d bz) {
   return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ax, bx), _mm256_mul_pd(ay, by)), _mm256_mul_pd(az, bz));
 }
 
+// The same in four AVX2 lanes: distances, square roots, the three divisions and the
+// correlation products of four candidates at once (the IEEE operations of accumulate_pair,
+// in its order, no FMA: the same values bit for bit), then the histograms are incremented
+// lane by lane in j order, so the sums are bitwise those of pair_run_scalar. No branch
+// depends on the data: a lane out of range (r >= rmax, a bin past the end, r = 0, or past
+// j1: the arrays are padded by three grains) adds to a spare bin of its own after the last
+// ones (h's arrays have gr_bins + 4 and corr_bins + 4 entries), never read. The divider
+// (sqrt and 1/r) is where the samples sit (perf); at N = 10^6 disks with rmax = 10 the
+// scalar loop was a sixth of a run (BM_PairStatistics, docs/performance/edmd.md).
 [[gnu::target("avx2")]] void pair_run_avx2(const PairHistograms& h, const PairBins& p, const SortedGrains& g,
                                            const Vec3& xi, const Vec3& vi, std::size_t j0, std::size_t j1) {
   const __m256d xix = _mm256_set1_pd(xi.x), xiy = _mm256_set1_pd(xi.y), xiz = _mm256_set1_pd(xi.z);
   const __m256d vix = _mm256_set1_pd(vi.x), viy = _mm256_set1_pd(vi.y), viz = _mm256_set1_pd(vi.z);
   const __m256d r2max = _mm256_set1_pd(p.rmax * p.rmax), one = _mm256_set1_pd(1.0);
   const __m256d grb = _mm256_set1_pd(p.gr_bin), crb = _mm256_set1_pd(p.corr_bin);
-  std::size_t j = j0;
   alignas(32) double rb[4], rc[4], r[4], par[4], perp[4];
-  for (; j + 4 <= j1; j += 4) {
+  for (std::size_t j = j0; j < j1; j += 4) {
     const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&g.x[j]), xix);
     const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&g.y[j]), xiy);
     const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&g.z[j]), xiz);
     // norm2 = (dx dx + dy dy) + dz dz
     const __m256d r2 =
         _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
-    const int in = _mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ));
-    if (in == 0) continue;
+    const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
+                        (j1 - j >= 4 ? 15u : (1u << (j1 - j)) - 1u);
     const __m256d rr = _mm256_sqrt_pd(r2);
     const __m256d inv = _mm256_div_pd(one, rr);
     const __m256d kx = _mm256_mul_pd(dx, inv), ky = _mm256_mul_pd(dy, inv), kz = _mm256_mul_pd(dz, inv);
@@ -121,18 +125,17 @@ void pair_run_scalar(const PairHistograms& h, const PairBins& p, const SortedGra
     _mm256_store_pd(par, _mm256_mul_pd(p1, p2));
     _mm256_store_pd(perp, dot3(q1x, q1y, q1z, q2x, q2y, q2z));
     for (int l = 0; l < 4; ++l) {
-      if (!(in & (1 << l))) continue;
-      const std::size_t b = static_cast<std::size_t>(rb[l]);
-      if (b < h.gr_bins) h.gr[b] += 1.0;
-      const std::size_t c = static_cast<std::size_t>(rc[l]);
-      if (c < h.corr_bins && r[l] > 0.0) {
-        h.par[c] += par[l];
-        h.perp[c] += perp[l];
-        h.count[c] += 1.0;
-      }
+      const bool lane = (in >> l) & 1u;
+      // bins of lanes out of range are never used: clamp before converting (r may be huge)
+      const std::size_t b = lane ? static_cast<std::size_t>(rb[l]) : h.gr_bins;
+      const std::size_t c = lane ? static_cast<std::size_t>(rc[l]) : h.corr_bins;
+      h.gr[b < h.gr_bins ? b : h.gr_bins + l] += 1.0;
+      const std::size_t cc = c < h.corr_bins && r[l] > 0.0 ? c : h.corr_bins + l;
+      h.par[cc] += par[l];
+      h.perp[cc] += perp[l];
+      h.count[cc] += 1.0;
     }
   }
-  pair_run_scalar(h, p, g, xi, vi, j, j1);
 }
 }  // namespace
 
@@ -220,7 +223,8 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
   // chunks, and the sums do not depend on how many there are.
   const std::size_t rows = static_cast<std::size_t>(nc[1]) * nc[2];
   const std::size_t chunks = std::min<std::size_t>(rows, 64);
-  const std::size_t gb = gr_counts.size(), cb = corr_counts.size(), width = gb + 3 * cb;
+  // each chunk's histograms with four spare bins after each (pair_run_avx2)
+  const std::size_t gb = gr_counts.size(), cb = corr_counts.size(), width = (gb + 4) + 3 * (cb + 4);
   std::vector<double> part(chunks * width, 0.0);
   const PairBins bins{rmax, gr_bin, corr_bin};
   const bool avx2 = kernel == PairKernel::automatic && Philox4x32Lanes::have_avx2();
@@ -231,7 +235,8 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::size_t k = 0; k < chunks; ++k) {
     double* base = &part[k * width];
-    const PairHistograms h{base, base + gb, base + gb + cb, base + gb + 2 * cb, gb, cb};
+    const std::size_t g1 = gb + 4, c1 = cb + 4;
+    const PairHistograms h{base, base + g1, base + g1 + c1, base + g1 + 2 * c1, gb, cb};
     for (std::size_t row = rows * k / chunks; row < rows * (k + 1) / chunks; ++row) {
       const int cy = static_cast<int>(row % static_cast<std::size_t>(nc[1]));
       const int cz = static_cast<int>(row / static_cast<std::size_t>(nc[1]));
@@ -266,11 +271,12 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
   }
   for (std::size_t k = 0; k < chunks; ++k) {
     const double* base = &part[k * width];
+    const std::size_t g1 = gb + 4, c1 = cb + 4;
     for (std::size_t q = 0; q < gb; ++q) gr_counts[q] += base[q];
     for (std::size_t q = 0; q < cb; ++q) {
-      corr_par[q] += base[gb + q];
-      corr_perp[q] += base[gb + cb + q];
-      corr_counts[q] += base[gb + 2 * cb + q];
+      corr_par[q] += base[g1 + q];
+      corr_perp[q] += base[g1 + c1 + q];
+      corr_counts[q] += base[g1 + 2 * c1 + q];
     }
   }
 }
