@@ -3,6 +3,7 @@
 #include <immintrin.h>
 
 #include <algorithm>
+#include <bit>
 
 #include "operators/random.hpp"  // Philox4x32Lanes::have_avx2: the run-time SIMD dispatch
 
@@ -84,22 +85,54 @@ void pair_run_scalar(const PairHistograms& h, const PairBins& p, const SortedGra
   return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ax, bx), _mm256_mul_pd(ay, by)), _mm256_mul_pd(az, bz));
 }
 
-// The same in four AVX2 lanes: distances, square roots, the three divisions and the
-// correlation products of four candidates at once (the IEEE operations of accumulate_pair,
-// in its order, no FMA: the same values bit for bit), then the histograms are incremented
-// lane by lane in j order, so the sums are bitwise those of pair_run_scalar. No branch
-// depends on the data: a lane out of range (r >= rmax, a bin past the end, r = 0, or past
-// j1: the arrays are padded by three grains) adds to a spare bin of its own after the last
-// ones (h's arrays have gr_bins + 4 and corr_bins + 4 entries), never read. The divider
-// (sqrt and 1/r) is where the samples sit (perf); at N = 10^6 disks with rmax = 10 the
-// scalar loop was a sixth of a run (BM_PairStatistics, docs/performance/edmd.md).
+// The candidates of one run that are in range, packed: pass 1 of pair_run_avx2 writes
+// them, pass 2 reads them four at a time. Room for a run of `n` candidates plus a group.
+struct PackedPairs {
+  std::vector<double> dx, dy, dz, r2, vx, vy, vz;
+  void reserve(std::size_t n) {
+    for (auto* a : {&dx, &dy, &dz, &r2, &vx, &vy, &vz})
+      if (a->size() < n + 4) a->assign(n + 4, 1.0);
+  }
+};
+
+// For each 4-bit mask of accepted lanes, the permutation of eight 32-bit words that moves the
+// accepted doubles (two words each) to the front in lane order.
+struct PackTable {
+  alignas(32) std::int32_t words[16][8];
+  constexpr PackTable() : words{} {
+    for (int m = 0; m < 16; ++m) {
+      int k = 0;
+      for (int l = 0; l < 4; ++l)
+        if (m & (1 << l)) words[m][2 * k] = 2 * l, words[m][2 * k + 1] = 2 * l + 1, ++k;
+      for (; k < 4; ++k) words[m][2 * k] = 0, words[m][2 * k + 1] = 1;
+    }
+  }
+};
+constexpr PackTable kPack{};
+
+// Stores the lanes of v selected by perm (a kPack row) to out, packed to the front.
+[[gnu::target("avx2"), gnu::always_inline]] inline void pack(double* out, __m256d v, __m256i perm) {
+  _mm256_storeu_pd(out, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), perm)));
+}
+
+// The same in AVX2 lanes, in two passes so that the divider (a square root and 1/r per
+// pair, the bottleneck: perf puts the samples behind vsqrtpd and vdivpd) only sees pairs in
+// range, about half of the candidates at the defaults:
+//  1. four candidates at a time: r^2 (accumulate_pair's operations), and the accepted lanes'
+//     dr, r^2 and velocity packed to the front of `pk` in j order (a permutation per mask);
+//  2. the packed pairs four at a time: square roots, the three divisions and the correlation
+//     products (the IEEE operations of accumulate_pair in its order, no FMA: the same values
+//     bit for bit), then the histograms incremented lane by lane in j order.
+// So the sums are bitwise those of pair_run_scalar (tested). The last group of pass 1 reads
+// up to three grains past j1 (the arrays are padded) and masks them; lanes past the packed
+// count, bins past the end and r = 0 add to spare bins of their own after the last ones
+// (h's arrays have gr_bins + 4 and corr_bins + 4 entries), never read.
 [[gnu::target("avx2")]] void pair_run_avx2(const PairHistograms& h, const PairBins& p, const SortedGrains& g,
-                                           const Vec3& xi, const Vec3& vi, std::size_t j0, std::size_t j1) {
+                                           const Vec3& xi, const Vec3& vi, std::size_t j0, std::size_t j1,
+                                           PackedPairs& pk) {
   const __m256d xix = _mm256_set1_pd(xi.x), xiy = _mm256_set1_pd(xi.y), xiz = _mm256_set1_pd(xi.z);
-  const __m256d vix = _mm256_set1_pd(vi.x), viy = _mm256_set1_pd(vi.y), viz = _mm256_set1_pd(vi.z);
-  const __m256d r2max = _mm256_set1_pd(p.rmax * p.rmax), one = _mm256_set1_pd(1.0);
-  const __m256d grb = _mm256_set1_pd(p.gr_bin), crb = _mm256_set1_pd(p.corr_bin);
-  alignas(32) double rb[4], rc[4], r[4], par[4], perp[4];
+  const __m256d r2max = _mm256_set1_pd(p.rmax * p.rmax);
+  std::size_t n = 0;
   for (std::size_t j = j0; j < j1; j += 4) {
     const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&g.x[j]), xix);
     const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&g.y[j]), xiy);
@@ -109,10 +142,27 @@ void pair_run_scalar(const PairHistograms& h, const PairBins& p, const SortedGra
         _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
     const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
                         (j1 - j >= 4 ? 15u : (1u << (j1 - j)) - 1u);
-    const __m256d rr = _mm256_sqrt_pd(r2);
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.words[in]));
+    pack(&pk.dx[n], dx, perm);
+    pack(&pk.dy[n], dy, perm);
+    pack(&pk.dz[n], dz, perm);
+    pack(&pk.r2[n], r2, perm);
+    pack(&pk.vx[n], _mm256_loadu_pd(&g.vx[j]), perm);
+    pack(&pk.vy[n], _mm256_loadu_pd(&g.vy[j]), perm);
+    pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
+    n += static_cast<std::size_t>(std::popcount(in));
+  }
+  const __m256d vix = _mm256_set1_pd(vi.x), viy = _mm256_set1_pd(vi.y), viz = _mm256_set1_pd(vi.z);
+  const __m256d one = _mm256_set1_pd(1.0);
+  const __m256d grb = _mm256_set1_pd(p.gr_bin), crb = _mm256_set1_pd(p.corr_bin);
+  alignas(32) double rb[4], rc[4], r[4], par[4], perp[4];
+  for (std::size_t q = 0; q < n; q += 4) {
+    const __m256d dx = _mm256_loadu_pd(&pk.dx[q]), dy = _mm256_loadu_pd(&pk.dy[q]), dz = _mm256_loadu_pd(&pk.dz[q]);
+    // lanes past n hold stale or initial values: finite, and their adds go to spare bins
+    const __m256d rr = _mm256_sqrt_pd(_mm256_loadu_pd(&pk.r2[q]));
     const __m256d inv = _mm256_div_pd(one, rr);
     const __m256d kx = _mm256_mul_pd(dx, inv), ky = _mm256_mul_pd(dy, inv), kz = _mm256_mul_pd(dz, inv);
-    const __m256d vjx = _mm256_loadu_pd(&g.vx[j]), vjy = _mm256_loadu_pd(&g.vy[j]), vjz = _mm256_loadu_pd(&g.vz[j]);
+    const __m256d vjx = _mm256_loadu_pd(&pk.vx[q]), vjy = _mm256_loadu_pd(&pk.vy[q]), vjz = _mm256_loadu_pd(&pk.vz[q]);
     const __m256d p1 = dot3(vix, viy, viz, kx, ky, kz), p2 = dot3(vjx, vjy, vjz, kx, ky, kz);
     // q = v - p k
     const __m256d q1x = _mm256_sub_pd(vix, _mm256_mul_pd(kx, p1)), q1y = _mm256_sub_pd(viy, _mm256_mul_pd(ky, p1)),
@@ -125,8 +175,8 @@ void pair_run_scalar(const PairHistograms& h, const PairBins& p, const SortedGra
     _mm256_store_pd(par, _mm256_mul_pd(p1, p2));
     _mm256_store_pd(perp, dot3(q1x, q1y, q1z, q2x, q2y, q2z));
     for (int l = 0; l < 4; ++l) {
-      const bool lane = (in >> l) & 1u;
-      // bins of lanes out of range are never used: clamp before converting (r may be huge)
+      const bool lane = q + static_cast<std::size_t>(l) < n;
+      // bins of lanes past n are never used: clamp before converting
       const std::size_t b = lane ? static_cast<std::size_t>(rb[l]) : h.gr_bins;
       const std::size_t c = lane ? static_cast<std::size_t>(rc[l]) : h.corr_bins;
       h.gr[b < h.gr_bins ? b : h.gr_bins + l] += 1.0;
@@ -228,22 +278,26 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
   std::vector<double> part(chunks * width, 0.0);
   const PairBins bins{rmax, gr_bin, corr_bin};
   const bool avx2 = kernel == PairKernel::automatic && Philox4x32Lanes::have_avx2();
-  auto run = [&](const PairHistograms& h, const Vec3& xi, const Vec3& vi, std::size_t j0, std::size_t j1) {
-    if (avx2) pair_run_avx2(h, bins, g, xi, vi, j0, j1);
-    else pair_run_scalar(h, bins, g, xi, vi, j0, j1);
-  };
+  std::uint32_t longest = 0;  // the most grains in one cell: the longest run of candidates
+  for (std::size_t c = 0; c < ncell; ++c) longest = std::max(longest, start[c + 1] - start[c]);
 #pragma omp parallel for schedule(dynamic, 1)
   for (std::size_t k = 0; k < chunks; ++k) {
     double* base = &part[k * width];
     const std::size_t g1 = gb + 4, c1 = cb + 4;
     const PairHistograms h{base, base + g1, base + g1 + c1, base + g1 + 2 * c1, gb, cb};
+    PackedPairs packed;
+    if (avx2) packed.reserve(longest);
+    auto run = [&](const Vec3& xi, const Vec3& vi, std::size_t j0, std::size_t j1) {
+      if (avx2) pair_run_avx2(h, bins, g, xi, vi, j0, j1, packed);
+      else pair_run_scalar(h, bins, g, xi, vi, j0, j1);
+    };
     for (std::size_t row = rows * k / chunks; row < rows * (k + 1) / chunks; ++row) {
       const int cy = static_cast<int>(row % static_cast<std::size_t>(nc[1]));
       const int cz = static_cast<int>(row / static_cast<std::size_t>(nc[1]));
       for (int cx = 0; cx < nc[0]; ++cx) {
         const std::size_t a = (static_cast<std::size_t>(cz) * nc[1] + cy) * nc[0] + cx;
         const std::uint32_t a0 = start[a], a1 = start[a + 1];
-        for (std::uint32_t i = a0; i < a1; ++i) run(h, g.position(i), g.velocity(i), i + 1, a1);
+        for (std::uint32_t i = a0; i < a1; ++i) run(g.position(i), g.velocity(i), i + 1, a1);
         for (const Offset& o : shell) {
           const int c[3] = {cx + o.d[0], cy + o.d[1], cz + o.d[2]};
           int w[3];
@@ -264,7 +318,7 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
           const std::size_t b = (static_cast<std::size_t>(w[2]) * nc[1] + w[1]) * nc[0] + w[0];
           const std::uint32_t b0 = start[b], b1 = start[b + 1];
           for (std::uint32_t i = a0; i < a1; ++i)
-            run(h, g.position(i) - shift, g.velocity(i), b0, b1);  // i seen from the neighbour's image
+            run(g.position(i) - shift, g.velocity(i), b0, b1);  // i seen from the neighbour's image
         }
       }
     }
