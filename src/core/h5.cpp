@@ -21,6 +21,17 @@ hid_t dataset_plist() {
   static const hid_t p = untimed(H5P_DATASET_CREATE);
   return p;
 }
+// Datasets that several processes fill in turn: contiguous storage allocated at creation
+// (by default it is allocated at the first write, so a file whose rank 0 holds no grain
+// would put the array elsewhere); no fill values are written (none is set).
+hid_t slab_dataset_plist() {
+  static const hid_t p = [] {
+    hid_t q = untimed(H5P_DATASET_CREATE);
+    H5Pset_alloc_time(q, H5D_ALLOC_TIME_EARLY);
+    return q;
+  }();
+  return p;
+}
 hid_t group_plist() {
   static const hid_t p = untimed(H5P_GROUP_CREATE);
   return p;
@@ -39,9 +50,10 @@ H5File::H5File(const std::string& path, Mode mode) : path_(path) {
   if (mode == Mode::create)
     file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   else
-    file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    file_ = H5Fopen(path.c_str(), mode == Mode::update ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
   if (file_ < 0)
-    throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : "open") + " HDF5 file");
+    throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : mode == Mode::update ? "open for writing" : "open") +
+                             " HDF5 file");
 }
 
 H5File::~H5File() {
@@ -111,6 +123,42 @@ static void write_array(H5File& f, hid_t file, const std::string& name, const st
   const hid_t id = ds.id;
   ds.id = -1;
   if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+}
+
+template <class T>
+static void write_slab_of(H5File& f, hid_t file, const std::string& name, const std::vector<T>& data, hsize_t total,
+                          hsize_t offset, hid_t type) {
+  if (offset + data.size() > total)
+    throw std::logic_error(f.path() + ": slab of " + name + " beyond the dataset's " + std::to_string(total) + " elements");
+  Handle ds{-1, H5Dclose};
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) > 0) {
+    ds.id = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  } else {
+    Handle space{H5Screate_simple(1, &total, nullptr), H5Sclose};
+    ds.id = H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, slab_dataset_plist(), H5P_DEFAULT);
+  }
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create or open dataset " + name);
+  if (!data.empty()) {
+    const hsize_t count = data.size();
+    Handle file_space{H5Dget_space(ds.id), H5Sclose};
+    Handle memory{H5Screate_simple(1, &count, nullptr), H5Sclose};
+    if (H5Sselect_hyperslab(file_space.id, H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0 ||
+        H5Dwrite(ds.id, type, memory.id, file_space.id, H5P_DEFAULT, data.data()) < 0)
+      throw std::runtime_error(f.path() + ": cannot write elements " + std::to_string(offset) + "..." +
+                               std::to_string(offset + count) + " of dataset " + name + " (disk full?)");
+  }
+  const hid_t id = ds.id;
+  ds.id = -1;
+  if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+}
+
+void H5File::write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_DOUBLE);
+}
+void H5File::write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_UINT64);
 }
 
 void H5File::write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims) {

@@ -12,7 +12,9 @@ namespace grainbath {
 
 class H5File {
  public:
-  enum class Mode { create, read };
+  // update: an existing file opened for writing (the ranks adding their particle slabs to
+  // a checkpoint that rank 0 created, src/dsmc/distributed_io.cpp)
+  enum class Mode { create, read, update };
   H5File(const std::string& path, Mode mode);
   ~H5File();
   H5File(const H5File&) = delete;
@@ -22,6 +24,11 @@ class H5File {
   void write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims = {});
+  // One rank's part [offset, offset + data.size()) of a 1D dataset of `total` elements: the
+  // dataset is created (its storage allocated at once, so that the file layout does not
+  // depend on which rank writes first) if missing; an empty part writes nothing.
+  void write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset);
+  void write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset);
   void write_string(const std::string& name, const std::string& value);
   void write_scalar(const std::string& name, double value);
   void write_scalar(const std::string& name, std::uint64_t value);

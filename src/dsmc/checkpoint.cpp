@@ -5,6 +5,8 @@
 #include <stdexcept>
 
 #include "core/checkpoint.hpp"
+#include "core/run_support.hpp"
+#include "dsmc/decomposition.hpp"
 
 namespace grainbath::dsmc {
 
@@ -52,8 +54,8 @@ void unpack(const Scalars& k, State& s) {
 
 // The state as named arrays (core/checkpoint.hpp): one list drives writing, reading and
 // the checksum.
-CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& batch_samples) {
-  Particles& p = s.particles;
+// p: the grains (s.particles, or this rank's part of them when s holds the rest on rank 0).
+CheckpointArrays arrays_of(State& s, Particles& p, Scalars& k, std::vector<std::uint64_t>& batch_samples) {
   TimeSeries& t = s.series;
   CheckpointArrays a;
   a.real = {{"particles/vx", &p.vx},
@@ -91,6 +93,51 @@ CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& bat
   return a;
 }
 
+// Arrays of one entry per grain, in the global (cell, id) order: spread over the ranks, each
+// rank's part after those of the ranks before it. (Spins are per grain too, but only
+// homogeneous runs have them, where rank 0 holds every grain: written whole by rank 0.)
+bool per_grain(const std::string& name) { return name.rfind("particles/", 0) == 0; }
+
+// Where this rank's part of every per-grain array goes, in list order.
+CheckpointSlabs slabs_of(const CheckpointArrays& a, const Decomposition& dec) {
+  std::vector<std::string> names;
+  std::vector<std::uint64_t> local;
+  for (const auto& [n, v] : a.real)
+    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
+  for (const auto& [n, v] : a.integer)
+    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
+  std::vector<std::uint64_t> offset, total;
+  dec.offsets(local, offset, total);
+  CheckpointSlabs slabs;
+  for (std::size_t i = 0; i < names.size(); ++i) slabs.emplace_back(names[i], CheckpointSlab{total[i], offset[i]});
+  return slabs;
+}
+
+// The checksum of the whole file (CheckpointArrays::checksum on one process): the arrays in
+// list order; the bytes of a per-grain array are added by the ranks in turn (rank order is
+// the global order), each going on from the sum of the ranks before. Meaningful on rank 0.
+std::uint64_t distributed_checksum(const CheckpointArrays& a, const CheckpointSlabs& slabs, const Decomposition& dec) {
+  Fnv1a sum;
+  auto add = [&](const std::string& name, const auto& v) {
+    const auto slab = std::find_if(slabs.begin(), slabs.end(), [&](const auto& e) { return e.first == name; });
+    if (slab == slabs.end()) {  // rank 0 holds it whole
+      if (!dec.root()) return;
+      sum.add_length(v.size());
+      sum.add_elements(v);
+      return;
+    }
+    if (dec.root()) sum.add_length(slab->second.total);
+    sum.h = dec.in_rank_order<std::uint64_t>(sum.h, [&](std::uint64_t& h) {
+      Fnv1a part{h};
+      part.add_elements(v);
+      h = part.h;
+    });
+  };
+  for (const auto& [n, v] : a.real) add(n, *v);
+  for (const auto& [n, v] : a.integer) add(n, *v);
+  return sum.h;
+}
+
 // Keys that may change between the checkpoint and the resumed run.
 bool may_change(const std::string& key) {
   return key == "dsmc.t_end" || key.rfind("checkpoint.", 0) == 0 || key == "run.threads";
@@ -98,11 +145,46 @@ bool may_change(const std::string& key) {
 
 }  // namespace
 
-void write_checkpoint(const fs::path& dir, const State& state, const RunContext& ctx) {
+void write_checkpoint(const fs::path& dir, const State& state, const RunContext& ctx, const Decomposition& dec) {
   State& s = const_cast<State&>(state);  // arrays_of needs non-const pointers; nothing is modified
-  Scalars k = pack(s);
-  std::vector<std::uint64_t> bs(s.fields.batch_samples.begin(), s.fields.batch_samples.end());
-  write_checkpoint_file(dir, static_cast<std::uint64_t>(s.step), arrays_of(s, k, bs), ctx, "dsmc");
+  State rest = dec.gather_cells(s);      // rank 0: all but the grains; other ranks: empty
+  Scalars k = pack(rest);
+  std::vector<std::uint64_t> bs(rest.fields.batch_samples.begin(), rest.fields.batch_samples.end());
+  const CheckpointArrays arrays = arrays_of(rest, s.particles, k, bs);
+  const CheckpointSlabs slabs = slabs_of(arrays, dec);
+  const std::uint64_t checksum = distributed_checksum(arrays, slabs, dec);
+  const auto index = static_cast<std::uint64_t>(s.step);
+  // serial HDF5: one rank at a time in the file; rank 0 creates it, the others add their
+  // grains; a failed rank passes "failed" on and the ranks after it do not touch the file
+  std::string error;
+  fs::path partial;
+  const int written = dec.in_rank_order<int>(1, [&](int& ok) {
+    if (!ok) return;
+    try {
+      if (fault_checkpoint_rank() == dec.rank())
+        throw std::runtime_error(partial_checkpoint_path(dir, index).string() +
+                                 ": write failed (GRAINBATH_FAULT_CHECKPOINT_RANK test hook)");
+      if (dec.root())
+        partial = begin_checkpoint_file(dir, index, arrays, slabs, checksum, ctx, "dsmc");
+      else
+        add_checkpoint_slabs(partial_checkpoint_path(dir, index), arrays, slabs);
+    } catch (const std::exception& e) {
+      error = e.what();
+      ok = 0;
+    }
+  });
+  if (dec.root()) {
+    try {
+      if (written)
+        commit_checkpoint_file(partial);
+      else
+        discard_checkpoint_file(partial_checkpoint_path(dir, index));
+    } catch (const std::exception& e) {
+      if (error.empty()) error = e.what();
+    }
+  }
+  error = dec.first_error(error);
+  if (!error.empty()) throw std::runtime_error("writing a checkpoint failed on " + error);
 }
 
 std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning) {
@@ -115,7 +197,7 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
         s = State{};
         k = Scalars{};
         bs.clear();
-        return arrays_of(s, k, bs);
+        return arrays_of(s, s.particles, k, bs);
       },
       [&] {
         unpack(k, s);

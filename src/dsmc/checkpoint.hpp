@@ -13,7 +13,15 @@
 
 namespace grainbath::dsmc {
 
-void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx);
+class Decomposition;
+
+// Collective over the ranks of `dec`. The file is the one a single process holding the
+// whole state writes (the same datasets, order and values; src/dsmc/distributed_io.hpp):
+// rank 0 writes the counters, series, per-cell data (gathered: O(cells)) and its own
+// grains, then each rank in turn adds its grains at their global offset. No rank holds
+// another's grains. A rank that fails makes every rank throw the same message.
+void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx,
+                      const Decomposition& dec);
 
 // The newest checkpoint in `dir` that verifies, or nullopt. `warning` receives a message
 // for every checkpoint skipped as corrupt. Throws if the case differs from the checkpoint's
