@@ -21,10 +21,11 @@ hid_t dataset_plist() {
   static const hid_t p = untimed(H5P_DATASET_CREATE);
   return p;
 }
-// Datasets that several processes fill in turn: contiguous storage allocated at creation
-// (by default it is allocated at the first write, so a file whose rank 0 holds no grain
-// would put the array elsewhere); no fill values are written (none is set).
-hid_t slab_dataset_plist() {
+// A dataset that several processes fill in turn, created by one that has no part of it:
+// contiguous storage allocated at creation (by default it is allocated at the first write,
+// which would then put the array at the end of the file, after everything the creator
+// wrote); no fill values are written (none is set).
+hid_t early_dataset_plist() {
   static const hid_t p = [] {
     hid_t q = untimed(H5P_DATASET_CREATE);
     H5Pset_alloc_time(q, H5D_ALLOC_TIME_EARLY);
@@ -135,7 +136,10 @@ static void write_slab_of(H5File& f, hid_t file, const std::string& name, const 
     ds.id = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
   } else {
     Handle space{H5Screate_simple(1, &total, nullptr), H5Sclose};
-    ds.id = H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, slab_dataset_plist(), H5P_DEFAULT);
+    // with a part to write, the storage is allocated by that write, as in write_array: the
+    // file is byte for byte the one written whole by one process
+    const hid_t plist = data.empty() && total > 0 ? early_dataset_plist() : dataset_plist();
+    ds.id = H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, plist, H5P_DEFAULT);
   }
   if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create or open dataset " + name);
   if (!data.empty()) {

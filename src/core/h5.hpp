@@ -25,8 +25,8 @@ class H5File {
   void write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims = {});
   // One rank's part [offset, offset + data.size()) of a 1D dataset of `total` elements: the
-  // dataset is created (its storage allocated at once, so that the file layout does not
-  // depend on which rank writes first) if missing; an empty part writes nothing.
+  // dataset is created if missing, its storage where write() would put it (the file does
+  // not depend on how the array was split); an empty part writes nothing.
   void write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset);
   void write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset);
   void write_string(const std::string& name, const std::string& value);
