@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <stdexcept>
+#include <type_traits>
 
 #include "core/h5.hpp"
 
@@ -145,11 +146,50 @@ void write_checkpoint_file(const fs::path& dir, std::uint64_t index, const Check
   commit_checkpoint_file(begin_checkpoint_file(dir, index, arrays, {}, arrays.checksum(), ctx, solver));
 }
 
+namespace {
+// One array of a checkpoint into v, its bytes into the checksum: whole, or (a per-grain array
+// of a CheckpointPart) in chunks, keeping [lo, hi).
+template <class T>
+void read_array(const H5File& h, const std::string& name, std::vector<T>& v, const CheckpointPart* part, Fnv1a& sum) {
+  const std::string path = "/" + name;
+  auto slab = [&](std::uint64_t at, std::uint64_t count) {
+    if constexpr (std::is_same_v<T, double>)
+      return h.read_doubles_slab(path, at, count);
+    else
+      return h.read_u64_slab(path, at, count);
+  };
+  std::uint64_t lo = 0, hi = 0;
+  if (!part || !part->range(name, lo, hi)) {
+    if constexpr (std::is_same_v<T, double>)
+      v = h.read_doubles(path);
+    else
+      v = h.read_u64(path);
+    sum.add_length(v.size());
+    sum.add_elements(v);
+    return;
+  }
+  const std::uint64_t total = h.length(path);
+  hi = std::min(hi, total);
+  lo = std::min(lo, hi);
+  v.clear();
+  v.reserve(hi - lo);
+  sum.add_length(total);
+  for (std::uint64_t at = 0; at < total; at += CheckpointPart::kChunk) {
+    const std::uint64_t count = std::min(CheckpointPart::kChunk, total - at);
+    const std::vector<T> chunk = slab(at, count);
+    sum.add_elements(chunk);
+    const std::uint64_t from = std::clamp(lo, at, at + count), to = std::clamp(hi, at, at + count);
+    v.insert(v.end(), chunk.begin() + static_cast<std::ptrdiff_t>(from - at), chunk.begin() + static_cast<std::ptrdiff_t>(to - at));
+  }
+}
+}  // namespace
+
 fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx, const std::string& solver,
                                      const std::function<bool(const std::string&)>& may_change,
                                      const std::string& may_change_text,
                                      const std::function<CheckpointArrays()>& prepare,
-                                     const std::function<void()>& finish, std::string& warning) {
+                                     const std::function<void()>& finish, std::string& warning,
+                                     const CheckpointPart* part) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return {};
   auto all = list_checkpoints(dir);
@@ -192,10 +232,12 @@ fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx,
                                     " may change on --resume)");
       }
       const CheckpointArrays a = prepare();
-      for (const auto& [n, v] : a.real) *v = h.read_doubles("/" + n);
-      for (const auto& [n, v] : a.integer) *v = h.read_u64("/" + n);
+      if (part && part->plan) part->plan(h);
+      Fnv1a sum;  // CheckpointArrays::checksum, as the arrays are read
+      for (const auto& [n, v] : a.real) read_array(h, n, *v, part, sum);
+      for (const auto& [n, v] : a.integer) read_array(h, n, *v, part, sum);
       const std::string stored = h.read_attribute("/", "checksum");
-      if (stored != hex(a.checksum())) throw std::runtime_error("checksum mismatch");
+      if (stored != hex(sum.h)) throw std::runtime_error("checksum mismatch");
       finish();
       return path;
     } catch (const std::invalid_argument&) {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/case_file.hpp"
+#include "core/h5.hpp"
 #include "core/run_context.hpp"
 
 namespace grainbath {
@@ -81,6 +82,17 @@ void discard_checkpoint_file(const std::filesystem::path& partial);
 void write_checkpoint_file(const std::filesystem::path& dir, std::uint64_t index, const CheckpointArrays& arrays,
                            const RunContext& ctx, const std::string& solver);
 
+// Reading only a part of the per-grain arrays (an MPI rank its own grains, so that no rank
+// holds them all; src/dsmc/checkpoint.cpp). After the case checks, `plan` may read the file
+// (in chunks) to choose the parts; then every array for which `range` gives [lo, hi) is read
+// in chunks of kChunk elements, each chunk added to the checksum and only the elements in
+// [lo, hi) (clipped to the array) kept: every byte is still verified, in O(chunk) memory.
+struct CheckpointPart {
+  static constexpr std::uint64_t kChunk = 1 << 20;
+  std::function<void(const H5File&)> plan;
+  std::function<bool(const std::string& name, std::uint64_t& lo, std::uint64_t& hi)> range;
+};
+
 // Tries the checkpoints in `dir` newest first. For each, `prepare()` resets the caller's
 // candidate state and returns its arrays (filled from the file), then the checksum, seed,
 // solver and every resolved parameter not accepted by `may_change` are verified, then
@@ -93,6 +105,7 @@ std::filesystem::path read_newest_checkpoint_file(const std::filesystem::path& d
                                                   const std::function<bool(const std::string&)>& may_change,
                                                   const std::string& may_change_text,
                                                   const std::function<CheckpointArrays()>& prepare,
-                                                  const std::function<void()>& finish, std::string& warning);
+                                                  const std::function<void()>& finish, std::string& warning,
+                                                  const CheckpointPart* part = nullptr);
 
 }  // namespace grainbath

@@ -243,6 +243,43 @@ static std::vector<T> read_array(const H5File& f, hid_t file, const std::string&
   return out;
 }
 
+template <class T>
+static std::vector<T> read_slab_of(const H5File& f, hid_t file, const std::string& name, hsize_t offset, hsize_t count,
+                                   hid_t type) {
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error(f.path() + ": missing dataset " + name);
+  Handle ds{H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot open dataset " + name);
+  Handle space{H5Dget_space(ds.id), H5Sclose};
+  hsize_t length = 0;
+  if (H5Sget_simple_extent_ndims(space.id) != 1 || H5Sget_simple_extent_dims(space.id, &length, nullptr) < 0 ||
+      offset + count > length)
+    throw std::runtime_error(f.path() + ": dataset " + name + " is not a 1D array of at least " +
+                             std::to_string(offset + count) + " elements");
+  std::vector<T> out(count);
+  if (count == 0) return out;
+  Handle memory{H5Screate_simple(1, &count, nullptr), H5Sclose};
+  if (H5Sselect_hyperslab(space.id, H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0 ||
+      H5Dread(ds.id, type, memory.id, space.id, H5P_DEFAULT, out.data()) < 0)
+    throw std::runtime_error(f.path() + ": cannot read dataset " + name + " (wrong type or corrupt file)");
+  return out;
+}
+
+std::vector<double> H5File::read_doubles_slab(const std::string& name, hsize_t offset, hsize_t count) const {
+  return read_slab_of<double>(*this, file_, name, offset, count, H5T_NATIVE_DOUBLE);
+}
+std::vector<std::uint64_t> H5File::read_u64_slab(const std::string& name, hsize_t offset, hsize_t count) const {
+  return read_slab_of<std::uint64_t>(*this, file_, name, offset, count, H5T_NATIVE_UINT64);
+}
+hsize_t H5File::length(const std::string& name) const {
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) <= 0) fail("missing dataset " + name);
+  Handle ds{H5Dopen2(file_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle space{H5Dget_space(ds.id), H5Sclose};
+  hsize_t n = 0;
+  if (ds.id < 0 || H5Sget_simple_extent_ndims(space.id) != 1 || H5Sget_simple_extent_dims(space.id, &n, nullptr) < 0)
+    fail("dataset " + name + " is not a 1D array");
+  return n;
+}
+
 std::vector<double> H5File::read_doubles(const std::string& name, std::vector<hsize_t>* dims) const {
   return read_array<double>(*this, file_, name, H5T_NATIVE_DOUBLE, dims);
 }

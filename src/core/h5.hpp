@@ -42,6 +42,11 @@ class H5File {
   std::vector<double> read_doubles(const std::string& name, std::vector<hsize_t>* dims = nullptr) const;
   std::vector<std::uint64_t> read_u64(const std::string& name) const;
   std::vector<std::int64_t> read_i64(const std::string& name) const;
+  // Elements [offset, offset + count) of a 1D dataset, and its length (reading a checkpoint
+  // in chunks: src/core/checkpoint.cpp).
+  std::vector<double> read_doubles_slab(const std::string& name, hsize_t offset, hsize_t count) const;
+  std::vector<std::uint64_t> read_u64_slab(const std::string& name, hsize_t offset, hsize_t count) const;
+  hsize_t length(const std::string& name) const;
   std::string read_string(const std::string& name) const;
   double read_scalar(const std::string& name) const;
   std::uint64_t read_scalar_u64(const std::string& name) const;

@@ -7,6 +7,7 @@
 #include "core/checkpoint.hpp"
 #include "core/run_support.hpp"
 #include "dsmc/decomposition.hpp"
+#include "dsmc/spatial.hpp"
 
 namespace grainbath::dsmc {
 
@@ -187,10 +188,57 @@ void write_checkpoint(const fs::path& dir, const State& state, const RunContext&
   if (!error.empty()) throw std::runtime_error("writing a checkpoint failed on " + error);
 }
 
-std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning) {
+namespace {
+// Restart on several ranks: the grains per reduction block of the whole checkpoint, from
+// its positions read in chunks (every rank alike). The file holds the grains in (cell, id)
+// order (written after a sort, in rank order = cell order): checked, since each rank's
+// grains are then one contiguous range of it.
+std::vector<std::uint64_t> grains_per_block(const H5File& h, const Config& c, std::size_t block_cells) {
+  const Domain& d = c.domain;
+  const CellGrid grid(d);
+  const std::uint64_t n = h.length("/particles/x");
+  std::vector<std::uint64_t> w((d.cell_count() + block_cells - 1) / block_cells, 0);
+  std::uint32_t previous = 0;
+  for (std::uint64_t at = 0; at < n; at += CheckpointPart::kChunk) {
+    const std::uint64_t count = std::min(CheckpointPart::kChunk, n - at);
+    const std::vector<double> x = h.read_doubles_slab("/particles/x", at, count);
+    const std::vector<double> y = d.dimensions > 1 ? h.read_doubles_slab("/particles/y", at, count) : std::vector<double>{};
+    const std::vector<double> z = d.dimensions > 2 ? h.read_doubles_slab("/particles/z", at, count) : std::vector<double>{};
+    for (std::uint64_t i = 0; i < count; ++i) {
+      const std::uint32_t k = grid(x[i], y.empty() ? 0.0 : y[i], z.empty() ? 0.0 : z[i]);
+      if (k < previous || k >= d.cell_count())
+        throw std::runtime_error("the grains are not in cell order (grain " + std::to_string(at + i) + ")");
+      previous = k;
+      ++w[k / block_cells];
+    }
+  }
+  return w;
+}
+}  // namespace
+
+std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning,
+                                            const Config& c, Decomposition& dec) {
   State s;
   Scalars k;
   std::vector<std::uint64_t> bs;
+  // several ranks: this rank's range of the per-grain arrays (spins: homogeneous runs only,
+  // all on rank 0 like the grains)
+  std::uint64_t first = 0, end = 0;
+  CheckpointPart part;
+  part.plan = [&](const H5File& h) {
+    if (c.spatial()) {
+      dec.plan_restart(grains_per_block(h, c, dec.block_cells()), first, end);
+    } else {
+      first = 0;
+      end = dec.root() ? h.length("/particles/vx") : 0;
+    }
+  };
+  part.range = [&](const std::string& name, std::uint64_t& lo, std::uint64_t& hi) {
+    if (!per_grain(name) && name.rfind("spins/", 0) != 0) return false;
+    lo = first;
+    hi = end;
+    return true;
+  };
   const fs::path loaded = read_newest_checkpoint_file(
       dir, ctx, "dsmc", may_change, "dsmc.t_end and [checkpoint]",
       [&] {
@@ -203,7 +251,7 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
         unpack(k, s);
         s.fields.batch_samples.assign(bs.begin(), bs.end());
       },
-      warning);
+      warning, dec.size() > 1 ? &part : nullptr);
   if (loaded.empty()) return std::nullopt;
   return s;
 }

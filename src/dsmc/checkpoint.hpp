@@ -26,7 +26,10 @@ void write_checkpoint(const std::filesystem::path& dir, const State& s, const Ru
 // The newest checkpoint in `dir` that verifies, or nullopt. `warning` receives a message
 // for every checkpoint skipped as corrupt. Throws if the case differs from the checkpoint's
 // in anything but t_end and the [checkpoint] settings.
+// Several ranks (dec): each rank keeps only its own grains (the cell ranges are chosen from
+// the positions, read in chunks: Decomposition::plan_restart), while still verifying every
+// byte of the file; then Decomposition::distribute(s, c, true).
 std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx,
-                                            std::string& warning);
+                                            std::string& warning, const Config& c, Decomposition& dec);
 
 }  // namespace grainbath::dsmc

@@ -357,7 +357,18 @@ void Decomposition::cells_of_all(State& s, const Config& c, const std::vector<st
   w.cell_fresh = true;
 }
 
-void Decomposition::distribute(State& s, const Config& c, bool holds_all) {
+void Decomposition::plan_restart(const std::vector<std::uint64_t>& grains_per_block, std::uint64_t& first,
+                                 std::uint64_t& end) {
+  if (grains_per_block.size() != blocks_) throw std::logic_error("plan_restart: not one count per reduction block");
+  std::vector<std::uint64_t> w = grains_per_block;
+  for (auto& x : w) ++x;  // +1: empty regions are still spread out (as distribute)
+  first_block_ = balanced_boundaries(w);
+  first = end = 0;
+  for (std::size_t b = 0; b < end_block(); ++b) (b < first_block() ? first : end) += grains_per_block[b];
+  end += first;
+}
+
+void Decomposition::distribute(State& s, const Config& c, bool read_own) {
   Particles& p = s.particles;
   note_particles(p.size());
   if (size_ == 1) return;
@@ -368,24 +379,22 @@ void Decomposition::distribute(State& s, const Config& c, bool holds_all) {
     return;
   }
   cells_of_all(s, c, nullptr);
+  if (read_own) {  // the boundaries were chosen by plan_restart; every grain is this rank's
+    balanced_at_step_ = s.step;
+    return;
+  }
   std::vector<std::uint64_t> w(blocks_, 0);
   for (std::uint32_t k : s.sort.cell)
     if (k != kRemoved) ++w[k / block_cells_];
 #ifdef GRAINBATH_MPI
   // particles per block over all ranks (integers: the sum is exact in any order)
-  if (!holds_all) MPI_Allreduce(MPI_IN_PLACE, w.data(), to_int(blocks_, "the reduction blocks"), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, w.data(), to_int(blocks_, "the reduction blocks"), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
 #endif
   for (auto& x : w) ++x;  // +1: empty regions are still spread out
   first_block_ = balanced_boundaries(w);
   balanced_at_step_ = s.step;
-  if (holds_all) {  // keep this rank's cells only
-    const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
-    for (auto& k : s.sort.cell)
-      if (k < lo || k >= hi) k = kRemoved;
-  } else {
-    send_to_owners(s, c);
-    note_particles(p.size());
-  }
+  send_to_owners(s, c);
+  note_particles(p.size());
 }
 
 void Decomposition::send_to_owners(State& s, const Config& c) {

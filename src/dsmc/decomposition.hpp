@@ -88,12 +88,17 @@ class Decomposition {
   }
 
   // Start of a run: choose balanced boundaries and send every particle to its owner.
-  // holds_all: every rank holds the whole population (a checkpoint read by every rank; the
-  // others are dropped); otherwise each rank holds a disjoint part of it (initialise() on
-  // this rank's share of the ids), the block weights are summed over the ranks and the
-  // particles move to their owners in one all-to-all. Leaves the cell of every particle
-  // (kRemoved: not this rank's) in s.sort.cell for sort_by_cell.
-  void distribute(State& s, const Config& c, bool holds_all);
+  // read_own: each rank holds its own cells' grains, read from a checkpoint after
+  // plan_restart chose the boundaries; otherwise each rank holds a disjoint part of the
+  // population (initialise() on this rank's share of the ids), the block weights are summed
+  // over the ranks and the particles move to their owners in one all-to-all. Leaves the cell
+  // of every particle (kRemoved: not this rank's) in s.sort.cell for sort_by_cell.
+  void distribute(State& s, const Config& c, bool read_own);
+  // Restart (spatial runs): the boundaries from the grains per reduction block of the whole
+  // checkpoint (every rank counts them alike from the positions), chosen as a fresh start
+  // chooses them; [first, end) receives this rank's grains in the checkpoint's global
+  // (cell, id) order, where its blocks' grains are contiguous.
+  void plan_restart(const std::vector<std::uint64_t>& grains_per_block, std::uint64_t& first, std::uint64_t& end);
   // After streaming: send particles that left this rank's cells to their owners, receive
   // those that arrived. Neighbour exchanges only: the ranks form a ring in cell order, a
   // migrant goes the shorter way round and is forwarded one neighbour per round until it
@@ -180,8 +185,8 @@ class Decomposition {
   const MigrationStats& migration_stats() const { return stats_; }
   // The most grains this rank has held at once in its particle arrays (from the start, or
   // from reading a checkpoint, through the start-up distribution and every migration and
-  // rebalance): about N/size after a fresh start, N after a resume (every rank reads the
-  // checkpoint). Gathers for output on rank 0 are not counted.
+  // rebalance): about N/size after a fresh start or a resume (each rank reads its own
+  // grains of the checkpoint). Output gathers no grain.
   std::size_t peak_particles() const { return peak_particles_; }
 
  private:

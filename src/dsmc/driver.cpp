@@ -314,7 +314,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   bool resumed = false;
   if (ctx.resume) {
     std::string warning;
-    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning);
+    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec);  // MPI: this rank's grains
     if (!warning.empty() && dec.root()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
@@ -345,8 +345,8 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       s.cell_start = {0, s.particles.size()};
     }
   };
-  // MPI: each rank now keeps its own cells' grains (from a checkpoint, every rank has read
-  // them all; from initialise(), each rank made its share of the ids)
+  // MPI: each rank now keeps its own cells' grains (from a checkpoint, each rank has read
+  // only its own; from initialise(), each rank made its share of the ids)
   dec.distribute(s, c, resumed);
   rebuild_cells();
   std::vector<std::size_t> bounds;

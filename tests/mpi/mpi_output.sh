@@ -7,8 +7,11 @@
 #  2. rank 0 never held every grain: its peak resident memory is within 15% of rank 1's
 #     (gathering the 300,000 grains for the output made it 1.3x; measured in
 #     docs/performance/mpi.md), and no rank's particle arrays held the whole population;
-#  3. a homogeneous run (rank 0 holds every grain, rank 1 none) writes the plain checkpoint;
-#  4. a rank that fails to write its part makes every rank stop with the same message
+#  3. the plain checkpoint resumed with 2 ranks ends bitwise where the plain run ended, and
+#     no rank held the whole population (each rank reads only its own grains of the file);
+#  4. a homogeneous run (rank 0 holds every grain, rank 1 none) writes the plain checkpoint,
+#     and resumes from it with 2 ranks;
+#  5. a rank that fails to write its part makes every rank stop with the same message
 #     naming it (no hang; the test hook GRAINBATH_FAULT_CHECKPOINT_RANK).
 # usage: mpi_output.sh GRAINBATH CASE_DIR HOMOGENEOUS_CASE_DIR WORK_DIR
 set -euo pipefail
@@ -59,15 +62,33 @@ if not p["rank_peak_particles"] < n:
 print("ok   2 ranks: rank 0 held no more than its own grains")
 PY
 
-# 3: the homogeneous case (every grain on rank 0, none on rank 1)
+# 3: resumed with 2 ranks, each reading its own grains
+mkdir -p "$work/resume2.checkpoints"
+cp "$work/plain.checkpoints/$first" "$work/resume2.checkpoints/"
+mpi 2 run "$case_dir" --out "$work/resume2" -q "${ck[@]}" --resume > /dev/null 2>&1
+same_results "$work/plain" "$work/resume2" "plain checkpoint resumed with 2 ranks"
+python3 - "$work/resume2/summary.json" "$case_dir/case.toml" <<'PY' || fail=1
+import json, re, sys
+p = json.load(open(sys.argv[1]))["performance"]
+n = int(re.search(r"^particles *= *(\d+)", open(sys.argv[2]).read(), re.M).group(1))
+if not p["rank_peak_particles"] < n:
+    print("FAIL resumed: a rank held all %d grains (it read the whole checkpoint)" % n); sys.exit(1)
+print("ok   resumed with 2 ranks: at most %d of %d grains on one rank" % (p["rank_peak_particles"], n))
+PY
+
+# 4: the homogeneous case (every grain on rank 0, none on rank 1)
 hk=(--set checkpoint.every=1.0 --set checkpoint.keep=true)
 "$exe" run "$homogeneous" --out "$work/hplain" -q "${hk[@]}" > /dev/null
 mpi 2 run "$homogeneous" --out "$work/hnp2" -q "${hk[@]}" > /dev/null 2>&1
 hfirst=$(cd "$work/hplain.checkpoints" && ls checkpoint-*.h5 | head -1)
 same_checkpoint "$work/hplain.checkpoints/$hfirst" "$work/hnp2.checkpoints/$hfirst" "homogeneous, 2 ranks"
 same_results "$work/hplain" "$work/hnp2" "homogeneous, 2 ranks"
+mkdir -p "$work/hresume2.checkpoints"
+cp "$work/hplain.checkpoints/$hfirst" "$work/hresume2.checkpoints/"
+mpi 2 run "$homogeneous" --out "$work/hresume2" -q "${hk[@]}" --resume > /dev/null 2>&1
+same_results "$work/hplain" "$work/hresume2" "homogeneous plain checkpoint resumed with 2 ranks"
 
-# 4: rank 1 fails to write its part
+# 5: rank 1 fails to write its part
 set +e
 GRAINBATH_FAULT_CHECKPOINT_RANK=1 timeout 120 mpirun --oversubscribe --bind-to none -np 2 -x GRAINBATH_FAULT_CHECKPOINT_RANK \
   "$exe" run "$case_dir" --out "$work/fault" -q "${ck[@]}" > "$work/fault.log" 2>&1
