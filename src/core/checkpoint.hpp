@@ -34,7 +34,7 @@ std::filesystem::path checkpoint_directory(const std::filesystem::path& final_ou
 
 // The checksum: FNV-1a over bytes, chained across the arrays in their list order, each array
 // prefixed by its length. Exposed so that processes that each hold a part of an array (MPI
-// ranks, src/dsmc/distributed_io.cpp) can continue it in turn: the bytes of a part go in
+// ranks, src/dsmc/checkpoint.cpp) can continue it in turn: the bytes of a part go in
 // right after those of the part before it, which gives the sum of the whole array.
 struct Fnv1a {
   std::uint64_t h = 1469598103934665603ull;

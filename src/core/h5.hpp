@@ -13,7 +13,7 @@ namespace grainbath {
 class H5File {
  public:
   // update: an existing file opened for writing (the ranks adding their particle slabs to
-  // a checkpoint that rank 0 created, src/dsmc/distributed_io.cpp)
+  // a checkpoint that rank 0 created, src/dsmc/checkpoint.cpp)
   enum class Mode { create, read, update };
   H5File(const std::string& path, Mode mode);
   ~H5File();

@@ -16,7 +16,7 @@ namespace grainbath::dsmc {
 class Decomposition;
 
 // Collective over the ranks of `dec`. The file is the one a single process holding the
-// whole state writes (the same datasets, order and values; src/dsmc/distributed_io.hpp):
+// whole state writes (the same datasets, order and values, byte for byte; docs/dsmc.md):
 // rank 0 writes the counters, series, per-cell data (gathered: O(cells)) and its own
 // grains, then each rank in turn adds its grains at their global offset. No rank holds
 // another's grains. A rank that fails makes every rank throw the same message.

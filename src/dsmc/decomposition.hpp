@@ -15,7 +15,7 @@
 //  3. moments of the whole population are summed in blocks of the global (cell, id) order,
 //     i.e. of exactly the array a single process holds: a block split between ranks is
 //     summed by its ranks in turn (moments_in_global_blocks). No rank ever gathers the
-//     particles, not even for output (src/dsmc/distributed_io.hpp).
+//     particles, not even for output (src/dsmc/checkpoint.hpp, output.hpp).
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
