@@ -12,7 +12,8 @@
 #  4. a homogeneous run (rank 0 holds every grain, rank 1 none) writes the plain checkpoint,
 #     and resumes from it with 2 ranks;
 #  5. a rank that fails to write its part makes every rank stop with the same message
-#     naming it (no hang; the test hook GRAINBATH_FAULT_CHECKPOINT_RANK).
+#     naming it (no hang): the test hook GRAINBATH_FAULT_CHECKPOINT_RANK, and a real HDF5
+#     write error (rank 1 under a 1 MB file-size limit, SIGXFSZ ignored: EFBIG).
 # usage: mpi_output.sh GRAINBATH CASE_DIR HOMOGENEOUS_CASE_DIR WORK_DIR
 set -euo pipefail
 exe=$1
@@ -100,5 +101,18 @@ if [ "$code" -ne 0 ] && [ "$code" -ne 124 ] && [ "$said" -ge 1 ] && [ ! -e "$wor
   echo "ok   a failing rank: exit $code, the message on $said rank(s), no partial checkpoint or output left"
 else
   echo "FAIL a failing rank: exit $code (124: hung), message on $said rank(s):"; tail -5 "$work/fault.log"; fail=1
+fi
+set +e
+timeout 120 mpirun --oversubscribe --bind-to none -np 2 bash -c \
+  'if [ "$OMPI_COMM_WORLD_RANK" = 1 ]; then trap "" XFSZ; ulimit -f 1000; fi; exec "$0" "$@"' \
+  "$exe" run "$case_dir" --out "$work/efbig" -q "${ck[@]}" > "$work/efbig.log" 2>&1
+code=$?
+set -e
+said=$(grep -c "writing a checkpoint failed on rank 1: .*cannot write" "$work/efbig.log" || true)
+if [ "$code" -ne 0 ] && [ "$code" -ne 124 ] && [ "$said" -ge 1 ] && [ ! -e "$work/efbig" ] &&
+   ! ls "$work/efbig.checkpoints"/*.partial > /dev/null 2>&1; then
+  echo "ok   a rank that cannot write (EFBIG): exit $code, the message on $said rank(s), nothing left"
+else
+  echo "FAIL a rank that cannot write: exit $code (124: hung), message on $said rank(s):"; tail -5 "$work/efbig.log"; fail=1
 fi
 exit $fail
