@@ -184,7 +184,11 @@ void write_checkpoint(const fs::path& dir, const State& state, const RunContext&
       if (error.empty()) error = e.what();
     }
   }
-  error = dec.first_error(error);
+  if (dec.size() == 1) {
+    if (!error.empty()) throw std::runtime_error(error);
+    return;
+  }
+  error = dec.first_error(error);  // "rank r: ...", on every rank
   if (!error.empty()) throw std::runtime_error("writing a checkpoint failed on " + error);
 }
 
