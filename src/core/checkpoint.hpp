@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/case_file.hpp"
+#include "core/h5.hpp"
 #include "core/run_context.hpp"
 
 namespace grainbath {
@@ -31,6 +32,20 @@ CheckpointSettings read_checkpoint_settings(CaseReader& reader, const char* ever
 // so that they survive a crash of the run that is writing OUT).
 std::filesystem::path checkpoint_directory(const std::filesystem::path& final_out);
 
+// The checksum: FNV-1a over bytes, chained across the arrays in their list order, each array
+// prefixed by its length. Exposed so that processes that each hold a part of an array (MPI
+// ranks, src/dsmc/checkpoint.cpp) can continue it in turn: the bytes of a part go in
+// right after those of the part before it, which gives the sum of the whole array.
+struct Fnv1a {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(const void* data, std::size_t bytes);
+  void add_length(std::uint64_t n) { add(&n, sizeof n); }
+  template <class T>
+  void add_elements(const std::vector<T>& v) {
+    if (!v.empty()) add(v.data(), v.size() * sizeof(T));
+  }
+};
+
 struct CheckpointArrays {
   std::vector<std::pair<std::string, std::vector<double>*>> real;
   std::vector<std::pair<std::string, std::vector<std::uint64_t>*>> integer;
@@ -39,11 +54,44 @@ struct CheckpointArrays {
   std::uint64_t checksum() const;
 };
 
+// The writing of a checkpoint file in its three steps, for states spread over processes:
+//  - begin_checkpoint_file creates dir/checkpoint-<index>.h5.partial and writes every array
+//    (an array named in `slabs` as this process's part of a dataset of slab.total elements,
+//    at slab.offset), the case, the parameters and the given checksum; returns the path;
+//  - add_checkpoint_slabs: another process adds its parts of the `slabs` arrays;
+//  - commit_checkpoint_file renames the file into place and keeps it and the previous one
+//    (discard_checkpoint_file removes a file that failed).
+// Every step flushes and closes the file with checked errors (a full disk throws).
+struct CheckpointSlab {
+  std::uint64_t total = 0, offset = 0;
+};
+using CheckpointSlabs = std::vector<std::pair<std::string, CheckpointSlab>>;
+// dir/checkpoint-<index>.h5.partial: the name under which the file is written
+std::filesystem::path partial_checkpoint_path(const std::filesystem::path& dir, std::uint64_t index);
+std::filesystem::path begin_checkpoint_file(const std::filesystem::path& dir, std::uint64_t index,
+                                            const CheckpointArrays& arrays, const CheckpointSlabs& slabs,
+                                            std::uint64_t checksum, const RunContext& ctx, const std::string& solver);
+void add_checkpoint_slabs(const std::filesystem::path& partial, const CheckpointArrays& arrays,
+                          const CheckpointSlabs& slabs);
+void commit_checkpoint_file(const std::filesystem::path& partial);
+void discard_checkpoint_file(const std::filesystem::path& partial);
+
 // Writes `arrays` to dir/checkpoint-<index>.h5 (index: a number that grows along the run,
 // e.g. the step or the collision count) with the case text, the resolved parameters, the
 // seed, the solver and the version; keeps this checkpoint and the previous one.
 void write_checkpoint_file(const std::filesystem::path& dir, std::uint64_t index, const CheckpointArrays& arrays,
                            const RunContext& ctx, const std::string& solver);
+
+// Reading only a part of the per-grain arrays (an MPI rank its own grains, so that no rank
+// holds them all; src/dsmc/checkpoint.cpp). After the case checks, `plan` may read the file
+// (in chunks) to choose the parts; then every array for which `range` gives [lo, hi) is read
+// in chunks of kChunk elements, each chunk added to the checksum and only the elements in
+// [lo, hi) (clipped to the array) kept: every byte is still verified, in O(chunk) memory.
+struct CheckpointPart {
+  static constexpr std::uint64_t kChunk = 1 << 20;
+  std::function<void(const H5File&)> plan;
+  std::function<bool(const std::string& name, std::uint64_t& lo, std::uint64_t& hi)> range;
+};
 
 // Tries the checkpoints in `dir` newest first. For each, `prepare()` resets the caller's
 // candidate state and returns its arrays (filled from the file), then the checksum, seed,
@@ -57,6 +105,7 @@ std::filesystem::path read_newest_checkpoint_file(const std::filesystem::path& d
                                                   const std::function<bool(const std::string&)>& may_change,
                                                   const std::string& may_change_text,
                                                   const std::function<CheckpointArrays()>& prepare,
-                                                  const std::function<void()>& finish, std::string& warning);
+                                                  const std::function<void()>& finish, std::string& warning,
+                                                  const CheckpointPart* part = nullptr);
 
 }  // namespace grainbath

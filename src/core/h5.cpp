@@ -21,6 +21,18 @@ hid_t dataset_plist() {
   static const hid_t p = untimed(H5P_DATASET_CREATE);
   return p;
 }
+// A dataset that several processes fill in turn, created by one that has no part of it:
+// contiguous storage allocated at creation (by default it is allocated at the first write,
+// which would then put the array at the end of the file, after everything the creator
+// wrote); no fill values are written (none is set).
+hid_t early_dataset_plist() {
+  static const hid_t p = [] {
+    hid_t q = untimed(H5P_DATASET_CREATE);
+    H5Pset_alloc_time(q, H5D_ALLOC_TIME_EARLY);
+    return q;
+  }();
+  return p;
+}
 hid_t group_plist() {
   static const hid_t p = untimed(H5P_GROUP_CREATE);
   return p;
@@ -39,9 +51,10 @@ H5File::H5File(const std::string& path, Mode mode) : path_(path) {
   if (mode == Mode::create)
     file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   else
-    file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    file_ = H5Fopen(path.c_str(), mode == Mode::update ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
   if (file_ < 0)
-    throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : "open") + " HDF5 file");
+    throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : mode == Mode::update ? "open for writing" : "open") +
+                             " HDF5 file");
 }
 
 H5File::~H5File() {
@@ -111,6 +124,45 @@ static void write_array(H5File& f, hid_t file, const std::string& name, const st
   const hid_t id = ds.id;
   ds.id = -1;
   if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+}
+
+template <class T>
+static void write_slab_of(H5File& f, hid_t file, const std::string& name, const std::vector<T>& data, hsize_t total,
+                          hsize_t offset, hid_t type) {
+  if (offset + data.size() > total)
+    throw std::logic_error(f.path() + ": slab of " + name + " beyond the dataset's " + std::to_string(total) + " elements");
+  Handle ds{-1, H5Dclose};
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) > 0) {
+    ds.id = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  } else {
+    Handle space{H5Screate_simple(1, &total, nullptr), H5Sclose};
+    // with a part to write, the storage is allocated by that write, as in write_array: the
+    // file is byte for byte the one written whole by one process
+    const hid_t plist = data.empty() && total > 0 ? early_dataset_plist() : dataset_plist();
+    ds.id = H5Dcreate2(file, name.c_str(), type, space.id, H5P_DEFAULT, plist, H5P_DEFAULT);
+  }
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot create or open dataset " + name);
+  if (!data.empty()) {
+    const hsize_t count = data.size();
+    Handle file_space{H5Dget_space(ds.id), H5Sclose};
+    Handle memory{H5Screate_simple(1, &count, nullptr), H5Sclose};
+    if (H5Sselect_hyperslab(file_space.id, H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0 ||
+        H5Dwrite(ds.id, type, memory.id, file_space.id, H5P_DEFAULT, data.data()) < 0)
+      throw std::runtime_error(f.path() + ": cannot write elements " + std::to_string(offset) + "..." +
+                               std::to_string(offset + count) + " of dataset " + name + " (disk full?)");
+  }
+  const hid_t id = ds.id;
+  ds.id = -1;
+  if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
+}
+
+void H5File::write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_DOUBLE);
+}
+void H5File::write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_UINT64);
 }
 
 void H5File::write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims) {
@@ -189,6 +241,43 @@ static std::vector<T> read_array(const H5File& f, hid_t file, const std::string&
     throw std::runtime_error(f.path() + ": cannot read dataset " + name + " (wrong type or corrupt file)");
   if (dims_out) *dims_out = dims;
   return out;
+}
+
+template <class T>
+static std::vector<T> read_slab_of(const H5File& f, hid_t file, const std::string& name, hsize_t offset, hsize_t count,
+                                   hid_t type) {
+  if (H5Lexists(file, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error(f.path() + ": missing dataset " + name);
+  Handle ds{H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose};
+  if (ds.id < 0) throw std::runtime_error(f.path() + ": cannot open dataset " + name);
+  Handle space{H5Dget_space(ds.id), H5Sclose};
+  hsize_t length = 0;
+  if (H5Sget_simple_extent_ndims(space.id) != 1 || H5Sget_simple_extent_dims(space.id, &length, nullptr) < 0 ||
+      offset + count > length)
+    throw std::runtime_error(f.path() + ": dataset " + name + " is not a 1D array of at least " +
+                             std::to_string(offset + count) + " elements");
+  std::vector<T> out(count);
+  if (count == 0) return out;
+  Handle memory{H5Screate_simple(1, &count, nullptr), H5Sclose};
+  if (H5Sselect_hyperslab(space.id, H5S_SELECT_SET, &offset, nullptr, &count, nullptr) < 0 ||
+      H5Dread(ds.id, type, memory.id, space.id, H5P_DEFAULT, out.data()) < 0)
+    throw std::runtime_error(f.path() + ": cannot read dataset " + name + " (wrong type or corrupt file)");
+  return out;
+}
+
+std::vector<double> H5File::read_doubles_slab(const std::string& name, hsize_t offset, hsize_t count) const {
+  return read_slab_of<double>(*this, file_, name, offset, count, H5T_NATIVE_DOUBLE);
+}
+std::vector<std::uint64_t> H5File::read_u64_slab(const std::string& name, hsize_t offset, hsize_t count) const {
+  return read_slab_of<std::uint64_t>(*this, file_, name, offset, count, H5T_NATIVE_UINT64);
+}
+hsize_t H5File::length(const std::string& name) const {
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) <= 0) fail("missing dataset " + name);
+  Handle ds{H5Dopen2(file_, name.c_str(), H5P_DEFAULT), H5Dclose};
+  Handle space{H5Dget_space(ds.id), H5Sclose};
+  hsize_t n = 0;
+  if (ds.id < 0 || H5Sget_simple_extent_ndims(space.id) != 1 || H5Sget_simple_extent_dims(space.id, &n, nullptr) < 0)
+    fail("dataset " + name + " is not a 1D array");
+  return n;
 }
 
 std::vector<double> H5File::read_doubles(const std::string& name, std::vector<hsize_t>* dims) const {

@@ -12,7 +12,9 @@ namespace grainbath {
 
 class H5File {
  public:
-  enum class Mode { create, read };
+  // update: an existing file opened for writing (the ranks adding their particle slabs to
+  // a checkpoint that rank 0 created, src/dsmc/checkpoint.cpp)
+  enum class Mode { create, read, update };
   H5File(const std::string& path, Mode mode);
   ~H5File();
   H5File(const H5File&) = delete;
@@ -22,6 +24,11 @@ class H5File {
   void write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims = {});
+  // One rank's part [offset, offset + data.size()) of a 1D dataset of `total` elements: the
+  // dataset is created if missing, its storage where write() would put it (the file does
+  // not depend on how the array was split); an empty part writes nothing.
+  void write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset);
+  void write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset);
   void write_string(const std::string& name, const std::string& value);
   void write_scalar(const std::string& name, double value);
   void write_scalar(const std::string& name, std::uint64_t value);
@@ -35,6 +42,11 @@ class H5File {
   std::vector<double> read_doubles(const std::string& name, std::vector<hsize_t>* dims = nullptr) const;
   std::vector<std::uint64_t> read_u64(const std::string& name) const;
   std::vector<std::int64_t> read_i64(const std::string& name) const;
+  // Elements [offset, offset + count) of a 1D dataset, and its length (reading a checkpoint
+  // in chunks: src/core/checkpoint.cpp).
+  std::vector<double> read_doubles_slab(const std::string& name, hsize_t offset, hsize_t count) const;
+  std::vector<std::uint64_t> read_u64_slab(const std::string& name, hsize_t offset, hsize_t count) const;
+  hsize_t length(const std::string& name) const;
   std::string read_string(const std::string& name) const;
   double read_scalar(const std::string& name) const;
   std::uint64_t read_scalar_u64(const std::string& name) const;

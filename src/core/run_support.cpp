@@ -142,6 +142,17 @@ double wall_seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+int fault_checkpoint_rank() {
+  static const int r = [] {
+    const char* v = std::getenv("GRAINBATH_FAULT_CHECKPOINT_RANK");
+    if (!v || !*v) return -1;
+    char* end = nullptr;
+    const long x = std::strtol(v, &end, 10);
+    return (*end == '\0' && x >= 0) ? static_cast<int>(x) : -1;
+  }();
+  return r;
+}
+
 std::int64_t fault_nonfinite_sample() {
   static const std::int64_t k = [] {
     const char* v = std::getenv("GRAINBATH_FAULT_NONFINITE_SAMPLE");

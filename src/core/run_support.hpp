@@ -62,6 +62,9 @@ double wall_seconds_since(std::chrono::steady_clock::time_point start);
 // temperature of their K-th sample (0 = the initial one) by NaN, so that tests can show the
 // run stops with a clear message and a checkpoint. -1 when unset or not a whole number.
 std::int64_t fault_nonfinite_sample();
+// Test hook: GRAINBATH_FAULT_CHECKPOINT_RANK=r makes MPI rank r fail when it writes its part
+// of a checkpoint (-1: unset), to test that every rank stops with the same message.
+int fault_checkpoint_rank();
 std::string utc_timestamp();
 
 }  // namespace grainbath

@@ -40,6 +40,14 @@ class StateHash {
     sum_ += h;  // wrapping: order-independent
     ++count_;
   }
+  // Hashes of disjoint sets of particles (each MPI rank its own) combine into the hash of the
+  // union: the partial sums and counts, summed modulo 2^64 in any order, then add_partial.
+  std::uint64_t partial_sum() const { return sum_; }
+  std::uint64_t partial_count() const { return count_; }
+  void add_partial(std::uint64_t sum, std::uint64_t count) {
+    sum_ += sum;
+    count_ += count;
+  }
   std::uint64_t value() const { return splitmix64_mix(sum_ ^ splitmix64_mix(count_)); }
   // 16 lower-case hex digits: JSON numbers would lose bits above 2^53
   std::string hex() const {

@@ -5,6 +5,9 @@
 #include <stdexcept>
 
 #include "core/checkpoint.hpp"
+#include "core/run_support.hpp"
+#include "dsmc/decomposition.hpp"
+#include "dsmc/spatial.hpp"
 
 namespace grainbath::dsmc {
 
@@ -52,8 +55,8 @@ void unpack(const Scalars& k, State& s) {
 
 // The state as named arrays (core/checkpoint.hpp): one list drives writing, reading and
 // the checksum.
-CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& batch_samples) {
-  Particles& p = s.particles;
+// p: the grains (s.particles, or this rank's part of them when s holds the rest on rank 0).
+CheckpointArrays arrays_of(State& s, Particles& p, Scalars& k, std::vector<std::uint64_t>& batch_samples) {
   TimeSeries& t = s.series;
   CheckpointArrays a;
   a.real = {{"particles/vx", &p.vx},
@@ -91,6 +94,51 @@ CheckpointArrays arrays_of(State& s, Scalars& k, std::vector<std::uint64_t>& bat
   return a;
 }
 
+// Arrays of one entry per grain, in the global (cell, id) order: spread over the ranks, each
+// rank's part after those of the ranks before it. (Spins are per grain too, but only
+// homogeneous runs have them, where rank 0 holds every grain: written whole by rank 0.)
+bool per_grain(const std::string& name) { return name.rfind("particles/", 0) == 0; }
+
+// Where this rank's part of every per-grain array goes, in list order.
+CheckpointSlabs slabs_of(const CheckpointArrays& a, const Decomposition& dec) {
+  std::vector<std::string> names;
+  std::vector<std::uint64_t> local;
+  for (const auto& [n, v] : a.real)
+    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
+  for (const auto& [n, v] : a.integer)
+    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
+  std::vector<std::uint64_t> offset, total;
+  dec.offsets(local, offset, total);
+  CheckpointSlabs slabs;
+  for (std::size_t i = 0; i < names.size(); ++i) slabs.emplace_back(names[i], CheckpointSlab{total[i], offset[i]});
+  return slabs;
+}
+
+// The checksum of the whole file (CheckpointArrays::checksum on one process): the arrays in
+// list order; the bytes of a per-grain array are added by the ranks in turn (rank order is
+// the global order), each going on from the sum of the ranks before. Meaningful on rank 0.
+std::uint64_t distributed_checksum(const CheckpointArrays& a, const CheckpointSlabs& slabs, const Decomposition& dec) {
+  Fnv1a sum;
+  auto add = [&](const std::string& name, const auto& v) {
+    const auto slab = std::find_if(slabs.begin(), slabs.end(), [&](const auto& e) { return e.first == name; });
+    if (slab == slabs.end()) {  // rank 0 holds it whole
+      if (!dec.root()) return;
+      sum.add_length(v.size());
+      sum.add_elements(v);
+      return;
+    }
+    if (dec.root()) sum.add_length(slab->second.total);
+    sum.h = dec.in_rank_order<std::uint64_t>(sum.h, [&](std::uint64_t& h) {
+      Fnv1a part{h};
+      part.add_elements(v);
+      h = part.h;
+    });
+  };
+  for (const auto& [n, v] : a.real) add(n, *v);
+  for (const auto& [n, v] : a.integer) add(n, *v);
+  return sum.h;
+}
+
 // Keys that may change between the checkpoint and the resumed run.
 bool may_change(const std::string& key) {
   return key == "dsmc.t_end" || key.rfind("checkpoint.", 0) == 0 || key == "run.threads";
@@ -98,30 +146,116 @@ bool may_change(const std::string& key) {
 
 }  // namespace
 
-void write_checkpoint(const fs::path& dir, const State& state, const RunContext& ctx) {
+void write_checkpoint(const fs::path& dir, const State& state, const RunContext& ctx, const Decomposition& dec) {
   State& s = const_cast<State&>(state);  // arrays_of needs non-const pointers; nothing is modified
-  Scalars k = pack(s);
-  std::vector<std::uint64_t> bs(s.fields.batch_samples.begin(), s.fields.batch_samples.end());
-  write_checkpoint_file(dir, static_cast<std::uint64_t>(s.step), arrays_of(s, k, bs), ctx, "dsmc");
+  State rest = dec.gather_cells(s);      // rank 0: all but the grains; other ranks: empty
+  Scalars k = pack(rest);
+  std::vector<std::uint64_t> bs(rest.fields.batch_samples.begin(), rest.fields.batch_samples.end());
+  const CheckpointArrays arrays = arrays_of(rest, s.particles, k, bs);
+  const CheckpointSlabs slabs = slabs_of(arrays, dec);
+  const std::uint64_t checksum = distributed_checksum(arrays, slabs, dec);
+  const auto index = static_cast<std::uint64_t>(s.step);
+  // serial HDF5: one rank at a time in the file; rank 0 creates it, the others add their
+  // grains; a failed rank passes "failed" on and the ranks after it do not touch the file
+  std::string error;
+  fs::path partial;
+  const int written = dec.in_rank_order<int>(1, [&](int& ok) {
+    if (!ok) return;
+    try {
+      if (fault_checkpoint_rank() == dec.rank())
+        throw std::runtime_error(partial_checkpoint_path(dir, index).string() +
+                                 ": write failed (GRAINBATH_FAULT_CHECKPOINT_RANK test hook)");
+      if (dec.root())
+        partial = begin_checkpoint_file(dir, index, arrays, slabs, checksum, ctx, "dsmc");
+      else
+        add_checkpoint_slabs(partial_checkpoint_path(dir, index), arrays, slabs);
+    } catch (const std::exception& e) {
+      error = e.what();
+      ok = 0;
+    }
+  });
+  if (dec.root()) {
+    try {
+      if (written)
+        commit_checkpoint_file(partial);
+      else
+        discard_checkpoint_file(partial_checkpoint_path(dir, index));
+    } catch (const std::exception& e) {
+      if (error.empty()) error = e.what();
+    }
+  }
+  if (dec.size() == 1) {
+    if (!error.empty()) throw std::runtime_error(error);
+    return;
+  }
+  error = dec.first_error(error);  // "rank r: ...", on every rank
+  if (!error.empty()) throw std::runtime_error("writing a checkpoint failed on " + error);
 }
 
-std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning) {
+namespace {
+// Restart on several ranks: the grains per reduction block of the whole checkpoint, from
+// its positions read in chunks (every rank alike). The file holds the grains in (cell, id)
+// order (written after a sort, in rank order = cell order): checked, since each rank's
+// grains are then one contiguous range of it.
+std::vector<std::uint64_t> grains_per_block(const H5File& h, const Config& c, std::size_t block_cells) {
+  const Domain& d = c.domain;
+  const CellGrid grid(d);
+  const std::uint64_t n = h.length("/particles/x");
+  std::vector<std::uint64_t> w((d.cell_count() + block_cells - 1) / block_cells, 0);
+  std::uint32_t previous = 0;
+  for (std::uint64_t at = 0; at < n; at += CheckpointPart::kChunk) {
+    const std::uint64_t count = std::min(CheckpointPart::kChunk, n - at);
+    const std::vector<double> x = h.read_doubles_slab("/particles/x", at, count);
+    const std::vector<double> y = d.dimensions > 1 ? h.read_doubles_slab("/particles/y", at, count) : std::vector<double>{};
+    const std::vector<double> z = d.dimensions > 2 ? h.read_doubles_slab("/particles/z", at, count) : std::vector<double>{};
+    for (std::uint64_t i = 0; i < count; ++i) {
+      const std::uint32_t k = grid(x[i], y.empty() ? 0.0 : y[i], z.empty() ? 0.0 : z[i]);
+      if (k < previous || k >= d.cell_count())
+        throw std::runtime_error("the grains are not in cell order (grain " + std::to_string(at + i) + ")");
+      previous = k;
+      ++w[k / block_cells];
+    }
+  }
+  return w;
+}
+}  // namespace
+
+std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning,
+                                            const Config& c, Decomposition& dec) {
   State s;
   Scalars k;
   std::vector<std::uint64_t> bs;
+  // several ranks: this rank's range of the per-grain arrays (spins: homogeneous runs only,
+  // all on rank 0 like the grains)
+  std::uint64_t first = 0, end = 0;
+  CheckpointPart part;
+  part.plan = [&](const H5File& h) {
+    if (c.spatial()) {
+      dec.plan_restart(grains_per_block(h, c, dec.block_cells()), first, end);
+    } else {
+      first = 0;
+      end = dec.root() ? h.length("/particles/vx") : 0;
+    }
+  };
+  part.range = [&](const std::string& name, std::uint64_t& lo, std::uint64_t& hi) {
+    if (!per_grain(name) && name.rfind("spins/", 0) != 0) return false;
+    lo = first;
+    hi = end;
+    return true;
+  };
   const fs::path loaded = read_newest_checkpoint_file(
       dir, ctx, "dsmc", may_change, "dsmc.t_end and [checkpoint]",
       [&] {
         s = State{};
         k = Scalars{};
         bs.clear();
-        return arrays_of(s, k, bs);
+        return arrays_of(s, s.particles, k, bs);
       },
       [&] {
         unpack(k, s);
         s.fields.batch_samples.assign(bs.begin(), bs.end());
       },
-      warning);
+      warning, dec.size() > 1 ? &part : nullptr);
   if (loaded.empty()) return std::nullopt;
   return s;
 }

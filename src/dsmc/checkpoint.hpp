@@ -13,12 +13,23 @@
 
 namespace grainbath::dsmc {
 
-void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx);
+class Decomposition;
+
+// Collective over the ranks of `dec`. The file is the one a single process holding the
+// whole state writes (the same datasets, order and values, byte for byte; docs/dsmc.md):
+// rank 0 writes the counters, series, per-cell data (gathered: O(cells)) and its own
+// grains, then each rank in turn adds its grains at their global offset. No rank holds
+// another's grains. A rank that fails makes every rank throw the same message.
+void write_checkpoint(const std::filesystem::path& dir, const State& s, const RunContext& ctx,
+                      const Decomposition& dec);
 
 // The newest checkpoint in `dir` that verifies, or nullopt. `warning` receives a message
 // for every checkpoint skipped as corrupt. Throws if the case differs from the checkpoint's
 // in anything but t_end and the [checkpoint] settings.
+// Several ranks (dec): each rank keeps only its own grains (the cell ranges are chosen from
+// the positions, read in chunks: Decomposition::plan_restart), while still verifying every
+// byte of the file; then Decomposition::distribute(s, c, true).
 std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx,
-                                            std::string& warning);
+                                            std::string& warning, const Config& c, Decomposition& dec);
 
 }  // namespace grainbath::dsmc

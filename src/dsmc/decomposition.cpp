@@ -357,7 +357,18 @@ void Decomposition::cells_of_all(State& s, const Config& c, const std::vector<st
   w.cell_fresh = true;
 }
 
-void Decomposition::distribute(State& s, const Config& c, bool holds_all) {
+void Decomposition::plan_restart(const std::vector<std::uint64_t>& grains_per_block, std::uint64_t& first,
+                                 std::uint64_t& end) {
+  if (grains_per_block.size() != blocks_) throw std::logic_error("plan_restart: not one count per reduction block");
+  std::vector<std::uint64_t> w = grains_per_block;
+  for (auto& x : w) ++x;  // +1: empty regions are still spread out (as distribute)
+  first_block_ = balanced_boundaries(w);
+  first = end = 0;
+  for (std::size_t b = 0; b < end_block(); ++b) (b < first_block() ? first : end) += grains_per_block[b];
+  end += first;
+}
+
+void Decomposition::distribute(State& s, const Config& c, bool read_own) {
   Particles& p = s.particles;
   note_particles(p.size());
   if (size_ == 1) return;
@@ -368,24 +379,22 @@ void Decomposition::distribute(State& s, const Config& c, bool holds_all) {
     return;
   }
   cells_of_all(s, c, nullptr);
+  if (read_own) {  // the boundaries were chosen by plan_restart; every grain is this rank's
+    balanced_at_step_ = s.step;
+    return;
+  }
   std::vector<std::uint64_t> w(blocks_, 0);
   for (std::uint32_t k : s.sort.cell)
     if (k != kRemoved) ++w[k / block_cells_];
 #ifdef GRAINBATH_MPI
   // particles per block over all ranks (integers: the sum is exact in any order)
-  if (!holds_all) MPI_Allreduce(MPI_IN_PLACE, w.data(), to_int(blocks_, "the reduction blocks"), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, w.data(), to_int(blocks_, "the reduction blocks"), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
 #endif
   for (auto& x : w) ++x;  // +1: empty regions are still spread out
   first_block_ = balanced_boundaries(w);
   balanced_at_step_ = s.step;
-  if (holds_all) {  // keep this rank's cells only
-    const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
-    for (auto& k : s.sort.cell)
-      if (k < lo || k >= hi) k = kRemoved;
-  } else {
-    send_to_owners(s, c);
-    note_particles(p.size());
-  }
+  send_to_owners(s, c);
+  note_particles(p.size());
 }
 
 void Decomposition::send_to_owners(State& s, const Config& c) {
@@ -533,30 +542,25 @@ bool Decomposition::rebalance(State& s, const Config& c) {
   return true;
 }
 
-State Decomposition::gather_state(const State& s, const Config& c) const {
+State Decomposition::gather_cells(const State& s) const {
   State g;
+  if (root()) {  // the values every rank shares, and one process's per-cell data
+    g.step = s.step;
+    g.counters = s.counters;
+    g.series = s.series;
+    g.fields = s.fields;
+    g.remainder = s.remainder;
+    g.initial_kinetic_energy = s.initial_kinetic_energy;
+    g.particle_steps_run = s.particle_steps_run;
+    g.collisions_before_run = s.collisions_before_run;
+    // rough grains (homogeneous runs only: rank 0 holds every grain and its spin)
+    g.wx = s.wx;
+    g.wy = s.wy;
+    g.wz = s.wz;
+  }
+  if (size_ == 1) return g;
 #ifdef GRAINBATH_MPI
   const int root_rank = 0;
-  const Particles& p = s.particles;
-  std::vector<int> counts(size_);
-  const int n = to_int(p.size(), "the particles of one rank");
-  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, root_rank, MPI_COMM_WORLD);
-  std::vector<int> d = root() ? displacements(counts) : std::vector<int>(size_, 0);
-  const std::size_t total = root() ? static_cast<std::size_t>(d.back()) + counts.back() : 0;
-  auto gather = [&](const std::vector<double>& a, std::vector<double>& b) {
-    if (root()) b.resize(total);
-    MPI_Gatherv(a.data(), n, MPI_DOUBLE, b.data(), counts.data(), d.data(), MPI_DOUBLE, root_rank, MPI_COMM_WORLD);
-  };
-  Particles& q = g.particles;
-  gather(p.vx, q.vx);
-  gather(p.vy, q.vy);
-  gather(p.vz, q.vz);
-  if (c.spatial()) gather(p.x, q.x);
-  if (c.domain.dimensions > 1) gather(p.y, q.y);
-  if (c.domain.dimensions > 2) gather(p.z, q.z);
-  if (!p.bath_hazard.empty()) gather(p.bath_hazard, q.bath_hazard);
-  if (root()) q.id.resize(total);
-  MPI_Gatherv(p.id.data(), n, MPI_UINT64_T, q.id.data(), counts.data(), d.data(), MPI_UINT64_T, root_rank, MPI_COMM_WORLD);
   // per-cell data: each rank's own cell range, in rank order = cell order
   std::vector<int> cc(size_), cd(size_);
   for (int r = 0; r < size_; ++r) {
@@ -564,12 +568,9 @@ State Decomposition::gather_state(const State& s, const Config& c) const {
     cd[r] = to_int(first_cell(r), "the cell grid");
   }
   const std::size_t lo = first_cell(rank_);
-  if (root()) g.remainder.resize(s.remainder.size());
   MPI_Gatherv(s.remainder.data() + lo, cc[rank_], MPI_DOUBLE, g.remainder.data(), cc.data(), cd.data(), MPI_DOUBLE,
               root_rank, MPI_COMM_WORLD);
-  const FieldAccumulator& f = s.fields;
-  g.fields = f;  // metadata (and rank 0's own sums, overwritten below)
-  if (!root()) g.fields.sums.clear();
+  const FieldAccumulator& f = s.fields;  // rank 0's copy: its own sums, the others' overwritten here
   if (f.cells > 0) {
     constexpr int K = FieldAccumulator::kSums;
     std::vector<int> fc(size_), fd(size_);
@@ -584,24 +585,150 @@ State Decomposition::gather_state(const State& s, const Config& c) const {
                   MPI_COMM_WORLD);
     }
   }
-  double steps_run = sum(s.particle_steps_run);
-  if (root()) {
-    g.step = s.step;
-    g.counters = s.counters;
-    g.series = s.series;
-    g.initial_kinetic_energy = s.initial_kinetic_energy;
-    g.particle_steps_run = steps_run;
-    g.collisions_before_run = s.collisions_before_run;
-    // rough grains (homogeneous runs only: rank 0 holds every grain and its spin)
-    g.wx = s.wx;
-    g.wy = s.wy;
-    g.wz = s.wz;
-  }
-#else
-  (void)s;
-  (void)c;
+  const double steps_run = sum(s.particle_steps_run);
+  if (root()) g.particle_steps_run = steps_run;
 #endif
   return g;
+}
+
+std::vector<unsigned char> Decomposition::in_rank_order(
+    std::vector<unsigned char> token, const std::function<void(std::vector<unsigned char>&)>& turn) const {
+#ifdef GRAINBATH_MPI
+  if (size_ > 1) {
+    constexpr int kTagTurn = 7003;
+    const int n = to_int(token.size(), "a token");
+    if (!root()) MPI_Recv(token.data(), n, MPI_BYTE, rank_ - 1, kTagTurn, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    turn(token);
+    MPI_Send(token.data(), n, MPI_BYTE, (rank_ + 1) % size_, kTagTurn, MPI_COMM_WORLD);
+    if (root()) MPI_Recv(token.data(), n, MPI_BYTE, size_ - 1, kTagTurn, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    return token;
+  }
+#endif
+  turn(token);
+  return token;
+}
+
+void Decomposition::offsets(const std::vector<std::uint64_t>& local, std::vector<std::uint64_t>& offset,
+                            std::vector<std::uint64_t>& total) const {
+  offset.assign(local.size(), 0);
+  total = local;
+#ifdef GRAINBATH_MPI
+  if (size_ > 1 && !local.empty()) {
+    const int n = to_int(local.size(), "the offsets");
+    MPI_Exscan(local.data(), offset.data(), n, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    if (root()) std::fill(offset.begin(), offset.end(), 0);  // MPI_Exscan leaves rank 0's undefined
+    MPI_Allreduce(local.data(), total.data(), n, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  }
+#endif
+}
+
+std::string Decomposition::first_error(const std::string& mine) const {
+#ifdef GRAINBATH_MPI
+  if (size_ > 1) {
+    const int candidate = mine.empty() ? size_ : rank_;
+    int failed = size_;
+    MPI_Allreduce(&candidate, &failed, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (failed == size_) return {};
+    std::string text = "rank " + std::to_string(failed) + ": " + mine;
+    int length = static_cast<int>(text.size());
+    MPI_Bcast(&length, 1, MPI_INT, failed, MPI_COMM_WORLD);
+    text.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(text.data(), length, MPI_CHAR, failed, MPI_COMM_WORLD);
+    return text;
+  }
+#endif
+  return mine;
+}
+
+void Decomposition::sum_counts(std::vector<double>& counts) const {
+#ifdef GRAINBATH_MPI
+  if (size_ > 1 && !counts.empty())
+    MPI_Allreduce(MPI_IN_PLACE, counts.data(), to_int(counts.size(), "the counts"), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+#else
+  (void)counts;
+#endif
+}
+
+std::uint64_t Decomposition::sum_wrapping(std::uint64_t x) const {
+#ifdef GRAINBATH_MPI
+  if (size_ > 1) {
+    std::uint64_t out = 0;
+    MPI_Allreduce(&x, &out, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    return out;
+  }
+#endif
+  return x;
+}
+
+namespace {
+// Sums of blocks of kGlobalBlock particles of the global order, when this rank holds the
+// particles [offset, offset + n) of it. The blocks that lie inside the rank are summed at
+// once (in parallel); a block split between ranks is summed by its ranks in turn, each
+// going on from the sums of the ones before (the carry), so that every block is added in
+// particle order as one process adds it. Returns the blocks that end on this rank, in
+// order (the last rank also ends the last block).
+constexpr std::size_t kGlobalBlock = 4096;  // measure_moments' block (src/dsmc/moments.cpp)
+template <class Sums>
+struct Carry {
+  int open = 0;  // a block begun on an earlier rank is not finished
+  Sums sums;
+};
+template <class Sums, class Blocks, class Range>
+std::vector<Sums> sums_in_global_blocks(const Decomposition& dec, std::size_t n, std::uint64_t offset,
+                                        const Blocks& blocks, const Range& range) {
+  const auto to_boundary = static_cast<std::size_t>((kGlobalBlock - offset % kGlobalBlock) % kGlobalBlock);
+  const std::size_t head = std::min(n, to_boundary);  // [0, head): the end of a block begun before
+  const bool head_ends_block = head > 0 && to_boundary <= n;
+  std::vector<std::size_t> bounds;  // the whole blocks inside this rank
+  std::size_t lo = head;
+  for (; lo + kGlobalBlock <= n; lo += kGlobalBlock) bounds.push_back(lo);
+  if (!bounds.empty()) bounds.push_back(lo);
+  std::vector<Sums> inside;
+  blocks(bounds, inside);
+  // [lo, n) begins a block that goes on after this rank (not when the head already ran to n)
+  const bool tail_open = lo < n && (head_ends_block || head == 0);
+  Sums tail{};
+  if (tail_open) range(lo, n, tail);
+  std::vector<Sums> done;
+  dec.in_rank_order<Carry<Sums>>(Carry<Sums>{}, [&](Carry<Sums>& carry) {
+    if (head > 0) {
+      range(0, head, carry.sums);  // goes on from the ranks before
+      carry.open = 1;
+    }
+    if (head_ends_block) {
+      done.push_back(carry.sums);
+      carry = Carry<Sums>{};
+    }
+    done.insert(done.end(), inside.begin(), inside.end());
+    if (tail_open) carry = Carry<Sums>{1, tail};
+    if (dec.rank() == dec.size() - 1 && carry.open) {  // the last, partial block of the population
+      done.push_back(carry.sums);
+      carry = Carry<Sums>{};
+    }
+  });
+  return done;
+}
+}  // namespace
+
+Moments Decomposition::moments_in_global_blocks(const Particles& p, double mass) const {
+  std::vector<std::uint64_t> offset, total;
+  offsets({p.size()}, offset, total);
+  std::vector<RawMomentSums> raw = sums_in_global_blocks<RawMomentSums>(
+      *this, p.size(), offset[0],
+      [&](const std::vector<std::size_t>& bounds, std::vector<RawMomentSums>& out) { raw_moment_sums(p, bounds, out); },
+      [&](std::size_t lo, std::size_t hi, RawMomentSums& s) { add_raw_moment_sums(p, lo, hi, s); });
+  combine_in_order(raw);
+  Moments m = moments_from_raw(raw, mass);
+  const Vec3 u = m.mean_velocity;
+  std::vector<CentralMomentSums> central = sums_in_global_blocks<CentralMomentSums>(
+      *this, p.size(), offset[0],
+      [&](const std::vector<std::size_t>& bounds, std::vector<CentralMomentSums>& out) {
+        central_moment_sums(p, bounds, u, out);
+      },
+      [&](std::size_t lo, std::size_t hi, CentralMomentSums& s) { add_central_moment_sums(p, lo, hi, u, s); });
+  combine_in_order(central);
+  finish_moments(central, mass, m);
+  return m;
 }
 
 }  // namespace grainbath::dsmc

@@ -12,11 +12,15 @@
 //     x fastest; B depends on the case only), rank boundaries fall on block boundaries, and
 //     every floating-point counter is summed per block and the block sums are added in
 //     block order (combine_in_order), the same at any rank and thread count;
-//  3. moments of the whole population are taken on the gathered particles in global
-//     (cell, id) order, i.e. exactly the array a single process holds.
+//  3. moments of the whole population are summed in blocks of the global (cell, id) order,
+//     i.e. of exactly the array a single process holds: a block split between ranks is
+//     summed by its ranks in turn (moments_in_global_blocks). No rank ever gathers the
+//     particles, not even for output (src/dsmc/checkpoint.hpp, output.hpp).
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "dsmc/dsmc.hpp"
@@ -84,12 +88,17 @@ class Decomposition {
   }
 
   // Start of a run: choose balanced boundaries and send every particle to its owner.
-  // holds_all: every rank holds the whole population (a checkpoint read by every rank; the
-  // others are dropped); otherwise each rank holds a disjoint part of it (initialise() on
-  // this rank's share of the ids), the block weights are summed over the ranks and the
-  // particles move to their owners in one all-to-all. Leaves the cell of every particle
-  // (kRemoved: not this rank's) in s.sort.cell for sort_by_cell.
-  void distribute(State& s, const Config& c, bool holds_all);
+  // read_own: each rank holds its own cells' grains, read from a checkpoint after
+  // plan_restart chose the boundaries; otherwise each rank holds a disjoint part of the
+  // population (initialise() on this rank's share of the ids), the block weights are summed
+  // over the ranks and the particles move to their owners in one all-to-all. Leaves the cell
+  // of every particle (kRemoved: not this rank's) in s.sort.cell for sort_by_cell.
+  void distribute(State& s, const Config& c, bool read_own);
+  // Restart (spatial runs): the boundaries from the grains per reduction block of the whole
+  // checkpoint (every rank counts them alike from the positions), chosen as a fresh start
+  // chooses them; [first, end) receives this rank's grains in the checkpoint's global
+  // (cell, id) order, where its blocks' grains are contiguous.
+  void plan_restart(const std::vector<std::uint64_t>& grains_per_block, std::uint64_t& first, std::uint64_t& end);
   // After streaming: send particles that left this rank's cells to their owners, receive
   // those that arrived. Neighbour exchanges only: the ranks form a ring in cell order, a
   // migrant goes the shorter way round and is forwarded one neighbour per round until it
@@ -118,9 +127,47 @@ class Decomposition {
   // ones a single process gets with the same blocks. per_block: bounds are this rank's
   // reduction blocks (block_bounds of a spatial run).
   Moments moments(const Particles& p, const std::vector<std::size_t>& bounds, double mass, bool per_block) const;
-  // The whole state on rank 0 (particles in global order, per-cell data from each cell's
-  // owner); other ranks get an empty State. Collective.
-  State gather_state(const State& s, const Config& c) const;
+  // Moments of the whole population summed exactly as measure_moments sums the array one
+  // process holds (blocks of 4096 particles of the global order, src/dsmc/moments.cpp):
+  // the output's final moments, bitwise those of a single process at any rank count.
+  Moments moments_in_global_blocks(const Particles& p, double mass) const;
+  // Everything but the particles on rank 0: counters, series and scalars as rank 0 has them
+  // (the same on every rank), the per-cell data (NTC remainders, field sums: O(cells)) from
+  // each cell's owner, and the spins (homogeneous rough runs: rank 0 holds every grain).
+  // Other ranks get an empty State. Collective.
+  State gather_cells(const State& s) const;
+
+  // Output in rank order (serial HDF5: one process at a time in a file). Rank 0 calls
+  // `turn` with `token`, sends the result to rank 1, which calls `turn` on it and sends it
+  // on, ..., the last rank sends the result back to rank 0, where it is returned (other
+  // ranks return what they sent). One process: turn(token).
+  std::vector<unsigned char> in_rank_order(std::vector<unsigned char> token,
+                                           const std::function<void(std::vector<unsigned char>&)>& turn) const;
+  template <class T>
+  T in_rank_order(T token, const std::function<void(T&)>& turn) const {
+    std::vector<unsigned char> bytes(sizeof(T));
+    std::memcpy(bytes.data(), &token, sizeof(T));
+    bytes = in_rank_order(std::move(bytes), [&](std::vector<unsigned char>& b) {
+      T t;
+      std::memcpy(&t, b.data(), sizeof(T));
+      turn(t);
+      std::memcpy(b.data(), &t, sizeof(T));
+    });
+    std::memcpy(&token, bytes.data(), sizeof(T));
+    return token;
+  }
+  // Offsets of this rank's parts in arrays spread over the ranks in rank order: offset[k] is
+  // the sum of local[k] over the ranks before this one, total[k] over all ranks.
+  void offsets(const std::vector<std::uint64_t>& local, std::vector<std::uint64_t>& offset,
+               std::vector<std::uint64_t>& total) const;
+  // Collective error agreement after a step that may fail on some ranks: empty if `mine` is
+  // empty on every rank, else the message of the lowest failing rank ("rank r: ..."), on
+  // every rank, so that all of them stop with the same clear message instead of hanging.
+  std::string first_error(const std::string& mine) const;
+  // Sums over the ranks that are exact in any order: integer-valued doubles (histogram
+  // counts below 2^53), and 64-bit integers modulo 2^64.
+  void sum_counts(std::vector<double>& counts) const;
+  std::uint64_t sum_wrapping(std::uint64_t x) const;
 
   bool any(bool flag) const { return any_bits(flag ? 1 : 0) != 0; }  // logical OR over the ranks
   int any_bits(int bits) const;     // bitwise OR over the ranks (several flags, one collective)
@@ -138,8 +185,8 @@ class Decomposition {
   const MigrationStats& migration_stats() const { return stats_; }
   // The most grains this rank has held at once in its particle arrays (from the start, or
   // from reading a checkpoint, through the start-up distribution and every migration and
-  // rebalance): about N/size after a fresh start, N after a resume (every rank reads the
-  // checkpoint). Gathers for output on rank 0 are not counted.
+  // rebalance): about N/size after a fresh start or a resume (each rank reads its own
+  // grains of the checkpoint). Output gathers no grain.
   std::size_t peak_particles() const { return peak_particles_; }
 
  private:

@@ -9,6 +9,7 @@
 // are ordered by id inside each cell, so a run is a pure function of (case, seed): the
 // same at any thread count, and bitwise the same after a restart from a checkpoint.
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <chrono>
 #include <cmath>
@@ -286,6 +287,13 @@ void sample(State& s, const Config& c, double t, const Decomposition& dec, std::
   }
 }
 
+// The most resident memory this process has had (the kernel's high-water mark, in bytes).
+long long peak_resident_bytes() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<long long>(u.ru_maxrss) * 1024;  // Linux: kB
+}
+
 }  // namespace
 
 void run(const Config& c, const RunContext& ctx, Summary& summary) {
@@ -306,7 +314,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   bool resumed = false;
   if (ctx.resume) {
     std::string warning;
-    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning);
+    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec);  // MPI: this rank's grains
     if (!warning.empty() && dec.root()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
@@ -337,17 +345,18 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       s.cell_start = {0, s.particles.size()};
     }
   };
-  // MPI: each rank now keeps its own cells' grains (from a checkpoint, every rank has read
-  // them all; from initialise(), each rank made its share of the ids)
+  // MPI: each rank now keeps its own cells' grains (from a checkpoint, each rank has read
+  // only its own; from initialise(), each rank made its share of the ids)
   dec.distribute(s, c, resumed);
   rebuild_cells();
   std::vector<std::size_t> bounds;
   LocalBathCache local_bath;
-  // checkpoints and results are written by rank 0 from the gathered state
+  // checkpoints: every rank writes its own grains in turn (no gather: src/dsmc/checkpoint.hpp)
+  double checkpoint_seconds = 0.0;  // performance.checkpoint_seconds (docs/performance/mpi.md)
   auto checkpoint = [&] {
-    if (dec.size() == 1) return write_checkpoint(ctx.checkpoint_dir, s, ctx);
-    const State whole = dec.gather_state(s, c);
-    if (dec.root()) write_checkpoint(ctx.checkpoint_dir, whole, ctx);
+    const auto started = std::chrono::steady_clock::now();
+    write_checkpoint(ctx.checkpoint_dir, s, ctx, dec);
+    checkpoint_seconds += wall_seconds_since(started);
   };
   if (!resumed) sample(s, c, 0.0, dec, bounds);
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
@@ -439,13 +448,23 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     }
   }
   progress.finish();
-  if (dec.size() == 1) {
-    write_results(c, ctx, s, wall_seconds_since(wall_start), summary);
-  } else {
-    const State whole = dec.gather_state(s, c);
-    if (dec.root()) write_results(c, ctx, whole, wall_seconds_since(wall_start), summary);
+  // results: the grains' part is reduced where they are, rank 0 writes the file from sums and
+  // per-cell data; a failure there stops every rank with rank 0's message
+  const FinalGrains grains = final_grains(c, s, dec);
+  const State rest = dec.gather_cells(s);
+  std::string error;
+  if (dec.root()) {
+    try {
+      write_results(c, ctx, rest, grains, wall_seconds_since(wall_start), summary);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
   }
+  if (dec.size() == 1 && !error.empty()) throw std::runtime_error(error);
+  error = dec.first_error(error);
+  if (!error.empty()) throw std::runtime_error("writing the results failed on " + error);
   summary.set("performance.ranks", static_cast<std::int64_t>(dec.size()));
+  summary.set("performance.checkpoint_seconds", checkpoint_seconds);  // rank 0's time in writing checkpoints
   summary.set("performance.rank_load_imbalance", dec.imbalance());
   summary.set("performance.rank_rebalances", static_cast<std::int64_t>(dec.rebalances()));
   if (dec.size() > 1 && c.spatial()) {  // migration traffic over all ranks (docs/performance/mpi.md)
@@ -459,6 +478,11 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     summary.set("performance.migration_max_hops", static_cast<std::int64_t>(dec.max(m.max_hops)));
     summary.set("performance.rank_peak_particles",
                 static_cast<std::int64_t>(dec.max(static_cast<long long>(dec.peak_particles()))));
+    // rank 0 against the largest of the others: no gather for output makes them alike
+    // (tests/mpi/mpi_output.sh; docs/performance/mpi.md)
+    const long long rss = peak_resident_bytes();
+    summary.set("performance.rank0_peak_rss_bytes", static_cast<std::int64_t>(dec.max(dec.root() ? rss : 0)));
+    summary.set("performance.other_ranks_peak_rss_bytes", static_cast<std::int64_t>(dec.max(dec.root() ? 0 : rss)));
   }
 }
 

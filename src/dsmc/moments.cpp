@@ -4,20 +4,23 @@
 
 namespace grainbath::dsmc {
 
+void add_raw_moment_sums(const Particles& p, std::size_t lo, std::size_t hi, RawMomentSums& s) {
+  s.count += static_cast<double>(hi - lo);  // an integer: exact in any order
+  for (std::size_t i = lo; i < hi; ++i) {
+    s.v[0] += p.vx[i];
+    s.v[1] += p.vy[i];
+    s.v[2] += p.vz[i];
+    s.e += p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
+  }
+}
+
 void raw_moment_sums(const Particles& p, const std::vector<std::size_t>& bounds, std::vector<RawMomentSums>& out) {
   const std::size_t blocks = bounds.empty() ? 0 : bounds.size() - 1;
   out.assign(blocks, RawMomentSums{});
 #pragma omp parallel for schedule(static)
   for (std::size_t b = 0; b < blocks; ++b) {
     RawMomentSums s;
-    const std::size_t lo = bounds[b], hi = bounds[b + 1];
-    s.count = static_cast<double>(hi - lo);
-    for (std::size_t i = lo; i < hi; ++i) {
-      s.v[0] += p.vx[i];
-      s.v[1] += p.vy[i];
-      s.v[2] += p.vz[i];
-      s.e += p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
-    }
+    add_raw_moment_sums(p, bounds[b], bounds[b + 1], s);
     out[b] = s;
   }
 }
@@ -29,23 +32,26 @@ void central_moment_sums(const Particles& p, const std::vector<std::size_t>& bou
 #pragma omp parallel for schedule(static)
   for (std::size_t b = 0; b < blocks; ++b) {
     CentralMomentSums s;
-    const std::size_t lo = bounds[b], hi = bounds[b + 1];
-    for (std::size_t i = lo; i < hi; ++i) {
-      const double cx = p.vx[i] - u.x, cy = p.vy[i] - u.y, cz = p.vz[i] - u.z;
-      const double c2 = cx * cx + cy * cy + cz * cz;
-      s.c2 += c2;
-      s.c4 += c2 * c2;
-      s.p[0] += cx * cx;
-      s.p[1] += cy * cy;
-      s.p[2] += cz * cz;
-      s.p[3] += cx * cy;
-      s.p[4] += cx * cz;
-      s.p[5] += cy * cz;
-      s.q[0] += c2 * cx;
-      s.q[1] += c2 * cy;
-      s.q[2] += c2 * cz;
-    }
+    add_central_moment_sums(p, bounds[b], bounds[b + 1], u, s);
     out[b] = s;
+  }
+}
+
+void add_central_moment_sums(const Particles& p, std::size_t lo, std::size_t hi, const Vec3& u, CentralMomentSums& s) {
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double cx = p.vx[i] - u.x, cy = p.vy[i] - u.y, cz = p.vz[i] - u.z;
+    const double c2 = cx * cx + cy * cy + cz * cz;
+    s.c2 += c2;
+    s.c4 += c2 * c2;
+    s.p[0] += cx * cx;
+    s.p[1] += cy * cy;
+    s.p[2] += cz * cz;
+    s.p[3] += cx * cy;
+    s.p[4] += cx * cz;
+    s.p[5] += cy * cz;
+    s.q[0] += c2 * cx;
+    s.q[1] += c2 * cy;
+    s.q[2] += c2 * cz;
   }
 }
 

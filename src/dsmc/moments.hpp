@@ -39,6 +39,12 @@ struct CentralMomentSums {
   double q[3] = {0, 0, 0};
 };
 void raw_moment_sums(const Particles& p, const std::vector<std::size_t>& bounds, std::vector<RawMomentSums>& out);
+// The sums of one block continued with particles [lo, hi): a block split between ranks is
+// summed by its ranks in turn, each going on from the sums of the ones before, which adds
+// in the same order as one process (raw_moment_sums and central_moment_sums are these).
+void add_raw_moment_sums(const Particles& p, std::size_t lo, std::size_t hi, RawMomentSums& s);
+void add_central_moment_sums(const Particles& p, std::size_t lo, std::size_t hi, const Vec3& mean_velocity,
+                             CentralMomentSums& s);
 void central_moment_sums(const Particles& p, const std::vector<std::size_t>& bounds, const Vec3& mean_velocity,
                          std::vector<CentralMomentSums>& out);
 // From the partials of every block, in block order: count, mean velocity and kinetic

@@ -10,6 +10,7 @@
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
 #include "core/state_hash.hpp"
+#include "dsmc/decomposition.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/rough.hpp"
 #include "dsmc/spatial.hpp"
@@ -99,7 +100,8 @@ void write_xdmf(const std::filesystem::path& path, const Domain& d, const std::v
 // with a medium, the spins of rough grains — keyed on the particle id, independent of the
 // storage order, so runs that must agree bitwise (threads, ranks, SIMD paths, restarts) can be
 // compared to the last bit.
-std::string final_state_hash(const State& s) {
+// This process's grains; FinalGrains adds the ranks' partial hashes.
+StateHash final_state_hash(const State& s) {
   const Particles& p = s.particles;
   // positions are stored per dimension in use (none for homogeneous runs)
   const std::size_t n = p.size();
@@ -123,14 +125,57 @@ std::string final_state_hash(const State& s) {
     }
     h.add(p.id[i], std::span<const double>(v, k));
   }
-  return h.hex();
+  return h;
 }
 
 }  // namespace
 
-void write_results(const Config& c, const RunContext& ctx, const State& s, double wall, Summary& summary) {
+FinalGrains final_grains(const Config& c, const State& s, const Decomposition& dec) {
   const Particles& p = s.particles;
-  const std::size_t n = p.size();
+  const std::size_t n = p.size();  // this rank's grains
+  const double m = c.grains.mass;
+  FinalGrains g;
+  g.moments = dec.moments_in_global_blocks(p, m);
+  g.count = static_cast<std::uint64_t>(g.moments.count);
+  // ---- final velocity histograms in units of the thermal speed sqrt(T/m): counts per rank,
+  // summed over the ranks (integers: exact), then normalised
+  const Moments& fin = g.moments;
+  const double vth = std::sqrt(fin.temperature / m);
+  const int nb = c.histogram_bins;
+  const double range = c.histogram_range;
+  g.edges.resize(nb + 1);
+  g.speed_edges.resize(nb + 1);
+  g.components.assign(3 * nb, 0.0);
+  g.speed.assign(nb, 0.0);
+  for (int k = 0; k <= nb; ++k) {
+    g.edges[k] = -range + 2 * range * k / nb;
+    g.speed_edges[k] = range * k / nb;
+  }
+  const double wcomp = nb / (2 * range), wspeed = nb / range;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 cv = (1.0 / vth) * (p.velocity(i) - fin.mean_velocity);
+    const double comp[3] = {cv.x, cv.y, cv.z};
+    for (int d = 0; d < 3; ++d) {
+      const int b = static_cast<int>(std::floor((comp[d] + range) * wcomp));
+      if (b >= 0 && b < nb) g.components[d * nb + b] += 1;
+    }
+    const int bs = static_cast<int>(std::floor(norm(cv) * wspeed));
+    if (bs >= 0 && bs < nb) g.speed[bs] += 1;
+  }
+  dec.sum_counts(g.components);
+  dec.sum_counts(g.speed);
+  for (auto& h : g.components) h *= wcomp / static_cast<double>(g.count);
+  for (auto& h : g.speed) h *= wspeed / static_cast<double>(g.count);
+  const StateHash mine = final_state_hash(s);
+  StateHash all;
+  all.add_partial(dec.sum_wrapping(mine.partial_sum()), dec.sum_wrapping(mine.partial_count()));
+  g.hash = all.hex();
+  return g;
+}
+
+void write_results(const Config& c, const RunContext& ctx, const State& s, const FinalGrains& grains, double wall,
+                   Summary& summary) {
+  const std::uint64_t n = grains.count;
   const double m = c.grains.mass;
   const TimeSeries& ts = s.series;
   const std::size_t samples = ts.t.size();
@@ -143,30 +188,8 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
       a2w.push_back(ts.a2[k]);
     }
   const MeanError Tm = block_average(Tw), a2m = block_average(a2w);
-
-  // ---- final velocity histograms in units of the thermal speed sqrt(T/m)
-  const Moments fin = measure_moments(p, 0, n, m);
-  const double vth = std::sqrt(fin.temperature / m);
+  const Moments& fin = grains.moments;
   const int nb = c.histogram_bins;
-  const double range = c.histogram_range;
-  std::vector<double> edges(nb + 1), hist_comp(3 * nb, 0.0), hist_speed(nb, 0.0), speed_edges(nb + 1);
-  for (int k = 0; k <= nb; ++k) {
-    edges[k] = -range + 2 * range * k / nb;
-    speed_edges[k] = range * k / nb;
-  }
-  const double wcomp = nb / (2 * range), wspeed = nb / range;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 cv = (1.0 / vth) * (p.velocity(i) - fin.mean_velocity);
-    const double comp[3] = {cv.x, cv.y, cv.z};
-    for (int d = 0; d < 3; ++d) {
-      const int b = static_cast<int>(std::floor((comp[d] + range) * wcomp));
-      if (b >= 0 && b < nb) hist_comp[d * nb + b] += 1;
-    }
-    const int bs = static_cast<int>(std::floor(norm(cv) * wspeed));
-    if (bs >= 0 && bs < nb) hist_speed[bs] += 1;
-  }
-  for (auto& h : hist_comp) h *= wcomp / static_cast<double>(n);
-  for (auto& h : hist_speed) h *= wspeed / static_cast<double>(n);
 
   // ---- energy budget: KE(t) - KE(0) = bath + walls - inelastic loss - carried out
   const RunCounters& rc = s.counters;
@@ -205,10 +228,10 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   f.attribute("/timeseries/pressure_tensor", "components", std::string("xx yy zz xy xz yz"));
   f.attribute("/timeseries", "units",
               std::string("t: time; temperature: energy; velocity: sqrt(energy/mass); per_grain: energy per initial grain"));
-  f.write("/histogram/component_edges", edges);
-  f.write("/histogram/components", hist_comp, {3, static_cast<hsize_t>(nb)});
-  f.write("/histogram/speed_edges", speed_edges);
-  f.write("/histogram/speed", hist_speed);
+  f.write("/histogram/component_edges", grains.edges);
+  f.write("/histogram/components", grains.components, {3, static_cast<hsize_t>(nb)});
+  f.write("/histogram/speed_edges", grains.speed_edges);
+  f.write("/histogram/speed", grains.speed);
   f.attribute("/histogram", "units", std::string("velocities in units of sqrt(T/m) about the mean; densities normalised to 1"));
   f.write_scalar("/histogram/temperature", fin.temperature);
   for (const auto& [name, values] : theory_series) f.write("/theory/" + name, values);
@@ -381,7 +404,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, doubl
   summary.set("counters.majorant_exceeded", static_cast<std::int64_t>(rc.grain.bound_exceeded));
   summary.set("counters.particles_final", static_cast<std::int64_t>(n));
   summary.set("counters.particles_removed", static_cast<std::int64_t>(rc.removed));
-  summary.set("state.hash", final_state_hash(s));
+  summary.set("state.hash", grains.hash);
   const double per = 1.0 / static_cast<double>(c.particles);
   summary.set("energy.bath_input_per_grain", rc.bath_energy * per);
   summary.set("energy.wall_input_per_grain", rc.wall_energy * per);

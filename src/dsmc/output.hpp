@@ -2,12 +2,31 @@
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
 #include "dsmc/dsmc.hpp"
+#include "dsmc/moments.hpp"
 #include "dsmc/state.hpp"
 
 namespace grainbath::dsmc {
 
+class Decomposition;
+
+// What results.h5 and summary.json take from the grains themselves (no per-grain array is
+// written): the final moments, the velocity histograms and the state hash. Collective:
+// every rank works on its own grains and only sums travel (moments in blocks of the global
+// order, counts and the hash's 64-bit sums, exact in any order), so that the numbers are
+// those of one process holding every grain, and rank 0 needs none of the others' grains.
+struct FinalGrains {
+  Moments moments;                       // measure_moments of the whole population
+  std::vector<double> edges, speed_edges;
+  std::vector<double> components, speed; // normalised histograms
+  std::uint64_t count = 0;
+  std::string hash;                      // summary.json state.hash
+};
+FinalGrains final_grains(const Config& c, const State& s, const Decomposition& dec);
+
 // Statistics over the steady window, histograms, per-cell fields (+ XDMF), density-mode
 // and profile fits, theory; writes OUT/results.h5 and fills the summary (docs/OUTPUT.md).
-void write_results(const Config& c, const RunContext& ctx, const State& s, double wall_seconds, Summary& summary);
+// `s`: everything but the grains (Decomposition::gather_cells; s.particles is not read).
+void write_results(const Config& c, const RunContext& ctx, const State& s, const FinalGrains& grains,
+                   double wall_seconds, Summary& summary);
 
 }  // namespace grainbath::dsmc
