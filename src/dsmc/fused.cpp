@@ -147,7 +147,8 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // operations (no FMA): bitwise the positions of gather_slots and of the separate-pass
 // streaming (DsmcReproducibility compares the fused step, on this path where the CPU has
 // AVX2, with the separate passes). The prefetches are those of
-// gather_slots: the window ahead once per 8 slots, the lines of the slot kAhead ahead.
+// gather_slots (the window ahead once per 8 slots, the lines of the slot kAhead ahead), but
+// the window and the new arrays' lines kStoreAhead ahead go to L2 (measured here only).
 // the values of four old indices in one vector (lane q from index q)
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
                                                                  std::uint32_t i2, std::uint32_t i3) {
@@ -189,7 +190,7 @@ template <int Dim, bool kHazard>
   // The window ahead (WindowFetch: `lead` slots ahead in the plain order, two planes ahead in
   // the tiled one) comes from DRAM: fetched into L2 only (prefetcht2), not L1 as the lines of
   // the slot kAhead ahead. A prefetch into L1 holds an L1 miss buffer for the whole DRAM
-  // latency, which the gather's own misses then wait for. DSMC-1 at 1e6: 30.08 -> 29.1 CPU ns
+  // latency, which the gather's own misses then wait for. DSMC-1 at 1e6: 30.07 -> 29.11 CPU ns
   // per particle-step, faster in 5 of 6 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
   auto fetch_far = [&](std::size_t f) __attribute__((always_inline)) {
     __builtin_prefetch(ox + f, 0, 1);
