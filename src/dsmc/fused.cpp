@@ -28,8 +28,8 @@ namespace {
 // from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
 // and, once per 8 slots, the lines of the new arrays kStoreAhead slots ahead of its stores
-// into L2 (prefetcht2; the write-allocate reads then hit L2 instead of waiting for DRAM in an
-// L1 miss buffer). DSMC-1 at 1e6: 29.00 -> 28.49 CPU ns per particle-step, faster in 5 of 5
+// into L2 (prefetcht2; the write-allocate reads then hit L2 instead of, likely, waiting for
+// DRAM in an L1 miss buffer). DSMC-1 at 1e6: 29.00 -> 28.49 CPU ns per particle-step, faster in 5 of 5
 // interleaved pairs; 64 / 256 / 1024 slots ahead 28.56 / 27.78 / 28.30 (medians of 4,
 // docs/performance/dsmc1.md, h-dsmc7)
 constexpr std::size_t kStoreAhead = 256;
@@ -189,8 +189,9 @@ template <int Dim, bool kHazard>
   };
   // The window ahead (WindowFetch: `lead` slots ahead in the plain order, two planes ahead in
   // the tiled one) comes from DRAM: fetched into L2 only (prefetcht2), not L1 as the lines of
-  // the slot kAhead ahead. A prefetch into L1 holds an L1 miss buffer for the whole DRAM
-  // latency, which the gather's own misses then wait for. DSMC-1 at 1e6: 30.07 -> 29.11 CPU ns
+  // the slot kAhead ahead. (The likely reason, not measurable on the VM without hardware
+  // counters: a prefetch into L1 holds an L1 miss buffer for the whole DRAM latency, which
+  // the gather's own misses then wait for.) DSMC-1 at 1e6: 30.07 -> 29.11 CPU ns
   // per particle-step, faster in 5 of 6 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
   auto fetch_far = [&](std::size_t f) __attribute__((always_inline)) {
     __builtin_prefetch(ox + f, 0, 1);
