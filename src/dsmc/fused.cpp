@@ -27,6 +27,12 @@ namespace {
 // the gather asks for the lines of the particle kAhead slots ahead (its old slot is known
 // from perm): the far ones (moved across a z face) come from L3
 constexpr std::size_t kAhead = 16;
+// and, once per 8 slots, the lines of the new arrays kStoreAhead slots ahead of its stores
+// into L2 (prefetcht2; the write-allocate reads then hit L2 instead of, likely, waiting for
+// DRAM in an L1 miss buffer). DSMC-1 at 1e6: 29.00 -> 28.49 CPU ns per particle-step, faster in 5 of 5
+// interleaved pairs; 64 / 256 / 1024 slots ahead 28.56 / 27.78 / 28.30 (medians of 4,
+// docs/performance/dsmc1.md, h-dsmc7)
+constexpr std::size_t kStoreAhead = 256;
 
 }  // namespace
 
@@ -141,7 +147,8 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
 // operations (no FMA): bitwise the positions of gather_slots and of the separate-pass
 // streaming (DsmcReproducibility compares the fused step, on this path where the CPU has
 // AVX2, with the separate passes). The prefetches are those of
-// gather_slots: the window ahead once per 8 slots, the lines of the slot kAhead ahead.
+// gather_slots (the window ahead once per 8 slots, the lines of the slot kAhead ahead), but
+// the window and the new arrays' lines kStoreAhead ahead go to L2 (measured here only).
 // the values of four old indices in one vector (lane q from index q)
 [[gnu::target("avx2"), gnu::always_inline]] inline __m256d lanes(const double* __restrict a, std::uint32_t i0, std::uint32_t i1,
                                                                  std::uint32_t i2, std::uint32_t i3) {
@@ -180,6 +187,21 @@ template <int Dim, bool kHazard>
     __builtin_prefetch(ovz + f);
     if constexpr (kHazard) __builtin_prefetch(ohz + f);
   };
+  // The window ahead (WindowFetch: `lead` slots ahead in the plain order, two planes ahead in
+  // the tiled one) comes from DRAM: fetched into L2 only (prefetcht2), not L1 as the lines of
+  // the slot kAhead ahead. (The likely reason, not measurable on the VM without hardware
+  // counters: a prefetch into L1 holds an L1 miss buffer for the whole DRAM latency, which
+  // the gather's own misses then wait for.) DSMC-1 at 1e6: 30.07 -> 29.11 CPU ns
+  // per particle-step, faster in 5 of 6 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
+  auto fetch_far = [&](std::size_t f) __attribute__((always_inline)) {
+    __builtin_prefetch(ox + f, 0, 1);
+    if constexpr (Dim > 1) __builtin_prefetch(oy + f, 0, 1);
+    if constexpr (Dim > 2) __builtin_prefetch(oz + f, 0, 1);
+    __builtin_prefetch(ovx + f, 0, 1);
+    __builtin_prefetch(ovy + f, 0, 1);
+    __builtin_prefetch(ovz + f, 0, 1);
+    if constexpr (kHazard) __builtin_prefetch(ohz + f, 0, 1);
+  };
   std::size_t j = j0;
   for (; j + 4 <= j1; j += 4) {
     const std::size_t c8 = (j + 7) & ~std::size_t{7};  // the multiple of 8 in [j, j + 4), if any
@@ -187,8 +209,18 @@ template <int Dim, bool kHazard>
       for (int w = 0; w < window.count; ++w) {
         std::size_t f = c8 + window.offset[w];
         if (f >= n) f -= n;
-        fetch(f);
-        if (window.id != nullptr) __builtin_prefetch(window.id + f);
+        fetch_far(f);
+        if (window.id != nullptr) __builtin_prefetch(window.id + f, 0, 1);
+      }
+      if (c8 + kStoreAhead < n) {
+        const std::size_t d = c8 + kStoreAhead;
+        __builtin_prefetch(x + d, 1, 1);
+        if constexpr (Dim > 1) __builtin_prefetch(y + d, 1, 1);
+        if constexpr (Dim > 2) __builtin_prefetch(z + d, 1, 1);
+        __builtin_prefetch(vx + d, 1, 1);
+        __builtin_prefetch(vy + d, 1, 1);
+        __builtin_prefetch(vz + d, 1, 1);
+        if constexpr (kHazard) __builtin_prefetch(hz + d, 1, 1);
       }
     }
     for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q) fetch(perm[j + q + kAhead]);
@@ -397,6 +429,16 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
     std::uint64_t any_id = 0;
     for (std::size_t i = lo; i < hi; ++i) {
+      // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
+      // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
+      // cells about `lead` slots ahead of i get their first particles now, and those lines
+      // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
+      // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
+      if ((i & 15) == 0) {
+        const std::size_t f = (i + lead) % n;
+        __builtin_prefetch(stable + f, 1, 1);
+        __builtin_prefetch(key32 + f, 1, 1);
+      }
       const std::uint32_t slot = cnt[cell[i]]++;
       stable[slot] = static_cast<std::uint32_t>(i);
       const std::uint64_t d = id[i];
