@@ -9,15 +9,12 @@ set -euo pipefail
 exe=$1
 case_dir=$2
 work=$3
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
-# containers often forbid cross-process memory access (CMA): copy through shared memory
-export OMPI_MCA_btl_vader_single_copy_mechanism=none
+source "$(dirname "$0")/mpi_env.sh"
 rm -rf "$work"
 mkdir -p "$work"
 seeds=1,2,3,4,5
 "$exe" sweep "$case_dir" --set run.seed=$seeds --out "$work/fork" -j 2 > /dev/null 2>&1
-mpirun --oversubscribe --bind-to none -np 2 "$exe" sweep "$case_dir" --set run.seed=$seeds --out "$work/mpi" > /dev/null 2>&1
+mpi 2 sweep "$case_dir" --set run.seed=$seeds --out "$work/mpi" > /dev/null 2>&1
 for k in 0 1 2 3 4; do
   d=$(ls -d "$work"/mpi/variant-${k}_* | grep -v '\.log$')
   [ -s "$d/results.h5" ] && [ -s "$d/summary.json" ] || { echo "FAIL: replica $k has no results ($d)"; exit 1; }

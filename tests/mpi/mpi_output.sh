@@ -20,11 +20,7 @@ exe=$1
 case_dir=$2
 homogeneous=$3
 work=$4
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
-export OMPI_MCA_btl_vader_single_copy_mechanism=none
-export OMP_WAIT_POLICY=PASSIVE
-mpi() { local np=$1; shift; mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"; }
+source "$(dirname "$0")/mpi_env.sh"
 rm -rf "$work"
 mkdir -p "$work"
 fail=0

@@ -23,14 +23,7 @@ work=$3
 shift 3
 checks=("$@")
 plain=${PLAIN_GRAINBATH:-}
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-# a container without a network still has loopback: keep OpenMPI's TCP on it
-export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
-# containers often forbid cross-process memory access (CMA): copy through shared memory
-export OMPI_MCA_btl_vader_single_copy_mechanism=none
-# ranks and threads share two busy cores in CI: idle threads sleep instead of spinning
-export OMP_WAIT_POLICY=PASSIVE
-mpi() { local np=$1; shift; mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"; }
+source "$(dirname "$0")/mpi_env.sh"
 
 rm -rf "$work"
 mkdir -p "$work"
