@@ -104,7 +104,8 @@ void BM_CalendarWidth(benchmark::State& state) {
 // PairStatistics::add on a snapshot of 10^6 disks at nu = 0.5 (melted by 1 collision per
 // disk), with the defaults of a run at that size: g(r) and the velocity correlations to
 // r = 10 sigma, bins 0.02 and 0.1. range(0): 0 = the AVX2 pair loop where the CPU has it,
-// 1 = the scalar loop (the same sums bit for bit). One thread. Counter: pairs_per_second
+// 1 = the scalar loop (the same sums bit for bit). The pair loop uses the OpenMP threads:
+// OMP_NUM_THREADS=1 for the one-core figures of docs/performance/edmd.md. Counter: pairs_per_second
 // (candidate pairs in range, i.e. snapshot pairs within rmax).
 void BM_PairStatistics(benchmark::State& state) {
   Config c;

@@ -93,7 +93,8 @@ class EventCalendar {
   // Requests the nodes of the buckets about to become current (a prefetch hint, called once
   // per event at large N): find_min walks a bucket's list, and at N = 10^6 each node of
   // that walk was a dependent cache miss (perf: half of the event loop's own samples).
-  // Stage 1, kAhead buckets ahead: each bucket's first node (heads_ is read in order);
+  // Stage 1, kAhead buckets ahead: each non-empty bucket's first node (the bits, then
+  // heads_ of the non-empty buckets, are read in order);
   // stage 2, kAhead/2 ahead: the second node, from the first node's next (requested by
   // stage 1 half a window earlier), and on_entry(k) for both entries (the engine requests
   // their grains' records). A bucket holds about half an entry near the front (the engine's
@@ -117,6 +118,9 @@ class EventCalendar {
   bool valid() const {
     for (std::size_t i = 0; i < node_.size(); ++i)
       if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow) return false;
+    // a bucket's bit is set exactly when its list is not empty
+    for (std::size_t s = 0; s < heads_.size(); ++s)
+      if (occupied(s) != (heads_[s] != kNone)) return false;
     return true;
   }
 
@@ -134,7 +138,7 @@ class EventCalendar {
     if (!(x < static_cast<double>(heads_.size()))) return kOverflow;  // also +inf / NaN
     return x <= 0.0 ? 0u : static_cast<std::uint32_t>(x);
   }
-  // One bit per bucket, set while its list is not empty (1 MiB at N = 10^6, cache-resident,
+  // One bit per bucket, set while its list is not empty (1 MiB at N = 10^6, held in L2/L3,
   // against the 32 MiB of heads_): an insert into an empty bucket - most of them, at about
   // half an entry per bucket near the front and fewer further out - then only stores the
   // new head instead of first loading the old one from a random line, and find_min skips
