@@ -13,6 +13,13 @@
 //   * the third argument 1: the same on transparent huge pages (2 MiB).
 // Nodes are 64-byte cache lines linked in one random cycle (Sattolo's algorithm), so the
 // hardware prefetchers cannot predict the next line. Reported: time per load (the counter ns_per_load, printed with its SI prefix, e.g. 180n = 180 ns).
+//   * BM_PrefetchedChain/<distance>/<level>/<extra>: what a software prefetch buys on this
+//     machine (docs/performance/edmd.md, 2026-11-26 06:45): a dependent chain of loads over
+//     256 MiB (huge pages) whose addresses are known in advance, each requested <distance>
+//     steps earlier with __builtin_prefetch locality <level> (3 = prefetcht0 into L1, 1 =
+//     prefetcht2 into L2; distance 0: no hint), while each step also makes <extra>
+//     independent random demand loads, as the EDMD event loop does around its chain.
+//     Reported: time per step (time_per_step).
 #include <benchmark/benchmark.h>
 
 #include <sys/mman.h>
@@ -88,6 +95,45 @@ void BM_PointerChase(benchmark::State& state) {
 // 256 KiB (L2), 1 MiB (the L2 size), 8 MiB, 32 MiB (the L3 size), 128 MiB and 512 MiB (DRAM)
 BENCHMARK(BM_PointerChase)
     ->ArgsProduct({{256, 1024, 8 * 1024, 32 * 1024, 128 * 1024, 512 * 1024}, {1, 8}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_PrefetchedChain(benchmark::State& state) {
+  const int distance = static_cast<int>(state.range(0));
+  const int level = static_cast<int>(state.range(1));
+  const int extra = static_cast<int>(state.range(2));
+  constexpr std::size_t kBytes = std::size_t{256} << 20;
+  constexpr std::size_t kLines = kBytes / sizeof(Node);
+  constexpr std::size_t kSteps = std::size_t{1} << 20;
+  constexpr int kMaxExtra = 16;
+  const NodeBuffer nodes = random_cycle(kLines, 777, true);  // its links are not used here
+  for (std::size_t i = 0; i < kLines; ++i) nodes[i].pad[0] = 0;
+  std::mt19937_64 g(4242);
+  std::uniform_int_distribution<std::uint32_t> line(0, static_cast<std::uint32_t>(kLines - 2));
+  std::vector<std::uint32_t> chain(kSteps + 64), others(kSteps * kMaxExtra);
+  for (auto& x : chain) x = line(g);
+  for (auto& x : others) x = line(g);
+  for (auto _ : state) {
+    std::uint32_t carry = 0, sink = 0;
+    for (std::size_t k = 0; k < kSteps; ++k) {
+      if (distance > 0) {
+        const Node* ahead = &nodes[chain[k + static_cast<std::size_t>(distance)]];
+        if (level == 3) __builtin_prefetch(ahead, 0, 3);
+        else __builtin_prefetch(ahead, 0, 1);
+      }
+      for (int q = 0; q < extra; ++q) sink += nodes[others[k * kMaxExtra + static_cast<std::size_t>(q)]].pad[0];
+      carry = nodes[chain[k] + (carry & 1u)].pad[0];  // depends on the previous step (always 0)
+    }
+    benchmark::DoNotOptimize(carry);
+    benchmark::DoNotOptimize(sink);
+  }
+  state.counters["time_per_step"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(kSteps),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_PrefetchedChain)
+    ->Args({0, 3, 0})
+    ->ArgsProduct({{4, 32}, {3, 1}, {0, 16}})
+    ->Args({0, 3, 16})
     ->Unit(benchmark::kMillisecond);
 
 }  // namespace

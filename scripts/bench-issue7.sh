@@ -25,7 +25,8 @@ echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
 
 echo "== memory latency ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/memory.txt"
 # pointer chase (bench/bench_memory.cpp): ns per dependent load, 1 and 8 chains, 4 KiB and
-# 2 MiB pages, working sets from L2 to DRAM: the floor under the EDMD figures at large N
+# 2 MiB pages, working sets from L2 to DRAM: the floor under the EDMD figures at large N;
+# and BM_PrefetchedChain: what a software prefetch (into L1 or L2) saves on a dependent chain
 "$build/bench/bench_memory" --benchmark_repetitions="$reps" --benchmark_report_aggregates_only=true 2>&1 \
   | grep -E '_median' | tee -a "$out/memory.txt"
 
