@@ -248,7 +248,24 @@ ReadPart read_part(const H5File& h, const std::string& name, std::vector<T>& v, 
     r.total = h.length(path);
     hi = std::min(hi, r.total);
     r.lo = std::min(lo, hi);
-    v = read_slab<T>(h, path, r.lo, hi - r.lo);
+    const CheckpointPart::Held* held = nullptr;
+    if constexpr (std::is_same_v<T, double>) held = part.held ? part.held(name) : nullptr;
+    if (!held) {
+      v = read_slab<T>(h, path, r.lo, hi - r.lo);
+      if (bytes_read) *bytes_read += v.size() * sizeof(T);
+      return r;
+    }
+    // [a, b): the overlap with what is held; before and after it from the file
+    const std::uint64_t a = std::clamp(held->offset, r.lo, hi);
+    const std::uint64_t b = std::clamp(held->offset + held->values.size(), a, hi);
+    v = read_slab<T>(h, path, r.lo, a - r.lo);
+    const std::vector<T> after = read_slab<T>(h, path, b, hi - b);
+    if (bytes_read) *bytes_read += (v.size() + after.size()) * sizeof(T);
+    if constexpr (std::is_same_v<T, double>)
+      v.insert(v.end(), held->values.begin() + static_cast<std::ptrdiff_t>(a - held->offset),
+               held->values.begin() + static_cast<std::ptrdiff_t>(b - held->offset));
+    v.insert(v.end(), after.begin(), after.end());
+    return r;
   }
   if (bytes_read) *bytes_read += v.size() * sizeof(T);
   return r;

@@ -103,6 +103,14 @@ struct CheckpointPart {
   // array is read whole by every process. The processes' non-empty parts, in process order,
   // must follow each other from 0 to the array's end (checked, as part of the checksum).
   std::function<bool(const std::string& name, std::uint64_t& lo, std::uint64_t& hi)> range;
+  // Elements of a real spread array this process already read (the plan reads positions to
+  // choose the parts): [offset, offset + values.size()), or nullptr. The part is taken from
+  // here where it overlaps, and only the rest is read from the file.
+  struct Held {
+    std::uint64_t offset = 0;
+    std::vector<double> values;
+  };
+  std::function<const Held*(const std::string& name)> held;
   // Decomposition::in_rank_order: `turn` on each process in order, the result back on the first.
   std::function<ChecksumToken(ChecksumToken, const std::function<void(ChecksumToken&)>&)> in_order;
   // Decomposition::first_error: empty on every process if `mine` is empty everywhere, else

@@ -78,24 +78,27 @@ if not all(p["rank_peak_particles"] < n for np, p in perf.items() if np > 1):
     print("FAIL resumed: a rank held all %d grains (it read the whole checkpoint)" % n); sys.exit(1)
 # Bytes of datasets read. One process reads every array once. Several ranks: the per-grain
 # arrays (7 real ones with the bath residual, and the ids: 8 x 8 bytes a grain) are read by
-# exactly one rank each, the small arrays by every rank, and the plan reads each rank's
-# share of x, y, z (3D) plus the grain before it. (Before: every rank read all of it, and
-# all positions once more.)
+# one rank each, the small arrays by every rank; the plan reads each rank's equal share of
+# x, y, z (3D) and keeps it, so a position is read twice only where a rank's cells hold
+# other grains than its share (and the grain before each share): a little. (Before: every
+# rank read the whole file and all positions once more.)
 whole = perf[1]["checkpoint_read_bytes_total"]
 grains = 8 * 8 * n
 small = whole - grains
 ok = perf[1]["checkpoint_read_bytes_rank_max"] == whole and small > 0
 for np in (2, 3):
     p = perf[np]
-    expected = whole + (np - 1) * small + 3 * 8 * (n + np - 1)
-    share = 1.1 * (grains + 3 * 8 * n) / np + small  # 10 %: the cells are balanced, not the grains
-    print("     %d ranks: at most %.2f MB read by one rank (its share: %.2f MB; one process: %.2f MB), "
-          "%.2f MB by all (expected %.2f MB)" % (np, p["checkpoint_read_bytes_rank_max"] / 1e6, share / 1e6,
-                                                whole / 1e6, p["checkpoint_read_bytes_total"] / 1e6, expected / 1e6))
-    ok = ok and p["checkpoint_read_bytes_total"] == expected and p["checkpoint_read_bytes_rank_max"] <= share
+    once = whole + (np - 1) * small  # each grain's bytes once, the small arrays on every rank
+    again = p["checkpoint_read_bytes_total"] - once
+    share = 1.1 * grains / np + small  # 10 %: the cells are balanced, not the grains
+    print("     %d ranks: at most %.2f MB read by one rank (its share: %.2f MB; one process: %.2f MB); "
+          "by all %.2f MB, of which %d bytes of positions read twice" % (
+              np, p["checkpoint_read_bytes_rank_max"] / 1e6, share / 1e6, whole / 1e6,
+              p["checkpoint_read_bytes_total"] / 1e6, again))
+    ok = ok and 0 <= again <= 0.1 * 3 * 8 * n and p["checkpoint_read_bytes_rank_max"] <= share
 if not ok:
     print("FAIL resumed: the ranks did not each read their share of the checkpoint once"); sys.exit(1)
-print("ok   resumed with 2 and 3 ranks: each rank read its share of the checkpoint, each grain once")
+print("ok   resumed with 2 and 3 ranks: each rank read its share of the checkpoint")
 PY
 
 # 3b: a flipped bit in a grain of rank 1's slab (particles/vx near the end: the last cells)
