@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <memory>
 #include <stdexcept>
 #include <type_traits>
 
@@ -147,41 +148,229 @@ void write_checkpoint_file(const fs::path& dir, std::uint64_t index, const Check
 }
 
 namespace {
-// One array of a checkpoint into v, its bytes into the checksum: whole, or (a per-grain array
-// of a CheckpointPart) in chunks, keeping [lo, hi).
-template <class T>
-void read_array(const H5File& h, const std::string& name, std::vector<T>& v, const CheckpointPart* part, Fnv1a& sum) {
-  const std::string path = "/" + name;
-  auto slab = [&](std::uint64_t at, std::uint64_t count) {
-    if constexpr (std::is_same_v<T, double>)
-      return h.read_doubles_slab(path, at, count);
-    else
-      return h.read_u64_slab(path, at, count);
-  };
-  std::uint64_t lo = 0, hi = 0;
-  if (!part || !part->range(name, lo, hi)) {
-    if constexpr (std::is_same_v<T, double>)
-      v = h.read_doubles(path);
-    else
-      v = h.read_u64(path);
-    sum.add_length(v.size());
-    sum.add_elements(v);
-    return;
+
+// The case first: a case that changed in what decides the arrays' layout (e.g. a [transport]
+// section added) must be reported as a changed case (std::invalid_argument), not as a
+// corrupt file.
+void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, const std::string& solver,
+                const std::function<bool(const std::string&)>& may_change, const std::string& may_change_text) {
+  std::string stored_solver = solver;
+  try {
+    stored_solver = h.read_attribute("/", "solver");
+  } catch (const std::runtime_error&) {
+    // checkpoints written before the attribute existed were DSMC's
+    stored_solver = "dsmc";
   }
-  const std::uint64_t total = h.length(path);
-  hi = std::min(hi, total);
-  lo = std::min(lo, hi);
-  v.clear();
-  v.reserve(hi - lo);
-  sum.add_length(total);
-  for (std::uint64_t at = 0; at < total; at += CheckpointPart::kChunk) {
-    const std::uint64_t count = std::min(CheckpointPart::kChunk, total - at);
-    const std::vector<T> chunk = slab(at, count);
-    sum.add_elements(chunk);
-    const std::uint64_t from = std::clamp(lo, at, at + count), to = std::clamp(hi, at, at + count);
-    v.insert(v.end(), chunk.begin() + static_cast<std::ptrdiff_t>(from - at), chunk.begin() + static_cast<std::ptrdiff_t>(to - at));
+  if (stored_solver != solver)
+    throw std::invalid_argument(path.string() + ": the checkpoint was written by solver " + stored_solver +
+                                ", the case now runs " + solver);
+  if (h.read_attribute("/", "seed") != std::to_string(ctx.seed))
+    throw std::invalid_argument(path.string() + ": the checkpoint was written with seed " +
+                                h.read_attribute("/", "seed") + ", the case now has " + std::to_string(ctx.seed));
+  for (const auto& [key, value] : ctx.resolved) {
+    if (may_change(key)) continue;
+    std::string old;
+    try {
+      old = h.read_attribute("/parameters", key);
+    } catch (const std::runtime_error&) {
+      old = "(absent)";
+    }
+    if (old != value)
+      throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
+                                  ", now " + value + " (only " + may_change_text + " may change on --resume)");
+  }
+  // ... and a key the checkpoint's case had that the case has no more (a section removed)
+  for (const std::string& key : h.attribute_names("/parameters")) {
+    if (may_change(key) || ctx.resolved.count(key)) continue;
+    throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " +
+                                h.read_attribute("/parameters", key) + ", now absent (only " + may_change_text +
+                                " may change on --resume)");
   }
 }
+
+template <class T>
+std::vector<T> read_whole(const H5File& h, const std::string& path) {
+  if constexpr (std::is_same_v<T, double>)
+    return h.read_doubles(path);
+  else
+    return h.read_u64(path);
+}
+
+template <class T>
+std::vector<T> read_slab(const H5File& h, const std::string& path, std::uint64_t at, std::uint64_t count) {
+  if (count == 0) return {};
+  if constexpr (std::is_same_v<T, double>)
+    return h.read_doubles_slab(path, at, count);
+  else
+    return h.read_u64_slab(path, at, count);
+}
+
+// "checksum mismatch" if the stored checksum is not `computed` (the file's own words in the message).
+std::string checksum_verdict(const H5File& h, std::uint64_t computed) {
+  const std::string stored = h.read_attribute("/", "checksum");
+  if (stored == hex(computed)) return {};
+  return "checksum mismatch: the file says " + stored + ", its arrays sum to " + hex(computed);
+}
+
+// One process: every array whole, in list order, each into the checksum as it is read.
+void load_whole(const H5File& h, const CheckpointArrays& a, std::uint64_t* bytes_read) {
+  Fnv1a sum;  // CheckpointArrays::checksum, as the arrays are read
+  auto read = [&](const std::string& name, auto& v) {
+    using T = typename std::decay_t<decltype(v)>::value_type;
+    v = read_whole<T>(h, "/" + name);
+    if (bytes_read) *bytes_read += v.size() * sizeof(T);
+    sum.add_length(v.size());
+    sum.add_elements(v);
+  };
+  for (const auto& [n, v] : a.real) read(n, *v);
+  for (const auto& [n, v] : a.integer) read(n, *v);
+  if (const std::string verdict = checksum_verdict(h, sum.h); !verdict.empty()) throw std::runtime_error(verdict);
+}
+
+// What a process read of one array (several processes).
+struct ReadPart {
+  bool spread = false;     // a part of it (else: whole)
+  std::uint64_t total = 0; // the array's length in the file
+  std::uint64_t lo = 0;    // the first element read (spread arrays)
+};
+
+template <class T>
+ReadPart read_part(const H5File& h, const std::string& name, std::vector<T>& v, const CheckpointPart& part,
+                   std::uint64_t* bytes_read) {
+  const std::string path = "/" + name;
+  ReadPart r;
+  std::uint64_t lo = 0, hi = 0;
+  if (!part.range(name, lo, hi)) {
+    v = read_whole<T>(h, path);
+    r.total = v.size();
+  } else {
+    r.spread = true;
+    r.total = h.length(path);
+    hi = std::min(hi, r.total);
+    r.lo = std::min(lo, hi);
+    const CheckpointPart::Held* held = nullptr;
+    if constexpr (std::is_same_v<T, double>) held = part.held ? part.held(name) : nullptr;
+    if (!held) {
+      v = read_slab<T>(h, path, r.lo, hi - r.lo);
+      if (bytes_read) *bytes_read += v.size() * sizeof(T);
+      return r;
+    }
+    // [a, b): the overlap with what is held; before and after it from the file
+    const std::uint64_t a = std::clamp(held->offset, r.lo, hi);
+    const std::uint64_t b = std::clamp(held->offset + held->values.size(), a, hi);
+    v = read_slab<T>(h, path, r.lo, a - r.lo);
+    const std::vector<T> after = read_slab<T>(h, path, b, hi - b);
+    if (bytes_read) *bytes_read += (v.size() + after.size()) * sizeof(T);
+    if constexpr (std::is_same_v<T, double>)
+      v.insert(v.end(), held->values.begin() + static_cast<std::ptrdiff_t>(a - held->offset),
+               held->values.begin() + static_cast<std::ptrdiff_t>(b - held->offset));
+    v.insert(v.end(), after.begin(), after.end());
+    return r;
+  }
+  if (bytes_read) *bytes_read += v.size() * sizeof(T);
+  return r;
+}
+
+// Adds one array to the checksum `sum` (meaningful on the first process): a whole array by
+// the first process, as one process would; a spread array by the processes in order, each
+// going on from the state the one before it left, its part right after the elements added
+// so far (`at`), so that the bytes go in as the file holds them. A gap or an overlap between
+// the parts leaves the sum unverifiable: `verdict` (first process) says so.
+constexpr std::uint64_t kNotInOrder = ~std::uint64_t{0};
+template <class T>
+void add_part(const std::string& name, const std::vector<T>& v, const ReadPart& r, const CheckpointPart& part,
+              ChecksumToken& sum, std::string& verdict) {
+  Fnv1a f{sum.h};
+  if (!r.spread) {
+    if (!part.first) return;
+    f.add_length(v.size());
+    f.add_elements(v);
+    sum.h = f.h;
+    return;
+  }
+  f.add_length(r.total);
+  sum.h = f.h;
+  sum.at = 0;
+  sum = part.in_order(sum, [&](ChecksumToken& t) {
+    if (v.empty() || t.at == kNotInOrder) return;
+    if (t.at != r.lo) {
+      t.at = kNotInOrder;
+      return;
+    }
+    Fnv1a mine{t.h};
+    mine.add_elements(v);
+    t.h = mine.h;
+    t.at += v.size();
+  });
+  if (part.first && sum.at != r.total && verdict.empty())
+    verdict = "the processes' parts of " + name + " do not cover its " + std::to_string(r.total) +
+              " elements in order (the checksum cannot be verified)";
+}
+
+// The message of an agreement without its "rank r: " (for a verdict of the first process
+// on the whole file, not an error of that rank).
+std::string without_rank(const std::string& agreed) {
+  const std::size_t colon = agreed.find(": ");
+  return agreed.rfind("rank ", 0) == 0 && colon != std::string::npos ? agreed.substr(colon + 2) : agreed;
+}
+
+// Several processes: each reads its parts of the spread arrays and every other array whole,
+// then they verify the checksum together. Every step that can fail on some processes only
+// is followed by an agreement, so that every process returns, or throws the same exception
+// with the same message (std::invalid_argument: the case changed).
+void load_in_parts(const fs::path& path, const RunContext& ctx, const std::string& solver,
+                   const std::function<bool(const std::string&)>& may_change, const std::string& may_change_text,
+                   const std::function<CheckpointArrays()>& prepare, const std::function<void()>& finish,
+                   const CheckpointPart& part, std::uint64_t* bytes_read) {
+  auto agree_or_throw = [&](const std::string& mine) {
+    if (const std::string e = part.agree(mine); !e.empty()) throw std::runtime_error(e);
+  };
+  std::unique_ptr<H5File> h;
+  std::string changed, failed;
+  try {
+    h = std::make_unique<H5File>(path.string(), H5File::Mode::read);
+    check_case(*h, path, ctx, solver, may_change, may_change_text);
+  } catch (const std::invalid_argument& e) {
+    changed = e.what();
+  } catch (const std::exception& e) {
+    failed = e.what();
+  }
+  if (const std::string e = part.agree(changed); !e.empty()) throw std::invalid_argument(without_rank(e));
+  agree_or_throw(failed);
+
+  const CheckpointArrays a = prepare();
+  if (part.plan) part.plan(*h);  // collective; throws alike on every process
+  std::vector<ReadPart> reads;
+  try {
+    for (const auto& [n, v] : a.real) reads.push_back(read_part(*h, n, *v, part, bytes_read));
+    for (const auto& [n, v] : a.integer) reads.push_back(read_part(*h, n, *v, part, bytes_read));
+  } catch (const std::exception& e) {
+    failed = e.what();
+  }
+  agree_or_throw(failed);
+
+  ChecksumToken sum{Fnv1a{}.h, 0};
+  std::string verdict;
+  std::size_t i = 0;
+  for (const auto& [n, v] : a.real) add_part(n, *v, reads[i++], part, sum, verdict);
+  for (const auto& [n, v] : a.integer) add_part(n, *v, reads[i++], part, sum, verdict);
+  if (part.first && verdict.empty()) {
+    try {
+      verdict = checksum_verdict(*h, sum.h);
+    } catch (const std::exception& e) {
+      verdict = e.what();
+    }
+  }
+  if (const std::string e = part.agree(verdict); !e.empty()) throw std::runtime_error(without_rank(e));
+
+  try {
+    finish();
+  } catch (const std::exception& e) {
+    failed = e.what();
+  }
+  agree_or_throw(failed);
+}
+
 }  // namespace
 
 fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx, const std::string& solver,
@@ -189,56 +378,22 @@ fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx,
                                      const std::string& may_change_text,
                                      const std::function<CheckpointArrays()>& prepare,
                                      const std::function<void()>& finish, std::string& warning,
-                                     const CheckpointPart* part) {
+                                     const CheckpointPart* part, std::uint64_t* bytes_read) {
+  // every process lists the same directory (a shared file system): the same candidates
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return {};
   auto all = list_checkpoints(dir);
   std::reverse(all.begin(), all.end());
   for (const auto& [index, path] : all) {
     try {
-      H5File h(path.string(), H5File::Mode::read);
-      // the case first: a case that changed in what decides the arrays' layout (e.g. a
-      // [transport] section added) must be reported as a changed case, not as corrupt files
-      std::string stored_solver = solver;
-      try {
-        stored_solver = h.read_attribute("/", "solver");
-      } catch (const std::runtime_error&) {
-        // checkpoints written before the attribute existed were DSMC's
-        stored_solver = "dsmc";
+      if (part) {
+        load_in_parts(path, ctx, solver, may_change, may_change_text, prepare, finish, *part, bytes_read);
+      } else {
+        H5File h(path.string(), H5File::Mode::read);
+        check_case(h, path, ctx, solver, may_change, may_change_text);
+        load_whole(h, prepare(), bytes_read);
+        finish();
       }
-      if (stored_solver != solver)
-        throw std::invalid_argument(path.string() + ": the checkpoint was written by solver " + stored_solver +
-                                    ", the case now runs " + solver);
-      if (h.read_attribute("/", "seed") != std::to_string(ctx.seed))
-        throw std::invalid_argument(path.string() + ": the checkpoint was written with seed " +
-                                    h.read_attribute("/", "seed") + ", the case now has " + std::to_string(ctx.seed));
-      for (const auto& [key, value] : ctx.resolved) {
-        if (may_change(key)) continue;
-        std::string old;
-        try {
-          old = h.read_attribute("/parameters", key);
-        } catch (const std::runtime_error&) {
-          old = "(absent)";
-        }
-        if (old != value)
-          throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
-                                      ", now " + value + " (only " + may_change_text + " may change on --resume)");
-      }
-      // ... and a key the checkpoint's case had that the case has no more (a section removed)
-      for (const std::string& key : h.attribute_names("/parameters")) {
-        if (may_change(key) || ctx.resolved.count(key)) continue;
-        throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " +
-                                    h.read_attribute("/parameters", key) + ", now absent (only " + may_change_text +
-                                    " may change on --resume)");
-      }
-      const CheckpointArrays a = prepare();
-      if (part && part->plan) part->plan(h);
-      Fnv1a sum;  // CheckpointArrays::checksum, as the arrays are read
-      for (const auto& [n, v] : a.real) read_array(h, n, *v, part, sum);
-      for (const auto& [n, v] : a.integer) read_array(h, n, *v, part, sum);
-      const std::string stored = h.read_attribute("/", "checksum");
-      if (stored != hex(sum.h)) throw std::runtime_error("checksum mismatch");
-      finish();
       return path;
     } catch (const std::invalid_argument&) {
       throw;

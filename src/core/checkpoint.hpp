@@ -5,7 +5,8 @@
 // OUT.checkpoints/checkpoint-<index>.h5 through a temporary name (flushed, closed with
 // checked errors, renamed; the previous checkpoint is kept), and reads back the newest one
 // that verifies (64-bit FNV-1a checksum over every array), falling back to the previous one
-// with a warning when the newest is truncated or corrupt.
+// with a warning when the newest is truncated or corrupt. Several processes each read only
+// their part (CheckpointPart) and verify the same checksum together.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -82,21 +83,49 @@ void discard_checkpoint_file(const std::filesystem::path& partial);
 void write_checkpoint_file(const std::filesystem::path& dir, std::uint64_t index, const CheckpointArrays& arrays,
                            const RunContext& ctx, const std::string& solver);
 
-// Reading only a part of the per-grain arrays (an MPI rank its own grains, so that no rank
-// holds them all; src/dsmc/checkpoint.cpp). After the case checks, `plan` may read the file
-// (in chunks) to choose the parts; then every array for which `range` gives [lo, hi) is read
-// in chunks of kChunk elements, each chunk added to the checksum and only the elements in
-// [lo, hi) (clipped to the array) kept: every byte is still verified, in O(chunk) memory.
+// Reading a checkpoint on several processes (MPI ranks, src/dsmc/checkpoint.cpp), each one
+// reading only its part of the spread (per-grain) arrays and the small arrays whole, so that
+// no process reads the whole file, while the checksum is still verified exactly: FNV-1a is
+// a chain (no sum of parts), so its state is handed from process to process in their order
+// for every spread array, each adding the bytes of its part, which gives the sum of the
+// whole file with every byte of a spread array read by one process only. Every step that
+// may fail on some processes only ends in an agreement, so that all of them take the same
+// path (the same checkpoint loaded, the same one skipped with the same message): no hang.
+struct ChecksumToken {  // what goes from process to process along an array
+  std::uint64_t h = 0;   // the FNV-1a state
+  std::uint64_t at = 0;  // elements of the array added so far
+};
 struct CheckpointPart {
-  static constexpr std::uint64_t kChunk = 1 << 20;
+  // After the case checks: choose the parts (it may read the file and communicate; it must
+  // throw the same on every process, e.g. after `agree`).
   std::function<void(const H5File&)> plan;
+  // This process's part [lo, hi) of array `name` (clipped to the array), or false: the
+  // array is read whole by every process. The processes' non-empty parts, in process order,
+  // must follow each other from 0 to the array's end (checked, as part of the checksum).
   std::function<bool(const std::string& name, std::uint64_t& lo, std::uint64_t& hi)> range;
+  // Elements of a real spread array this process already read (the plan reads positions to
+  // choose the parts): [offset, offset + values.size()), or nullptr. The part is taken from
+  // here where it overlaps, and only the rest is read from the file.
+  struct Held {
+    std::uint64_t offset = 0;
+    std::vector<double> values;
+  };
+  std::function<const Held*(const std::string& name)> held;
+  // Decomposition::in_rank_order: `turn` on each process in order, the result back on the first.
+  std::function<ChecksumToken(ChecksumToken, const std::function<void(ChecksumToken&)>&)> in_order;
+  // Decomposition::first_error: empty on every process if `mine` is empty everywhere, else
+  // "rank r: <message of the lowest failing rank>" on every process.
+  std::function<std::string(const std::string& mine)> agree;
+  bool first = true;  // the process that adds the whole arrays to the checksum and decides on it
 };
 
 // Tries the checkpoints in `dir` newest first. For each, `prepare()` resets the caller's
 // candidate state and returns its arrays (filled from the file), then the checksum, seed,
 // solver and every resolved parameter not accepted by `may_change` are verified, then
 // `finish()` unpacks (it may throw std::runtime_error on a bad layout: treated as corrupt).
+// With `part` (several processes): collective, each process reads its parts only.
+// `bytes_read` (if given) is increased by the dataset bytes this process read (the file's
+// arrays; a plan counts its own reads).
 // Returns the path loaded, or an empty path if none verifies; `warning` receives one
 // message per checkpoint skipped as corrupt. Throws std::invalid_argument if the case
 // changed in a key that may not change (naming the key; `may_change_text` says which may).
@@ -106,6 +135,7 @@ std::filesystem::path read_newest_checkpoint_file(const std::filesystem::path& d
                                                   const std::string& may_change_text,
                                                   const std::function<CheckpointArrays()>& prepare,
                                                   const std::function<void()>& finish, std::string& warning,
-                                                  const CheckpointPart* part = nullptr);
+                                                  const CheckpointPart* part = nullptr,
+                                                  std::uint64_t* bytes_read = nullptr);
 
 }  // namespace grainbath

@@ -1,6 +1,7 @@
 #include "dsmc/checkpoint.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <stdexcept>
 
@@ -193,48 +194,77 @@ void write_checkpoint(const fs::path& dir, const State& state, const RunContext&
 }
 
 namespace {
-// Restart on several ranks: the grains per reduction block of the whole checkpoint, from
-// its positions read in chunks (every rank alike). The file holds the grains in (cell, id)
-// order (written after a sort, in rank order = cell order): checked, since each rank's
-// grains are then one contiguous range of it.
-std::vector<std::uint64_t> grains_per_block(const H5File& h, const Config& c, std::size_t block_cells) {
+constexpr std::uint64_t kChunk = 1 << 20;  // grains per read of the positions
+
+// Restart on several ranks: the grains per reduction block of the whole checkpoint, counted
+// from its positions, each rank reading an equal share of them (and the grain before it, to
+// check the order across the shares) and the counts summed over the ranks: no rank reads
+// every position. The file holds the grains in (cell, id) order (written after a sort, in
+// rank order = cell order): checked, since each rank's grains are then one contiguous range
+// of it. Throws the same message on every rank if any rank fails. The share read is kept
+// in `held` (x, y, z): most of it is this rank's own grains, not read a second time.
+using Positions = std::array<CheckpointPart::Held, 3>;
+std::vector<std::uint64_t> grains_per_block(const H5File& h, const Config& c, const Decomposition& dec,
+                                            std::uint64_t& bytes_read, Positions& held) {
   const Domain& d = c.domain;
   const CellGrid grid(d);
-  const std::uint64_t n = h.length("/particles/x");
-  std::vector<std::uint64_t> w((d.cell_count() + block_cells - 1) / block_cells, 0);
-  std::uint32_t previous = 0;
-  for (std::uint64_t at = 0; at < n; at += CheckpointPart::kChunk) {
-    const std::uint64_t count = std::min(CheckpointPart::kChunk, n - at);
-    const std::vector<double> x = h.read_doubles_slab("/particles/x", at, count);
-    const std::vector<double> y = d.dimensions > 1 ? h.read_doubles_slab("/particles/y", at, count) : std::vector<double>{};
-    const std::vector<double> z = d.dimensions > 2 ? h.read_doubles_slab("/particles/z", at, count) : std::vector<double>{};
-    for (std::uint64_t i = 0; i < count; ++i) {
-      const std::uint32_t k = grid(x[i], y.empty() ? 0.0 : y[i], z.empty() ? 0.0 : z[i]);
-      if (k < previous || k >= d.cell_count())
-        throw std::runtime_error("the grains are not in cell order (grain " + std::to_string(at + i) + ")");
-      previous = k;
-      ++w[k / block_cells];
+  std::vector<double> w((d.cell_count() + dec.block_cells() - 1) / dec.block_cells(), 0.0);
+  std::string error;
+  try {
+    const std::uint64_t n = h.length("/particles/x");
+    std::size_t lo = 0, hi = 0;
+    dec.share(n, 1, lo, hi);
+    const std::uint64_t from = lo > 0 && hi > lo ? lo - 1 : lo;  // the grain before the share: its cell
+    for (CheckpointPart::Held& e : held) e = {from, {}};
+    std::uint32_t previous = 0;
+    for (std::uint64_t at = from; at < hi; at += kChunk) {
+      const std::uint64_t count = std::min<std::uint64_t>(kChunk, hi - at);
+      const std::vector<double> x = h.read_doubles_slab("/particles/x", at, count);
+      const std::vector<double> y = d.dimensions > 1 ? h.read_doubles_slab("/particles/y", at, count) : std::vector<double>{};
+      const std::vector<double> z = d.dimensions > 2 ? h.read_doubles_slab("/particles/z", at, count) : std::vector<double>{};
+      bytes_read += (x.size() + y.size() + z.size()) * sizeof(double);
+      held[0].values.insert(held[0].values.end(), x.begin(), x.end());
+      held[1].values.insert(held[1].values.end(), y.begin(), y.end());
+      held[2].values.insert(held[2].values.end(), z.begin(), z.end());
+      for (std::uint64_t i = 0; i < count; ++i) {
+        const std::uint32_t k = grid(x[i], y.empty() ? 0.0 : y[i], z.empty() ? 0.0 : z[i]);
+        if (k < previous || k >= d.cell_count())
+          throw std::runtime_error("the grains are not in cell order (grain " + std::to_string(at + i) + ")");
+        previous = k;
+        if (at + i >= lo) w[k / dec.block_cells()] += 1.0;
+      }
     }
+  } catch (const std::exception& e) {
+    error = e.what();
   }
-  return w;
+  error = dec.first_error(error);
+  if (!error.empty()) throw std::runtime_error(error);
+  dec.sum_counts(w);  // integer counts: exact in any order
+  return std::vector<std::uint64_t>(w.begin(), w.end());
 }
 }  // namespace
 
 std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning,
-                                            const Config& c, Decomposition& dec) {
+                                            const Config& c, Decomposition& dec, std::uint64_t& bytes_read) {
   State s;
   Scalars k;
   std::vector<std::uint64_t> bs;
   // several ranks: this rank's range of the per-grain arrays (spins: homogeneous runs only,
   // all on rank 0 like the grains)
   std::uint64_t first = 0, end = 0;
+  Positions held;  // what the plan read of x, y, z
   CheckpointPart part;
+  // The last rank's range runs to the end of every array, so that together the ranges cover
+  // each one whatever its length (a per-grain array longer than the positions is then read,
+  // and fails the checksum, instead of being left out of it).
+  constexpr std::uint64_t kToTheEnd = ~std::uint64_t{0};
   part.plan = [&](const H5File& h) {
     if (c.spatial()) {
-      dec.plan_restart(grains_per_block(h, c, dec.block_cells()), first, end);
-    } else {
+      dec.plan_restart(grains_per_block(h, c, dec, bytes_read, held), first, end);
+      if (dec.rank() == dec.size() - 1) end = kToTheEnd;
+    } else {  // one cell: rank 0 holds every grain
       first = 0;
-      end = dec.root() ? h.length("/particles/vx") : 0;
+      end = dec.root() ? kToTheEnd : 0;
     }
   };
   part.range = [&](const std::string& name, std::uint64_t& lo, std::uint64_t& hi) {
@@ -243,6 +273,17 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
     hi = end;
     return true;
   };
+  part.held = [&](const std::string& name) -> const CheckpointPart::Held* {
+    const char* axes[] = {"particles/x", "particles/y", "particles/z"};
+    for (std::size_t i = 0; i < held.size(); ++i)
+      if (name == axes[i] && !held[i].values.empty()) return &held[i];
+    return nullptr;
+  };
+  part.in_order = [&](ChecksumToken t, const std::function<void(ChecksumToken&)>& turn) {
+    return dec.in_rank_order<ChecksumToken>(t, turn);
+  };
+  part.agree = [&](const std::string& mine) { return dec.first_error(mine); };
+  part.first = dec.root();
   const fs::path loaded = read_newest_checkpoint_file(
       dir, ctx, "dsmc", may_change, "dsmc.t_end and [checkpoint]",
       [&] {
@@ -255,7 +296,7 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
         unpack(k, s);
         s.fields.batch_samples.assign(bs.begin(), bs.end());
       },
-      warning, dec.size() > 1 ? &part : nullptr);
+      warning, dec.size() > 1 ? &part : nullptr, &bytes_read);
   if (loaded.empty()) return std::nullopt;
   return s;
 }

@@ -26,10 +26,15 @@ void write_checkpoint(const std::filesystem::path& dir, const State& s, const Ru
 // The newest checkpoint in `dir` that verifies, or nullopt. `warning` receives a message
 // for every checkpoint skipped as corrupt. Throws if the case differs from the checkpoint's
 // in anything but t_end and the [checkpoint] settings.
-// Several ranks (dec): each rank keeps only its own grains (the cell ranges are chosen from
-// the positions, read in chunks: Decomposition::plan_restart), while still verifying every
-// byte of the file; then Decomposition::distribute(s, c, true).
+// Several ranks (dec): collective; each rank reads only its own grains' slabs of the
+// per-grain arrays (the cell ranges chosen from the positions, each rank counting an equal
+// share of them: Decomposition::plan_restart) and the small arrays whole, and the ranks
+// verify the file's checksum together, passing its state along in rank order (each byte of
+// a per-grain array read by one rank); then Decomposition::distribute(s, c, true).
+// `bytes_read` is increased by the dataset bytes this rank read (docs/OUTPUT.md,
+// performance.checkpoint_read_bytes_*).
 std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx,
-                                            std::string& warning, const Config& c, Decomposition& dec);
+                                            std::string& warning, const Config& c, Decomposition& dec,
+                                            std::uint64_t& bytes_read);
 
 }  // namespace grainbath::dsmc

@@ -312,9 +312,11 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
                  dec.size() - 1);
   State s;
   bool resumed = false;
+  std::uint64_t checkpoint_read_bytes = 0;  // performance.checkpoint_read_bytes_* (docs/OUTPUT.md)
   if (ctx.resume) {
     std::string warning;
-    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec);  // MPI: this rank's grains
+    // MPI: this rank's grains
+    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec, checkpoint_read_bytes);
     if (!warning.empty() && dec.root()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
@@ -467,6 +469,12 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   summary.set("performance.checkpoint_seconds", checkpoint_seconds);  // rank 0's time in writing checkpoints
   summary.set("performance.rank_load_imbalance", dec.imbalance());
   summary.set("performance.rank_rebalances", static_cast<std::int64_t>(dec.rebalances()));
+  if (ctx.resume) {  // each rank reads about its share of the checkpoint (docs/performance/mpi.md)
+    summary.set("performance.checkpoint_read_bytes_total",
+                static_cast<std::int64_t>(dec.sum(static_cast<double>(checkpoint_read_bytes))));
+    summary.set("performance.checkpoint_read_bytes_rank_max",
+                static_cast<std::int64_t>(dec.max(static_cast<long long>(checkpoint_read_bytes))));
+  }
   if (dec.size() > 1 && c.spatial()) {  // migration traffic over all ranks (docs/performance/mpi.md)
     const Decomposition::MigrationStats& m = dec.migration_stats();
     summary.set("performance.migration_steps", static_cast<std::int64_t>(m.steps));
