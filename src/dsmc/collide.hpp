@@ -172,10 +172,18 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   // an ordered pair of distinct grains, uniformly: i from [0, N), j from the other N - 1,
   // from the low and high halves of one Philox word (below_from: exact)
   const auto n32 = static_cast<std::uint32_t>(count);
+  // Philox4x32Words: draw through a Cursor (the word index in a register, the same words)
+  auto words = [&]() -> decltype(auto) {
+    if constexpr (requires { typename Rng::Cursor; })
+      return typename Rng::Cursor(rng);
+    else
+      return (rng);
+  };
+  decltype(auto) draws = words();
   for (std::uint64_t k = 0; k < candidates; ++k) {
-    const std::uint64_t word = rng.bits64();
-    const std::uint32_t i = below_from(static_cast<std::uint32_t>(word), n32, rng);
-    std::uint32_t j = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, rng);
+    const std::uint64_t word = draws.bits64();
+    const std::uint32_t i = below_from(static_cast<std::uint32_t>(word), n32, draws);
+    std::uint32_t j = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, draws);
     if (j >= i) ++j;
     Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
     const Vec3 g = v - w;
@@ -187,7 +195,7 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
     } else {
       // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
       // the rejected candidates
-      const double u = rng.uniform() * g_max;
+      const double u = draws.uniform() * g_max;
       if (u * u >= g2) continue;
     }
     // The apse n = (g_hat - r) / |g_hat - r| with r uniform on the sphere has the hard-sphere
@@ -195,7 +203,7 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
     // normal relative velocity is (g.n) n = (g - |g| r) / 2, so the collision (Bisi-Spiga
     // eq. 6: dv = (1 + e)/2 (g.n) n) needs neither n nor its normalisation: one square root
     // per collision instead of three, no division. Elastic: g' = |g| r, isotropic.
-    const Vec3 r = rng.unit_vector();
+    const Vec3 r = draws.unit_vector();
     const Vec3 normal_g = 0.5 * (g - std::sqrt(g2) * r);  // (g.n) n
     const double gn2 = norm2(normal_g);                   // (g.n)^2
     const RestitutionOutcome out = restitution(law, uses_normal_speed<Law> ? std::sqrt(gn2) : 0.0);

@@ -101,6 +101,15 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
       EXPECT_EQ(perm[j], 0xdeadbeefu) << "m " << m << " slot " << j;
       EXPECT_EQ(id_out[j], 0xdeadbeefull) << "m " << m << " slot " << j;
     }
+  // the AVX2 ranking (the fused step's path on AVX2 CPUs): the same slots, nothing else written
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2")) {
+    std::vector<std::uint32_t> perm2(n, 0xdeadbeefu);
+    std::vector<std::uint64_t> id_out2(n, 0xdeadbeefull);
+    grainbath::dsmc::order_cell_by_key32_avx2(stable.data(), keys.data(), perm2.data(), id_out2.data(), id.data(), b0, b1);
+    EXPECT_EQ(perm2, perm) << "m " << m;
+    EXPECT_EQ(id_out2, id_out) << "m " << m;
+  }
 }
 
 TEST(DsmcCellOrder, Key32VariantOrdersByIdInPlace) {

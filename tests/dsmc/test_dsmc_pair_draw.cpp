@@ -156,4 +156,23 @@ TEST(DsmcCollisionWords, UnitVectorsAndUniforms) {
   EXPECT_NEAR(umean / n, 0.5, 5 * std::sqrt(1.0 / 12.0 / n));
 }
 
+// Philox4x32Words::Cursor (collide_cell's draws) gives the generator's words in order,
+// across the group boundaries, mixed with uniforms and unit vectors, and hands the index back.
+TEST(DsmcCollisionWords, CursorDrawsTheGeneratorsWords) {
+  Philox4x32Words a(5, Stream::grain_collisions, 12, 3), b(5, Stream::grain_collisions, 12, 3);
+  for (int t = 0; t < 500; ++t) {
+    {
+      Philox4x32Words::Cursor c(b);
+      for (int d = 0; d < t % 7; ++d) ASSERT_EQ(c.bits64(), a.bits64()) << t;
+      ASSERT_EQ(c.uniform(), a.uniform()) << t;
+      const grainbath::Vec3 r = c.unit_vector(), q = a.unit_vector();
+      ASSERT_EQ(r.x, q.x);
+      ASSERT_EQ(r.y, q.y);
+      ASSERT_EQ(r.z, q.z);
+    }
+    ASSERT_EQ(b.bits64(), a.bits64()) << t;  // the index written back
+  }
+  EXPECT_EQ(b.groups_used(), a.groups_used());
+}
+
 }  // namespace
