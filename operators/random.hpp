@@ -130,8 +130,9 @@ inline const ZigguratTable& ZigguratTable::exponential() { return kExponentialZi
 // Uniform direction on the unit sphere from any generator with uniform() on (0, 1)
 // (Marsaglia 1972: a point uniform in the unit disk, s = u^2 + v^2, maps to
 // (2u sqrt(1-s), 2v sqrt(1-s), 1 - 2s)); no trigonometry.
+// Always inlined: Philox4x32Words::Cursor passes itself here and must stay in registers.
 template <class Rng>
-Vec3 marsaglia_unit_vector(Rng& rng) {
+[[gnu::always_inline]] inline Vec3 marsaglia_unit_vector(Rng& rng) {
   double u, v, s;
   do {
     u = 2.0 * rng.uniform() - 1.0;
@@ -504,17 +505,7 @@ class Philox4x32Words {
       return g_.words_[used_++];
     }
     [[gnu::always_inline]] double uniform() { return (static_cast<double>(bits64() >> 11) + 0.5) * 0x1.0p-53; }
-    // marsaglia_unit_vector, the same operations
-    [[gnu::always_inline]] Vec3 unit_vector() {
-      double u, v, s;
-      do {
-        u = 2.0 * uniform() - 1.0;
-        v = 2.0 * uniform() - 1.0;
-        s = u * u + v * v;
-      } while (s >= 1.0);
-      const double r = 2.0 * std::sqrt(1.0 - s);
-      return {u * r, v * r, 1.0 - 2.0 * s};
-    }
+    [[gnu::always_inline]] Vec3 unit_vector() { return marsaglia_unit_vector(*this); }
 
    private:
     Philox4x32Words& g_;
