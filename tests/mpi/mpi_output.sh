@@ -165,30 +165,30 @@ cp "$work/hplain.checkpoints/$hfirst" "$work/hresume2.checkpoints/"
 mpi 2 run "$homogeneous" --out "$work/hresume2" -q "${hk[@]}" --resume > /dev/null 2>&1
 same_results "$work/hplain" "$work/hresume2" "homogeneous plain checkpoint resumed with 2 ranks"
 
-# 5: rank 1 fails to write its part
+# 5: a rank that cannot write its part. expect_stop NAME DIR PATTERN: the run into DIR
+# (exit status in $code, log in DIR.log) must fail without hanging, with PATTERN on at
+# least one rank's output, and leave neither DIR nor a partial checkpoint behind.
+expect_stop() {
+  local name=$1 dir=$2 pattern=$3 said
+  said=$(grep -c "$pattern" "$dir.log" || true)
+  if [ "$code" -ne 0 ] && [ "$code" -ne 124 ] && [ "$said" -ge 1 ] && [ ! -e "$dir" ] &&
+     ! ls "$dir.checkpoints"/*.partial > /dev/null 2>&1; then
+    echo "ok   $name: exit $code, the message on $said rank(s), no partial checkpoint or output left"
+  else
+    echo "FAIL $name: exit $code (124: hung), message on $said rank(s):"; tail -5 "$dir.log"; fail=1
+  fi
+}
 set +e
 GRAINBATH_FAULT_CHECKPOINT_RANK=1 timeout 120 mpirun --oversubscribe --bind-to none -np 2 -x GRAINBATH_FAULT_CHECKPOINT_RANK \
   "$exe" run "$case_dir" --out "$work/fault" -q "${ck[@]}" > "$work/fault.log" 2>&1
 code=$?
 set -e
-said=$(grep -c "writing a checkpoint failed on rank 1: .*test hook" "$work/fault.log" || true)
-if [ "$code" -ne 0 ] && [ "$code" -ne 124 ] && [ "$said" -ge 1 ] && [ ! -e "$work/fault" ] &&
-   ! ls "$work/fault.checkpoints"/*.partial > /dev/null 2>&1; then
-  echo "ok   a failing rank: exit $code, the message on $said rank(s), no partial checkpoint or output left"
-else
-  echo "FAIL a failing rank: exit $code (124: hung), message on $said rank(s):"; tail -5 "$work/fault.log"; fail=1
-fi
+expect_stop "a failing rank (test hook)" "$work/fault" "writing a checkpoint failed on rank 1: .*test hook"
 set +e
 timeout 120 mpirun --oversubscribe --bind-to none -np 2 bash -c \
   'if [ "$OMPI_COMM_WORLD_RANK" = 1 ]; then trap "" XFSZ; ulimit -f 1000; fi; exec "$0" "$@"' \
   "$exe" run "$case_dir" --out "$work/efbig" -q "${ck[@]}" > "$work/efbig.log" 2>&1
 code=$?
 set -e
-said=$(grep -c "writing a checkpoint failed on rank 1: .*cannot write" "$work/efbig.log" || true)
-if [ "$code" -ne 0 ] && [ "$code" -ne 124 ] && [ "$said" -ge 1 ] && [ ! -e "$work/efbig" ] &&
-   ! ls "$work/efbig.checkpoints"/*.partial > /dev/null 2>&1; then
-  echo "ok   a rank that cannot write (EFBIG): exit $code, the message on $said rank(s), nothing left"
-else
-  echo "FAIL a rank that cannot write: exit $code (124: hung), message on $said rank(s):"; tail -5 "$work/efbig.log"; fail=1
-fi
+expect_stop "a rank that cannot write (EFBIG)" "$work/efbig" "writing a checkpoint failed on rank 1: .*cannot write"
 exit $fail
