@@ -430,9 +430,12 @@ void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>
   std::vector<double> to_left, to_right, from_left, from_right, kept;
   int hops = 0;  // the most ranks any of this rank's migrants has to cross
   const std::size_t n = p.size();
+  std::size_t gone = 0;  // removed through an open face, or sent away
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t k = cell[i];
-    if (k == kRemoved || (k >= lo && k < hi)) continue;
+    if (k >= lo && k < hi) continue;
+    ++gone;
+    if (k == kRemoved) continue;
     const int d = ring_offset(owner_of_block(k / block_cells_));
     rec.pack(p, i, d > 0 ? to_right : to_left);
     hops = std::max(hops, std::abs(d));
@@ -474,6 +477,7 @@ void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>
   ++stats_.steps;
   rec.append(kept, grid, p, cell);
   note_particles(p.size());
+  if (n - gone + kept.size() / rec.width == 0) ++stats_.empty_steps;
 #endif
 }
 

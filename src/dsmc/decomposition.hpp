@@ -177,9 +177,11 @@ class Decomposition {
   int rebalances() const { return rebalances_; }
 
   // Communication of migrate() on this rank since the start (docs/performance/mpi.md):
-  // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed.
+  // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed,
+  // and the steps after which this rank held no grain (its cells empty or it owns none: the
+  // tests of tiny cases check that they test such a rank, tests/mpi/mpi_tiny.sh).
   struct MigrationStats {
-    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0;
+    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0, empty_steps = 0;
     int max_hops = 0;
   };
   const MigrationStats& migration_stats() const { return stats_; }
