@@ -364,7 +364,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
-  const bool fused = fused_step_applies(c) && dec.size() == 1;  // one process: stream, sort, collide in one region
+  // stream, sort and collide in one pass over the grains (MPI ranks too: the migration sits
+  // between its streaming pass and its scatter, src/dsmc/fused.cpp)
+  const bool fused = fused_step_applies(c);
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
   std::vector<StreamCounters> walls;
   const bool walls_counted = c.spatial() && !fully_periodic(c.domain);
@@ -381,7 +383,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (fused) {
       // stream, sort and collide in one parallel region; counters per block of
       // dec.block_cells() cells, as grain_step sums them (bitwise the same at any rank count)
-      fused_periodic_step(s, c, ctx.seed, per_cell, dec.block_cells());
+      fused_periodic_step(s, c, ctx.seed, per_cell, dec);
     } else {
       if (c.spatial()) {
         dec.block_bounds(s, c, bounds);
