@@ -381,8 +381,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (bath_on)
       bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds, local_bath);
     if (fused) {
-      // stream, sort and collide in one parallel region; counters per block of
-      // dec.block_cells() cells, as grain_step sums them (bitwise the same at any rank count)
+      // stream, sort and collide in one pass (MPI: with the migration inside); counters per
+      // block of dec.block_cells() cells, combined as grain_step combines them (bitwise the
+      // same at any rank count)
       fused_periodic_step(s, c, ctx.seed, per_cell, dec);
     } else {
       if (c.spatial()) {

@@ -403,9 +403,6 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   }
   const std::uint32_t* block_order = !tiled ? nullptr : ranks ? my_order.data() : w.block_order.data();
   std::size_t* start = s.cell_start.data();
-  // per thread: an id of this thread's particles has a bit above 31 (then the cells are
-  // ordered through the 64-bit ids, order_cell_by_id)
-  std::vector<unsigned char> wide_ids(static_cast<std::size_t>(max_threads), 0);
   std::uint32_t* counts = w.counts.data();
   const double length[3] = {Lx, Ly, Lz};
   const bool avx2 = Philox4x32Lanes::have_avx2();
@@ -569,40 +566,46 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   };
   const std::size_t fresh = n0;  // previous-array indices from here on arrived already streamed
   const bool with_arrivals = arrived > 0;
+  // per range: an id of the range's particles has a bit above 31 (then the cells are
+  // ordered through the 64-bit ids, order_cell_by_id)
+  std::vector<unsigned char> wide_ranges(static_cast<std::size_t>(threads_used), 0);
 #pragma omp parallel num_threads(threads_used)
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
-    // the same ranges as the first region; the last thread also scatters the arrivals
-    const std::size_t lo = n0 * t / threads, hi = t == threads - 1 ? total : n0 * (t + 1) / threads;
-    std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(t) * cells;
 #pragma omp single
-    counting_sort_offsets(counts, threads, cells, start);
-    // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
-    // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
-    std::uint64_t any_id = 0;
-    for (std::size_t i = lo; i < hi; ++i) {
-      // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
-      // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
-      // cells about `lead` slots ahead of i get their first particles now, and those lines
-      // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
-      // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
-      if ((i & 15) == 0 && n > 0) {
-        const std::size_t f = (i + lead) % n;
-        __builtin_prefetch(stable + f, 1, 1);
-        __builtin_prefetch(key32 + f, 1, 1);
+    counting_sort_offsets(counts, threads_used, cells, start);
+    // The ranges and counts of the first region (the last range also holds the arrivals),
+    // each scattered by one thread; a loop in case this region got fewer threads.
+    for (int u = t; u < threads_used; u += threads) {
+      const std::size_t lo = n0 * u / threads_used, hi = u == threads_used - 1 ? total : n0 * (u + 1) / threads_used;
+      std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(u) * cells;
+      // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
+      // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
+      std::uint64_t any_id = 0;
+      for (std::size_t i = lo; i < hi; ++i) {
+        // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
+        // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
+        // cells about `lead` slots ahead of i get their first particles now, and those lines
+        // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
+        // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
+        if ((i & 15) == 0 && n > 0) {
+          const std::size_t f = (i + lead) % n;
+          __builtin_prefetch(stable + f, 1, 1);
+          __builtin_prefetch(key32 + f, 1, 1);
+        }
+        const std::uint32_t k = cell[i];
+        if (k == kRemoved) continue;  // MPI: left for another rank
+        const std::uint32_t slot = cnt[k]++;
+        stable[slot] = static_cast<std::uint32_t>(i);
+        const std::uint64_t d = id[i];
+        any_id |= d;
+        key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
       }
-      const std::uint32_t k = cell[i];
-      if (k == kRemoved) continue;  // MPI: left for another rank
-      const std::uint32_t slot = cnt[k]++;
-      stable[slot] = static_cast<std::uint32_t>(i);
-      const std::uint64_t d = id[i];
-      any_id |= d;
-      key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
+      wide_ranges[static_cast<std::size_t>(u)] = (any_id >> 32) != 0;
     }
-    wide_ids[static_cast<std::size_t>(t)] = (any_id >> 32) != 0;
 #pragma omp barrier
     bool wide = false;
-    for (int u = 0; u < threads; ++u) wide = wide || wide_ids[static_cast<std::size_t>(u)] != 0;
+    for (int u = 0; u < threads_used; ++u) wide = wide || wide_ranges[static_cast<std::size_t>(u)] != 0;
     // per block of cells: order each cell by id, gather the block from the previous arrays
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2

@@ -96,4 +96,7 @@ check tiny tiny-nomedium "3" 0 "3" --set background.density=0
 check emptyslab emptyslab "2 3" 2 "1 3"
 # periodic (fused step), 2 blocks on 3 and 4 ranks
 check fewblocks fewblocks "3 4" 4 "1 2"
+# without a medium the fused step predicts the next step's cells (SortScratch::next_cell),
+# also on ranks whose grains migrate
+check fewblocks fewblocks-nomedium "3" 3 "2" --set background.density=0
 exit $fail
