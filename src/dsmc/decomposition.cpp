@@ -418,25 +418,52 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
 #endif
 }
 
+std::size_t Decomposition::migrant_width(const Config& c) {
+  return 4 + static_cast<std::size_t>(c.domain.dimensions) + (medium_present(c) ? 1 : 0);
+}
+
 void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed) {
   if (size_ == 1) return;
   cells_of_all(s, c, &removed);
 #ifdef GRAINBATH_MPI
   Particles& p = s.particles;
   const MigrantRecord rec(c);
-  const CellGrid grid(c.domain);
   std::vector<std::uint32_t>& cell = s.sort.cell;
   const std::uint32_t lo = static_cast<std::uint32_t>(first_cell(rank_)), hi = static_cast<std::uint32_t>(end_cell(rank_));
-  std::vector<double> to_left, to_right, from_left, from_right, kept;
-  int hops = 0;  // the most ranks any of this rank's migrants has to cross
+  std::vector<double> leaving;
   const std::size_t n = p.size();
+  std::size_t gone = 0;  // removed through an open face, or sent away
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t k = cell[i];
-    if (k == kRemoved || (k >= lo && k < hi)) continue;
-    const int d = ring_offset(owner_of_block(k / block_cells_));
-    rec.pack(p, i, d > 0 ? to_right : to_left);
-    hops = std::max(hops, std::abs(d));
+    if (k >= lo && k < hi) continue;
+    ++gone;
+    if (k == kRemoved) continue;
+    rec.pack(p, i, leaving);
     cell[i] = kRemoved;  // dropped here by the next sort
+  }
+  const std::vector<double> kept = migrate_records(c, leaving, n - gone);
+  rec.append(kept, CellGrid(c.domain), p, cell);
+  note_particles(p.size());
+#else
+  (void)s;
+#endif
+}
+
+std::vector<double> Decomposition::migrate_records(const Config& c, const std::vector<double>& leaving,
+                                                   std::size_t staying) {
+  std::vector<double> kept;
+  if (size_ == 1) return kept;
+#ifdef GRAINBATH_MPI
+  const MigrantRecord rec(c);
+  const CellGrid grid(c.domain);
+  std::vector<double> to_left, to_right, from_left, from_right;
+  int hops = 0;  // the most ranks any of this rank's migrants has to cross
+  for (std::size_t j = 0; j < leaving.size(); j += rec.width) {
+    const double* r = leaving.data() + j;
+    const int d = ring_offset(owner_of_block(rec.cell(grid, r) / block_cells_));
+    std::vector<double>& to = d > 0 ? to_right : to_left;
+    to.insert(to.end(), r, r + rec.width);
+    hops = std::max(hops, std::abs(d));
     ++stats_.migrants;
   }
   // How many rounds: with 2 or 3 ranks every other rank is a neighbour, so one round always
@@ -472,9 +499,13 @@ void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>
     throw std::logic_error("migrate: a grain did not reach the rank that owns its cell");
   stats_.max_hops = std::max(stats_.max_hops, rounds);
   ++stats_.steps;
-  rec.append(kept, grid, p, cell);
-  note_particles(p.size());
+  if (staying + kept.size() / rec.width == 0) ++stats_.empty_steps;
+#else
+  (void)c;
+  (void)leaving;
+  (void)staying;
 #endif
+  return kept;
 }
 
 // Per-cell data that lives with the cell's owner: the NTC remainder and the field sums.

@@ -105,6 +105,15 @@ class Decomposition {
   // reaches its owner (several rounds only when some grain crossed more than one rank's
   // cells in a step). Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
   void migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed);
+  // The same exchange for the fused step of a periodic box (src/dsmc/fused.cpp), which finds
+  // the grains that left while it streams and packs them itself: `leaving` holds their
+  // records (migrant_width(c) doubles each: the id's 64 bits, vx, vy, vz, the streamed
+  // position, one per dimension, and the bath residual if a medium is present), `staying`
+  // the number of grains this rank keeps. Returns the records that arrived here, in the
+  // order migrate() appends them. Collective (every rank calls it every step).
+  std::vector<double> migrate_records(const Config& c, const std::vector<double>& leaving, std::size_t staying);
+  static std::size_t migrant_width(const Config& c);
+  void note_particles(std::size_t n) { peak_particles_ = std::max(peak_particles_, n); }
   // Share [lo, hi) of `count` items (ids at start-up) for this rank: contiguous, in rank
   // order, cut at multiples of `granule` (the moment blocks of measure_moments).
   void share(std::size_t count, std::size_t granule, std::size_t& lo, std::size_t& hi) const;
@@ -177,9 +186,11 @@ class Decomposition {
   int rebalances() const { return rebalances_; }
 
   // Communication of migrate() on this rank since the start (docs/performance/mpi.md):
-  // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed.
+  // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed,
+  // and the steps after which this rank held no grain (its cells empty or it owns none: the
+  // tests of tiny cases check that they test such a rank, tests/mpi/mpi_tiny.sh).
   struct MigrationStats {
-    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0;
+    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0, empty_steps = 0;
     int max_hops = 0;
   };
   const MigrationStats& migration_stats() const { return stats_; }
@@ -207,7 +218,6 @@ class Decomposition {
   int rebalances_ = 0;
   MigrationStats stats_;
   std::size_t peak_particles_ = 0;
-  void note_particles(std::size_t n) { peak_particles_ = std::max(peak_particles_, n); }
 };
 
 }  // namespace grainbath::dsmc

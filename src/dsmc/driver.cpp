@@ -364,7 +364,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
-  const bool fused = fused_step_applies(c) && dec.size() == 1;  // one process: stream, sort, collide in one region
+  // stream, sort and collide in one pass over the grains (MPI ranks too: the migration sits
+  // between its streaming pass and its scatter, src/dsmc/fused.cpp)
+  const bool fused = fused_step_applies(c);
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
   std::vector<StreamCounters> walls;
   const bool walls_counted = c.spatial() && !fully_periodic(c.domain);
@@ -379,9 +381,10 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (bath_on)
       bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds, local_bath);
     if (fused) {
-      // stream, sort and collide in one parallel region; counters per block of
-      // dec.block_cells() cells, as grain_step sums them (bitwise the same at any rank count)
-      fused_periodic_step(s, c, ctx.seed, per_cell, dec.block_cells());
+      // stream, sort and collide in one pass (MPI: with the migration inside); counters per
+      // block of dec.block_cells() cells, combined as grain_step combines them (bitwise the
+      // same at any rank count)
+      fused_periodic_step(s, c, ctx.seed, per_cell, dec);
     } else {
       if (c.spatial()) {
         dec.block_bounds(s, c, bounds);
@@ -484,6 +487,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     summary.set("performance.migration_collectives", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.collectives))));
     summary.set("performance.migrants", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.migrants))));
     summary.set("performance.migration_max_hops", static_cast<std::int64_t>(dec.max(m.max_hops)));
+    summary.set("performance.rank_empty_steps", static_cast<std::int64_t>(dec.max(m.empty_steps)));
     summary.set("performance.rank_peak_particles",
                 static_cast<std::int64_t>(dec.max(static_cast<long long>(dec.peak_particles()))));
     // rank 0 against the largest of the others: no gather for output makes them alike

@@ -80,9 +80,12 @@ struct WindowFetch {
 // each store (measured slower, see docs/performance/dsmc1.md). Per chunk of 8 slots the
 // window ahead is fetched (WindowFetch); per slot the lines of the particle kAhead slots
 // ahead (the last kAhead slots of the block have none: a loop of their own, no test per slot).
-template <int Dim, bool kHazard>
+// MPI ranks (kArrivals): the grains that arrived from other ranks this step sit at the old
+// indices >= `fresh`, already streamed (their owner streamed them before sending): copied as
+// they are. One process, or a step without arrivals: kArrivals = false, the code as before.
+template <int Dim, bool kHazard, bool kArrivals = false>
 void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
-                  std::size_t n, const WindowFetch& window, double dt, const double* length) {
+                  std::size_t n, const WindowFetch& window, double dt, const double* length, std::size_t fresh = 0) {
   const double* __restrict ox = arrays.from[0];
   const double* __restrict oy = arrays.from[1];
   const double* __restrict oz = arrays.from[2];
@@ -99,9 +102,15 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
   double* __restrict hz = arrays.to[6];
   const double Lx = length[0], Ly = length[1], Lz = length[2];
   auto copy = [=](std::size_t j, std::uint32_t i) __attribute__((always_inline)) {
-    x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
-    if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
-    if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+    if (kArrivals && i >= fresh) {
+      x[j] = ox[i];
+      if constexpr (Dim > 1) y[j] = oy[i];
+      if constexpr (Dim > 2) z[j] = oz[i];
+    } else {
+      x[j] = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
+      if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+      if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+    }
     vx[j] = ovx[i];
     vy[j] = ovy[i];
     vz[j] = ovz[i];
@@ -155,10 +164,10 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
   return _mm256_set_pd(a[i3], a[i2], a[i1], a[i0]);
 }
 
-template <int Dim, bool kHazard>
+template <int Dim, bool kHazard, bool kArrivals = false>
 [[gnu::target("avx2")]] void gather_slots_avx2(const GatherArrays& arrays, const std::uint32_t* __restrict perm,
                                                std::size_t j0, std::size_t j1, std::size_t n, const WindowFetch& window,
-                                               double dt, const double* length) {
+                                               double dt, const double* length, std::size_t fresh = 0) {
   const double* __restrict ox = arrays.from[0];
   const double* __restrict oy = arrays.from[1];
   const double* __restrict oz = arrays.from[2];
@@ -225,6 +234,24 @@ template <int Dim, bool kHazard>
     }
     for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q) fetch(perm[j + q + kAhead]);
     const std::uint32_t i0 = perm[j], i1 = perm[j + 1], i2 = perm[j + 2], i3 = perm[j + 3];
+    if constexpr (kArrivals) {
+      // a group with a grain that arrived from another rank (already streamed): slot by slot,
+      // the others streamed by the scalar expression (bitwise the vector's, see above)
+      if (std::max(std::max(i0, i1), std::max(i2, i3)) >= fresh) [[unlikely]] {
+        for (std::size_t q = j; q < j + 4; ++q) {
+          const std::uint32_t i = perm[q];
+          const bool moved = i < fresh;
+          x[q] = moved ? wrap_periodic(ox[i] + ovx[i] * dt, length[0]) : ox[i];
+          if constexpr (Dim > 1) y[q] = moved ? wrap_periodic(oy[i] + ovy[i] * dt, length[1]) : oy[i];
+          if constexpr (Dim > 2) z[q] = moved ? wrap_periodic(oz[i] + ovz[i] * dt, length[2]) : oz[i];
+          vx[q] = ovx[i];
+          vy[q] = ovy[i];
+          vz[q] = ovz[i];
+          if constexpr (kHazard) hz[q] = ohz[i];
+        }
+        continue;
+      }
+    }
     for (int a = 0; a < 3; ++a) {
       const __m256d v = lanes(from_vel[a], i0, i1, i2, i3);
       _mm256_storeu_pd(to_vel[a] + j, v);
@@ -242,9 +269,15 @@ template <int Dim, bool kHazard>
   }
   for (; j < j1; ++j) {  // the last 0-3 slots of the block, as gather_slots
     const std::uint32_t i = perm[j];
-    x[j] = wrap_periodic(ox[i] + ovx[i] * dt, length[0]);
-    if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, length[1]);
-    if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, length[2]);
+    if (kArrivals && i >= fresh) {
+      x[j] = ox[i];
+      if constexpr (Dim > 1) y[j] = oy[i];
+      if constexpr (Dim > 2) z[j] = oz[i];
+    } else {
+      x[j] = wrap_periodic(ox[i] + ovx[i] * dt, length[0]);
+      if constexpr (Dim > 1) y[j] = wrap_periodic(oy[i] + ovy[i] * dt, length[1]);
+      if constexpr (Dim > 2) z[j] = wrap_periodic(oz[i] + ovz[i] * dt, length[2]);
+    }
     vx[j] = ovx[i];
     vy[j] = ovy[i];
     vz[j] = ovz[i];
@@ -262,12 +295,26 @@ template <int Dim, bool kHazard>
   for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32_avx2(stable, key32, perm, id_out, id, start[k], start[k + 1]);
 }
 
+// MPI ranks (dec.size() > 1): the rank holds the grains of its cells [cell_lo, cell_hi) and
+// the step runs in two parallel regions with the migration between them. The first streams
+// and counts as one process does and sets aside the grains whose new cell is another rank's
+// (their streamed positions packed by the scalar expression, bitwise the gather's); after
+// Decomposition::migrate_records the grains that arrived are appended to the previous
+// arrays, already streamed (the gather copies them as they are: kArrivals), and counted; the
+// second region scatters, orders, gathers and collides the rank's own blocks only. A cell's
+// grains and their order by id are those of one process, so are the random words (keyed by
+// cell and step) and the per-block counters (combined in block order by the caller).
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                std::size_t kCellBlock) {
+                Decomposition& dec) {
   Particles& p = s.particles;
-  const std::size_t n = p.size(), cells = c.domain.cell_count();
-  if (n >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
+  const std::size_t kCellBlock = dec.block_cells();
+  const bool ranks = dec.size() > 1;
+  const std::size_t n0 = p.size(), cells = c.domain.cell_count();
+  const auto cell_lo = static_cast<std::uint32_t>(ranks ? dec.first_cell(dec.rank()) : 0);
+  const auto cell_hi = static_cast<std::uint32_t>(ranks ? dec.end_cell(dec.rank()) : cells);
+  const std::size_t first_blk = ranks ? dec.first_block() : 0;
+  if (n0 >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
   SortScratch& w = s.sort;
   std::vector<double>().swap(w.gather);  // not used here
   // The cells of this step's streaming, if the previous fused step predicted them
@@ -276,31 +323,27 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // reading 4 bytes per particle instead of x and v (48 B, from DRAM at 1e6: the arrays
   // are read again by the gather). Without a bath nothing changes x or v between two steps;
   // with one (bath_substep kicks v in place) no prediction is made.
-  const bool predicted = w.next_cell_step == s.step && w.next_cell.size() == n && w.next_cell_x == p.x.data() &&
+  const bool predicted = w.next_cell_step == s.step && w.next_cell.size() == n0 && w.next_cell_x == p.x.data() &&
                          w.next_cell_vx == p.vx.data();
   const bool predict = !medium_present(c);
   if (predicted) w.cell.swap(w.next_cell);
   // the state before the step moves to the scratch arrays; Particles receives the new order
   std::vector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
-  const double* previous[7] = {};
+  bool active[7] = {};
   for (int a = 0; a < 7; ++a) {
     if (state_arrays[a]->empty()) continue;
-    w.previous[a].resize(n);
+    active[a] = true;
+    w.previous[a].resize(n0);
     state_arrays[a]->swap(w.previous[a]);
-    previous[a] = w.previous[a].data();
   }
-  w.id.resize(n);
-  w.cell.resize(n);
-  if (predict) w.next_cell.resize(n);
-  w.perm.resize(n);
-  w.stable.resize(n + kKey32Padding);  // order_cell_by_key32(_avx2) reads up to 7 slots past a cell
-  w.key32.resize(n + kKey32Padding);
+  w.cell.resize(n0);
   const bool hazard = !p.bath_hazard.empty();
   const int max_threads = omp_get_max_threads();
   if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
   s.cell_start.resize(cells + 1);
   const std::size_t blocks = (cells + kCellBlock - 1) / kCellBlock;
-  per_block.assign(blocks, GrainCounters{});
+  const std::size_t my_blocks = ranks ? dec.end_block() - first_blk : blocks;
+  per_block.assign(my_blocks, GrainCounters{});
 
   const CellGrid grid(c.domain);
   const double dt = c.dt, Lx = c.domain.length[0], Ly = c.domain.length[1], Lz = c.domain.length[2];
@@ -315,7 +358,9 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // the sweep (2.5 MB at 40^3 x 16), which stays in cache; the leading edge of the window is
   // fetched ahead, one line of each array per 8 particles.
   const std::size_t reach = 1 + c.domain.cells[0] * (1 + (Dim > 1 ? c.domain.cells[1] : 0));
-  const std::size_t lead = (reach * n + cells - 1) / cells + 64;
+  // (MPI ranks: the grains per cell of the rank's own cells)
+  const std::size_t span = std::max<std::size_t>(1, cell_hi - cell_lo);
+  const std::size_t lead = (reach * n0 + span - 1) / span + 64;
   // The order of the blocks. Each line of the previous arrays is used three times in the
   // sweep, by the new cells of its own z plane and of the planes above and below, i.e. one
   // and two planes of the sweep apart. Where three planes of the previous arrays stay in the
@@ -330,7 +375,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // words are keyed by cell and step.
   const std::size_t nx = c.domain.cells[0], ny = Dim > 1 ? c.domain.cells[1] : 1, nz = Dim > 2 ? c.domain.cells[2] : 1;
   const std::size_t plane = nx * ny;
-  std::size_t tile_rows = Dim == 3 ? detail::fused_tile_rows(n, c.domain.cells) : ny;
+  // (a z plane's bytes: from the whole population's density, also on a rank)
+  std::size_t tile_rows = Dim == 3 ? detail::fused_tile_rows(ranks ? static_cast<std::size_t>(c.particles) : n0, c.domain.cells) : ny;
   if (const char* forced = std::getenv("GRAINBATH_DSMC_TILE_ROWS"); forced != nullptr && Dim == 3)
     tile_rows = std::max<std::size_t>(1, std::strtoull(forced, nullptr, 10));  // tests: the tiled order in small boxes
   const bool tiled = tile_rows < ny;
@@ -349,24 +395,144 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     w.block_order_rows = tile_rows;
     w.block_order_plane = plane;
   }
-  const std::uint32_t* block_order = tiled ? w.block_order.data() : nullptr;
+  // this rank's blocks in the block order (one process: all of them)
+  std::vector<std::uint32_t> my_order;
+  if (tiled && ranks) {
+    for (std::uint32_t b : w.block_order)
+      if (b >= first_blk && b < first_blk + my_blocks) my_order.push_back(b);
+  }
+  const std::uint32_t* block_order = !tiled ? nullptr : ranks ? my_order.data() : w.block_order.data();
   std::size_t* start = s.cell_start.data();
+  std::uint32_t* counts = w.counts.data();
+  const double length[3] = {Lx, Ly, Lz};
+  const bool avx2 = Philox4x32Lanes::have_avx2();
+  const bool simd_cells = cells < 0x80000000u;
+  // MPI ranks: per thread, the (increasing) indices of the grains that streamed into
+  // another rank's cells
+  std::vector<std::vector<std::uint32_t>> leavers(ranks ? static_cast<std::size_t>(max_threads) : 0);
+  int threads_used = 1;
+  {
+    std::uint32_t* __restrict cell = w.cell.data();
+    const double* __restrict ox = w.previous[0].data();
+    const double* __restrict oy = Dim > 1 ? w.previous[1].data() : nullptr;
+    const double* __restrict oz = Dim > 2 ? w.previous[2].data() : nullptr;
+    const double* __restrict ovx = w.previous[3].data();
+    const double* __restrict ovy = w.previous[4].data();
+    const double* __restrict ovz = w.previous[5].data();
+    // the cell index kernels' arguments for this step's streaming (previous arrays)
+    const detail::StreamCellsArgs stream_args{{ox, oy, oz},
+                                              {ovx, ovy, ovz},
+                                              dt,
+                                              {Lx, Ly, Lz},
+                                              {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+                                              {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+                                               static_cast<double>(grid.cells[2]) - 1.0},
+                                              static_cast<double>(grid.cells[0]),
+                                              static_cast<double>(grid.cells[1])};
+#pragma omp parallel
+    {
+      const int threads = omp_get_num_threads(), t = omp_get_thread_num();
+#pragma omp single
+      threads_used = threads;
+      const std::size_t lo = n0 * t / threads, hi = n0 * (t + 1) / threads;
+      std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(t) * cells;
+      std::fill(cnt, cnt + cells, 0u);
+      // cell index after streaming, and the counts: reads the state once, writes 4 bytes
+      // (the streamed positions are recomputed by the gather, bitwise the same expression)
+      auto stream_one = [&](std::size_t i) {
+        const double xi = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
+        double yi = 0.0, zi = 0.0;
+        if constexpr (Dim > 1) yi = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
+        if constexpr (Dim > 2) zi = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
+        const std::uint32_t k = grid(xi, yi, zi);
+        cell[i] = k;
+        ++cnt[k];
+      };
+      std::size_t i = lo;
+      if (predicted) {
+        for (; i < hi; ++i) ++cnt[cell[i]];  // the cells are known: the counts only
+      } else if (simd_cells) {
+        // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
+        // AVX2 where the CPU has it, else SSE2; the same cells on both
+        i = avx2 ? detail::stream_cells_avx2<Dim>(stream_args, i, hi, cell, cnt, stream_one)
+                 : detail::stream_cells_sse2<Dim>(stream_args, i, hi, cell, cnt, stream_one);
+      }
+      for (; i < hi; ++i) stream_one(i);
+      if (ranks) {  // the leavers: not counted here (a pass over the 4-byte cells)
+        std::vector<std::uint32_t>& mine = leavers[static_cast<std::size_t>(t)];
+        mine.clear();
+        for (std::size_t j = lo; j < hi; ++j) {
+          const std::uint32_t k = cell[j];
+          if (k < cell_lo || k >= cell_hi) {
+            --cnt[k];
+            mine.push_back(static_cast<std::uint32_t>(j));
+          }
+        }
+      }
+    }
+  }
+  // MPI ranks: the leavers go to their owners (their streamed positions by the scalar
+  // expression, bitwise the gather's), the arrivals are appended to the previous arrays
+  // (already streamed: indices >= n0) and counted with the last thread's grains
+  std::size_t arrived = 0, left = 0;
+  if (ranks) {
+    const std::size_t width = Decomposition::migrant_width(c);
+    std::vector<double> leaving;
+    for (const auto& mine : leavers) left += mine.size();
+    leaving.reserve(left * width);
+    for (const auto& mine : leavers)
+      for (std::uint32_t i : mine) {
+        double bits;
+        std::memcpy(&bits, &p.id[i], sizeof bits);  // the 64-bit id travels bit for bit
+        leaving.insert(leaving.end(), {bits, w.previous[3][i], w.previous[4][i], w.previous[5][i],
+                                       wrap_periodic(w.previous[0][i] + w.previous[3][i] * dt, Lx)});
+        if constexpr (Dim > 1) leaving.push_back(wrap_periodic(w.previous[1][i] + w.previous[4][i] * dt, Ly));
+        if constexpr (Dim > 2) leaving.push_back(wrap_periodic(w.previous[2][i] + w.previous[5][i] * dt, Lz));
+        if (hazard) leaving.push_back(w.previous[6][i]);
+        w.cell[i] = kRemoved;  // not scattered here
+      }
+    const std::vector<double> in = dec.migrate_records(c, leaving, n0 - left);
+    arrived = in.size() / width;
+    const std::size_t total = n0 + arrived;
+    if (total >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
+    for (int a = 0; a < 7; ++a)
+      if (active[a]) w.previous[a].resize(total);
+    p.id.resize(total);
+    w.cell.resize(total);
+    std::uint32_t* last = counts + static_cast<std::size_t>(threads_used - 1) * cells;
+    for (std::size_t j = 0; j < arrived; ++j) {
+      const double* r = in.data() + j * width;
+      const std::size_t i = n0 + j;
+      std::memcpy(&p.id[i], &r[0], sizeof(std::uint64_t));
+      w.previous[3][i] = r[1];
+      w.previous[4][i] = r[2];
+      w.previous[5][i] = r[3];
+      w.previous[0][i] = r[4];
+      if constexpr (Dim > 1) w.previous[1][i] = r[5];
+      if constexpr (Dim > 2) w.previous[2][i] = r[6];
+      if (hazard) w.previous[6][i] = r[4 + Dim];
+      const std::uint32_t k = grid(r[4], Dim > 1 ? r[5] : 0.0, Dim > 2 ? r[6] : 0.0);
+      w.cell[i] = k;
+      ++last[k];
+    }
+    dec.note_particles(total);
+  }
+  const std::size_t total = n0 + arrived, n = total - left;  // indices of the previous arrays; slots
+  for (int a = 0; a < 7; ++a)
+    if (active[a]) state_arrays[a]->resize(n);
+  w.id.resize(n);
+  if (predict) w.next_cell.resize(n);
+  w.perm.resize(n);
+  w.stable.resize(n + kKey32Padding);  // order_cell_by_key32(_avx2) reads up to 7 slots past a cell
+  w.key32.resize(n + kKey32Padding);
   std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict next_cell = predict ? w.next_cell.data() : nullptr;
   std::uint32_t* __restrict perm = w.perm.data();
   std::uint32_t* __restrict stable = w.stable.data();
   std::int32_t* __restrict key32 = w.key32.data();
-  // per thread: an id of this thread's particles has a bit above 31 (then the cells are
-  // ordered through the 64-bit ids, order_cell_by_id)
-  std::vector<unsigned char> wide_ids(static_cast<std::size_t>(max_threads), 0);
-  std::uint32_t* counts = w.counts.data();
-  const double* __restrict ox = previous[0];
-  const double* __restrict oy = previous[1];
-  const double* __restrict oz = previous[2];
-  const double* __restrict ovx = previous[3];
-  const double* __restrict ovy = previous[4];
-  const double* __restrict ovz = previous[5];
-  const double* __restrict ohz = previous[6];
+  const double* previous[7] = {};
+  for (int a = 0; a < 7; ++a)
+    if (active[a]) previous[a] = w.previous[a].data();
   double* __restrict x = p.x.data();
   double* __restrict y = Dim > 1 ? p.y.data() : nullptr;
   double* __restrict z = Dim > 2 ? p.z.data() : nullptr;
@@ -376,26 +542,19 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   double* __restrict hz = hazard ? p.bath_hazard.data() : nullptr;
   const std::uint64_t* __restrict id = p.id.data();
   std::uint64_t* __restrict id_out = w.id.data();
-  const GatherArrays arrays{{ox, oy, oz, ovx, ovy, ovz, ohz}, {x, y, z, vx, vy, vz, hz}};
-  const double length[3] = {Lx, Ly, Lz};
-  const bool avx2 = Philox4x32Lanes::have_avx2();
-  // the cell index kernels' arguments for this step's streaming (previous arrays) and for
-  // the prediction of the next step's (the new arrays after the collisions)
-  const bool simd_cells = cells < 0x80000000u;
-  const detail::StreamCellsArgs stream_args{{ox, oy, oz},
-                                            {ovx, ovy, ovz},
-                                            dt,
-                                            {Lx, Ly, Lz},
-                                            {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
-                                            {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
-                                             static_cast<double>(grid.cells[2]) - 1.0},
-                                            static_cast<double>(grid.cells[0]),
-                                            static_cast<double>(grid.cells[1])};
-  detail::StreamCellsArgs next_args = stream_args;
-  for (int a = 0; a < 3; ++a) {
-    next_args.pos[a] = a == 0 ? x : a == 1 ? y : z;
-    next_args.vel[a] = a == 0 ? vx : a == 1 ? vy : vz;
-  }
+  const GatherArrays arrays{{previous[0], previous[1], previous[2], previous[3], previous[4], previous[5], previous[6]},
+                            {x, y, z, vx, vy, vz, hz}};
+  // the cell index kernel's arguments for the prediction of the next step's cells (the new
+  // arrays after the collisions)
+  const detail::StreamCellsArgs next_args{{x, y, z},
+                                          {vx, vy, vz},
+                                          dt,
+                                          {Lx, Ly, Lz},
+                                          {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+                                          {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+                                           static_cast<double>(grid.cells[2]) - 1.0},
+                                          static_cast<double>(grid.cells[0]),
+                                          static_cast<double>(grid.cells[1])};
   // the next step's cell of slot j: the streaming pass's expression on the state after the
   // collisions (the next step's previous arrays), so the same cell as that pass would give
   auto predict_one = [&](std::size_t j) {
@@ -405,66 +564,54 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     if constexpr (Dim > 2) zj = wrap_periodic(z[j] + vz[j] * dt, Lz);
     next_cell[j] = grid(xj, yj, zj);
   };
-#pragma omp parallel
+  const std::size_t fresh = n0;  // previous-array indices from here on arrived already streamed
+  const bool with_arrivals = arrived > 0;
+  // per range: an id of the range's particles has a bit above 31 (then the cells are
+  // ordered through the 64-bit ids, order_cell_by_id)
+  std::vector<unsigned char> wide_ranges(static_cast<std::size_t>(threads_used), 0);
+#pragma omp parallel num_threads(threads_used)
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
-    const std::size_t lo = n * t / threads, hi = n * (t + 1) / threads;
-    std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(t) * cells;
-    std::fill(cnt, cnt + cells, 0u);
-    // cell index after streaming, and the counts: reads the state once, writes 4 bytes
-    // (the streamed positions are recomputed by the gather, bitwise the same expression)
-    auto stream_one = [&](std::size_t i) {
-      const double xi = wrap_periodic(ox[i] + ovx[i] * dt, Lx);
-      double yi = 0.0, zi = 0.0;
-      if constexpr (Dim > 1) yi = wrap_periodic(oy[i] + ovy[i] * dt, Ly);
-      if constexpr (Dim > 2) zi = wrap_periodic(oz[i] + ovz[i] * dt, Lz);
-      const std::uint32_t k = grid(xi, yi, zi);
-      cell[i] = k;
-      ++cnt[k];
-    };
-    std::size_t i = lo;
-    if (predicted) {
-      for (; i < hi; ++i) ++cnt[cell[i]];  // the cells are known: the counts only
-    } else if (simd_cells) {
-      // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
-      // AVX2 where the CPU has it, else SSE2; the same cells on both
-      i = avx2 ? detail::stream_cells_avx2<Dim>(stream_args, i, hi, cell, cnt, stream_one)
-               : detail::stream_cells_sse2<Dim>(stream_args, i, hi, cell, cnt, stream_one);
-    }
-    for (; i < hi; ++i) stream_one(i);
-#pragma omp barrier
 #pragma omp single
-    counting_sort_offsets(counts, threads, cells, start);
-    // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
-    // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
-    std::uint64_t any_id = 0;
-    for (std::size_t i = lo; i < hi; ++i) {
-      // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
-      // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
-      // cells about `lead` slots ahead of i get their first particles now, and those lines
-      // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
-      // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
-      if ((i & 15) == 0) {
-        const std::size_t f = (i + lead) % n;
-        __builtin_prefetch(stable + f, 1, 1);
-        __builtin_prefetch(key32 + f, 1, 1);
+    counting_sort_offsets(counts, threads_used, cells, start);
+    // The ranges and counts of the first region (the last range also holds the arrivals),
+    // each scattered by one thread; a loop in case this region got fewer threads.
+    for (int u = t; u < threads_used; u += threads) {
+      const std::size_t lo = n0 * u / threads_used, hi = u == threads_used - 1 ? total : n0 * (u + 1) / threads_used;
+      std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(u) * cells;
+      // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
+      // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
+      std::uint64_t any_id = 0;
+      for (std::size_t i = lo; i < hi; ++i) {
+        // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
+        // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
+        // cells about `lead` slots ahead of i get their first particles now, and those lines
+        // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
+        // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
+        if ((i & 15) == 0 && n > 0) {
+          const std::size_t f = (i + lead) % n;
+          __builtin_prefetch(stable + f, 1, 1);
+          __builtin_prefetch(key32 + f, 1, 1);
+        }
+        const std::uint32_t k = cell[i];
+        if (k == kRemoved) continue;  // MPI: left for another rank
+        const std::uint32_t slot = cnt[k]++;
+        stable[slot] = static_cast<std::uint32_t>(i);
+        const std::uint64_t d = id[i];
+        any_id |= d;
+        key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
       }
-      const std::uint32_t slot = cnt[cell[i]]++;
-      stable[slot] = static_cast<std::uint32_t>(i);
-      const std::uint64_t d = id[i];
-      any_id |= d;
-      key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
+      wide_ranges[static_cast<std::size_t>(u)] = (any_id >> 32) != 0;
     }
-    wide_ids[static_cast<std::size_t>(t)] = (any_id >> 32) != 0;
 #pragma omp barrier
     bool wide = false;
-    for (int u = 0; u < threads; ++u) wide = wide || wide_ids[static_cast<std::size_t>(u)] != 0;
+    for (int u = 0; u < threads_used; ++u) wide = wide || wide_ranges[static_cast<std::size_t>(u)] != 0;
     // per block of cells: order each cell by id, gather the block from the previous arrays
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2
 #pragma omp for schedule(static)
-    for (std::size_t ordinal = 0; ordinal < blocks; ++ordinal) {
-      const std::size_t blk = block_order != nullptr ? block_order[ordinal] : ordinal;
+    for (std::size_t ordinal = 0; ordinal < my_blocks; ++ordinal) {
+      const std::size_t blk = block_order != nullptr ? block_order[ordinal] : first_blk + ordinal;
       GrainCounters counters;
       const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
       // What the gather fetches ahead. Plain order: the leading edge of the window, `lead`
@@ -473,9 +620,11 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       // for its old start, they differ by the net flow across a few faces): row y + 1, and
       // for the blocks of the tile's first row also rows y and y - 1, so that the tile's
       // rows -1 .. tile_rows of plane z + 2 are all fetched during plane z; the old ids
-      // with them (the ranking of plane z + 2 reads them).
+      // with them (the ranking of plane z + 2 reads them). (No grain, as on a rank without
+      // any: nothing to fetch.)
       WindowFetch window{{}, 0, nullptr};
-      if (tiled) {
+      if (n == 0) {
+      } else if (tiled) {
         window.id = id;
         auto ahead = [&](std::size_t shift) {
           window.offset[window.count++] = (start[(k0 + shift) % cells] + n - start[k0]) % n;
@@ -500,15 +649,27 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         }
         for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
       }
-      if (avx2) {
+      const std::size_t j0 = start[k0], j1 = start[k1];
+      if (with_arrivals) {  // MPI ranks: some old indices >= fresh are copied as they are
+        if (avx2) {
+          if (hazard)
+            gather_slots_avx2<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+          else
+            gather_slots_avx2<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+        } else if (hazard) {
+          gather_slots<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+        } else {
+          gather_slots<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+        }
+      } else if (avx2) {
         if (hazard)
-          gather_slots_avx2<Dim, true>(arrays, perm, start[k0], start[k1], n, window, dt, length);
+          gather_slots_avx2<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
         else
-          gather_slots_avx2<Dim, false>(arrays, perm, start[k0], start[k1], n, window, dt, length);
+          gather_slots_avx2<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
       } else if (hazard) {
-        gather_slots<Dim, true>(arrays, perm, start[k0], start[k1], n, window, dt, length);
+        gather_slots<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
       } else {
-        gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, window, dt, length);
+        gather_slots<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
       }
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
@@ -519,13 +680,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       }
       if (predict) {  // the block's cells for the next step, while its x and v are in cache
         std::size_t j = start[k0];
-        const std::size_t j1 = start[k1];
+        const std::size_t jn = start[k1];
         if (simd_cells)
-          j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, j1, next_cell, nullptr, predict_one)
-                   : detail::stream_cells_sse2<Dim, false>(next_args, j, j1, next_cell, nullptr, predict_one);
-        for (; j < j1; ++j) predict_one(j);
+          j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one)
+                   : detail::stream_cells_sse2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one);
+        for (; j < jn; ++j) predict_one(j);
       }
-      per_block[blk] = counters;
+      per_block[blk - first_blk] = counters;
     }
   }
   p.id.swap(w.id);
@@ -538,16 +699,19 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
 }  // namespace
 
 void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                         std::size_t block_cells) {
+                         Decomposition& dec) {
   std::visit(
       [&](const auto& law) {
         switch (c.domain.dimensions) {
-          case 1: fused_step<1>(s, c, law, seed, per_block, block_cells); break;
-          case 2: fused_step<2>(s, c, law, seed, per_block, block_cells); break;
-          default: fused_step<3>(s, c, law, seed, per_block, block_cells); break;
+          case 1: fused_step<1>(s, c, law, seed, per_block, dec); break;
+          case 2: fused_step<2>(s, c, law, seed, per_block, dec); break;
+          default: fused_step<3>(s, c, law, seed, per_block, dec); break;
         }
       },
       c.restitution);
+  // MPI: every rank's blocks in block order, as grain_step combines them
+  dec.combine_in_order(per_block, true);
+  dec.add_work(per_block);  // load-balance weights
   for (const auto& g : per_block) s.counters.grain.add(g);
 }
 

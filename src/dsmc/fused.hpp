@@ -18,16 +18,21 @@
 
 namespace grainbath::dsmc {
 
+class Decomposition;
+
 // True for spatial runs whose faces are all periodic, unless the environment variable
 // GRAINBATH_DSMC_UNFUSED is set (the separate passes, for comparisons and tests).
 bool fused_step_applies(const Config& c);
 
 // Streams over dt, orders by (cell, id), fills s.cell_start and collides in every cell;
-// `per_block` receives the counters of each block of `block_cells` cells (summed in block
-// order: the decomposition's reduction blocks, fixed by the case, so the sums are the same
-// at any thread or rank count).
+// `per_block` receives the counters of each block of dec.block_cells() cells (summed in
+// block order: the decomposition's reduction blocks, fixed by the case, so the sums are the
+// same at any thread or rank count).
+// MPI ranks: the rank's own cells, with the migration of the grains that cross into other
+// ranks' cells inside the step (fused.cpp, fused_step); per_block then holds this rank's
+// blocks, combined over the ranks in block order here.
 void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                         std::size_t block_cells);
+                         Decomposition& dec);
 
 namespace detail {
 

@@ -13,7 +13,7 @@
 # whole population (performance.rank_peak_particles < dsmc.particles).
 #
 # usage: mpi_reproducibility.sh GRAINBATH CASE_DIR WORK_DIR CHECK...
-#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | checkpoint (each compared with the plain run)
+#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | np3tiled | checkpoint (each compared with the plain run)
 #          rebalance (the 2-rank run must have moved its boundary at least once)
 #          multihop (the 4-rank run must have forwarded grains across two ranks in a step)
 set -euo pipefail
@@ -81,6 +81,12 @@ for check in "${checks[@]}"; do
       mpi "$np" run "$case_dir" --out "$work/$check" -q "${threads[@]}" > /dev/null
       same "$work/plain" "$work/$check" "$label"
       distributed "$work/$check" "$label" ;;
+    np3tiled)
+      # the fused step's tiled block order (GRAINBATH_DSMC_TILE_ROWS forces it in a small 3D
+      # box; each rank takes its own blocks in that order): still the plain run's bits
+      GRAINBATH_DSMC_TILE_ROWS=2 mpi 3 run "$case_dir" --out "$work/np3tiled" -q > /dev/null
+      same "$work/plain" "$work/np3tiled" "3 ranks, tiled block order"
+      distributed "$work/np3tiled" "3 ranks, tiled block order" ;;
     multihop)
       # after np4: some grain must have crossed two ranks' cells in one step (forwarded)
       python3 - "$work/np4/summary.json" <<'PY' || fail=1
