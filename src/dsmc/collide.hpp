@@ -154,39 +154,21 @@ inline constexpr bool uses_normal_speed = !std::is_same_v<Law, ElasticRestitutio
 // The random words come from `rng`, one generator per (cell, step): CellCollisionRng below
 // in every caller (fused step, separate passes, MPI, homogeneous runs), so that the fused
 // and the separate-pass paths draw the same numbers.
-//
-// In two parts: plan_cell (the bound, the number of candidates, the carried fraction) and
-// collide_candidates (the candidate loop, the cell's only random draws). The fused step plans
-// all cells of a block before it collides them (fused.cpp): the cells are independent, so the
-// order of the parts across cells changes nothing, and the bound's dependent chain (sums,
-// division, square roots) no longer sits between one cell's candidate loop and the next.
-struct CellPlan {
-  double g_max = 0.0;             // the pair speed bound at the start
-  std::uint64_t candidates = 0;   // 0: nothing to do (and no draws)
-};
-
-inline CellPlan plan_cell(const Particles& p, std::size_t begin, std::size_t end, double density, double dt,
-                          double& remainder) {
-  const std::size_t count = end - begin;
-  if (count < 2 || density <= 0.0) return {};
-  if (count > 0xffffffffu) throw std::length_error("collide_cell: more than 2^32 - 1 grains in one cell");
-  const double g_max = pair_speed_bound(p.vx.data() + begin, p.vy.data() + begin, p.vz.data() + begin, count);
-  if (g_max <= 0.0) return {};
-  const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
-  const auto candidates = static_cast<std::uint64_t>(expected);
-  remainder = expected - static_cast<double>(candidates);
-  return {g_max, candidates};
-}
-
 template <class Law, class Rng>
-inline void collide_candidates(Particles& p, std::size_t begin, std::size_t end, CellPlan plan, double mass,
-                               const Law& law, Rng& rng, GrainCounters& counters) {
+inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, double density, double dt,
+                         double mass, const Law& law, Rng& rng, double& remainder,
+                         GrainCounters& counters) {
   const std::size_t count = end - begin;
+  if (count < 2 || density <= 0.0) return;
+  if (count > 0xffffffffu) throw std::length_error("collide_cell: more than 2^32 - 1 grains in one cell");
   double* __restrict vx = p.vx.data() + begin;
   double* __restrict vy = p.vy.data() + begin;
   double* __restrict vz = p.vz.data() + begin;
-  double g_max = plan.g_max;
-  const std::uint64_t candidates = plan.candidates;
+  double g_max = pair_speed_bound(vx, vy, vz, count);
+  if (g_max <= 0.0) return;
+  const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
+  const auto candidates = static_cast<std::uint64_t>(expected);
+  remainder = expected - static_cast<double>(candidates);
   // an ordered pair of distinct grains, uniformly: i from [0, N), j from the other N - 1,
   // from the low and high halves of one Philox word (below_from: exact)
   const auto n32 = static_cast<std::uint32_t>(count);
@@ -238,14 +220,6 @@ inline void collide_candidates(Particles& p, std::size_t begin, std::size_t end,
     vz[j] = w.z;
     ++counters.collisions;
   }
-}
-
-template <class Law, class Rng>
-inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, double density, double dt,
-                         double mass, const Law& law, Rng& rng, double& remainder,
-                         GrainCounters& counters) {
-  const CellPlan plan = plan_cell(p, begin, end, density, dt, remainder);
-  if (plan.candidates != 0) collide_candidates(p, begin, end, plan, mass, law, rng, counters);
 }
 
 }  // namespace grainbath::dsmc

@@ -409,7 +409,6 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
     const std::size_t lo = n * t / threads, hi = n * (t + 1) / threads;
-    std::vector<CellPlan> plans(kCellBlock);  // the plans of one block's cells
     std::uint32_t* __restrict cnt = counts + static_cast<std::size_t>(t) * cells;
     std::fill(cnt, cnt + cells, 0u);
     // cell index after streaming, and the counts: reads the state once, writes 4 bytes
@@ -511,17 +510,12 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       } else {
         gather_slots<Dim, false>(arrays, perm, start[k0], start[k1], n, window, dt, length);
       }
-      // collide_cell in its two parts, all of the block's plans first (collide.hpp plan_cell)
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
-        plans[k - k0] = b1 - b0 < 2 ? CellPlan{}
-                                    : plan_cell(p, b0, b1, static_cast<double>(b1 - b0) * weight / cell_volume, dt,
-                                                s.remainder[k]);
-      }
-      for (std::size_t k = k0; k < k1; ++k) {
-        if (plans[k - k0].candidates == 0) continue;
+        if (b1 - b0 < 2) continue;
+        const double density = static_cast<double>(b1 - b0) * weight / cell_volume;
         CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
-        collide_candidates(p, start[k], start[k + 1], plans[k - k0], c.grains.mass, law, rng, counters);
+        collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters);
       }
       if (predict) {  // the block's cells for the next step, while its x and v are in cache
         std::size_t j = start[k0];
