@@ -449,8 +449,8 @@ struct Philox4x32Lanes {
   }
 };
 
-// A counter-based generator of 64-bit words from Philox4x32-10, eight words (four blocks) per
-// SIMD call (Philox4x32Lanes::words8), for kernels that draw an unknown but small number of
+// A counter-based generator of 64-bit words from Philox4x32-10, sixteen words (two groups of
+// four blocks) per SIMD call (the words of Philox4x32Lanes::words8), for kernels that draw an unknown but small number of
 // words per entity and step: the DSMC grain collisions of one cell (src/dsmc/collide.hpp;
 // ~12 words per cell and step in DSMC-1, where the scalar Philox4x64 cost ~45 instructions
 // a word and words8 ~15 including the key schedule, Issue #7). Keyed as the bath's test words
@@ -519,7 +519,7 @@ class Philox4x32Words {
   };
 
  private:
-  // cold (the call is once per eight words): GCC moves the call sites out of line and spills
+  // cold (the call is once per sixteen words): GCC moves the call sites out of line and spills
   // fewer of collide_cell's values around them (with Philox4x32Words::Cursor: the hot part of
   // collide_cell 657 -> 461 instructions, its stack stores 118 -> 68; objdump, 2026-11-26)
   [[gnu::noinline, gnu::cold]] void refill() {
