@@ -449,8 +449,8 @@ struct Philox4x32Lanes {
   }
 };
 
-// A counter-based generator of 64-bit words from Philox4x32-10, eight words (four blocks) per
-// SIMD call (Philox4x32Lanes::words8), for kernels that draw an unknown but small number of
+// A counter-based generator of 64-bit words from Philox4x32-10, sixteen words (two groups of
+// four blocks) per SIMD call (the words of Philox4x32Lanes::words8), for kernels that draw an unknown but small number of
 // words per entity and step: the DSMC grain collisions of one cell (src/dsmc/collide.hpp;
 // ~12 words per cell and step in DSMC-1, where the scalar Philox4x64 cost ~45 instructions
 // a word and words8 ~15 including the key schedule, Issue #7). Keyed as the bath's test words
@@ -469,9 +469,15 @@ class Philox4x32Words {
         c1_(static_cast<std::uint32_t>(entity >> 32) | static_cast<std::uint32_t>(static_cast<std::uint64_t>(stream) << 24)),
         c2_(static_cast<std::uint32_t>(step)) {}
 
+  // The words are computed two groups (sixteen words) at a time: a cell draws ~12 words in
+  // DSMC-1 (3.97 candidates, 1.69 collisions), and the two groups' rounds are independent
+  // chains that overlap (philox_lanes.inc groups<2>), so one call for sixteen words costs
+  // less than the two calls for eight that most cells made.
+  static constexpr int kWindow = 16;
+
   // 64 random bits: word `draw` of the sequence, group draw / 8, word draw % 8 of words8.
   std::uint64_t bits64() {
-    if (used_ == 8) refill();
+    if (used_ == kWindow) refill();
     return words_[used_++];
   }
 
@@ -481,7 +487,7 @@ class Philox4x32Words {
   // Uniform direction on the unit sphere, as CounterRng::unit_vector (marsaglia_unit_vector).
   Vec3 unit_vector() { return marsaglia_unit_vector(*this); }
 
-  // How many groups of eight words this generator has computed (for tests).
+  // How many groups of eight words this generator has computed (for tests): two per refill.
   std::uint32_t groups_used() const { return group_; }
 
   // The same draws for a kernel's hot loop, with the index of the next word in a local
@@ -498,7 +504,7 @@ class Philox4x32Words {
     Cursor(const Cursor&) = delete;
     Cursor& operator=(const Cursor&) = delete;
     [[gnu::always_inline]] std::uint64_t bits64() {
-      if (used_ == 8) [[unlikely]] {
+      if (used_ == kWindow) [[unlikely]] {
         g_.refill();
         used_ = 0;
       }
@@ -513,25 +519,25 @@ class Philox4x32Words {
   };
 
  private:
-  // cold (the call is once per eight words): GCC moves the call sites out of line and spills
+  // cold (the call is once per sixteen words): GCC moves the call sites out of line and spills
   // fewer of collide_cell's values around them (with Philox4x32Words::Cursor: the hot part of
   // collide_cell 657 -> 461 instructions, its stack stores 118 -> 68; objdump, 2026-11-26)
   [[gnu::noinline, gnu::cold]] void refill() {
-    // one group of eight words, the same bits as words8 with n = 1 (philox_lanes.inc group():
-    // the round keys advanced in a register instead of words8's table, cheaper for one group)
+    // two groups of eight words, the same bits as words8 with n = 2 (philox_lanes.inc groups():
+    // the round keys advanced in a register instead of words8's table, cheaper for few groups)
     if (Philox4x32Lanes::have_avx2())
-      detail::philox_avx2::group(seed_, c0_, c1_, c2_, 4u * group_, words_);
+      detail::philox_avx2::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
     else
-      detail::philox_sse2::group(seed_, c0_, c1_, c2_, 4u * group_, words_);
-    ++group_;
+      detail::philox_sse2::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
+    group_ += 2;
     used_ = 0;
   }
 
   std::uint64_t seed_;
   std::uint32_t c0_, c1_, c2_;
   std::uint32_t group_ = 0;
-  int used_ = 8;
-  std::uint64_t words_[8];
+  int used_ = kWindow;
+  std::uint64_t words_[kWindow];
 };
 
 }  // namespace grainbath

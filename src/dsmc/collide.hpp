@@ -133,7 +133,7 @@ inline std::uint32_t below_from(std::uint32_t bits, std::uint32_t range, Rng& rn
   return static_cast<std::uint32_t>(m >> 32);
 }
 
-// The generator of a cell's collision words: Philox4x32-10 eight words per SIMD call
+// The generator of a cell's collision words: Philox4x32-10 sixteen words per SIMD call
 // (operators/random.hpp), keyed (seed, Stream::grain_collisions; cell, step, draw). A cell
 // draws ~0.75 words per grain and step in DSMC-1 (two per candidate, ~2.5 per collision for
 // the direction); the scalar Philox4x64 of CounterRng cost ~45 instructions a word

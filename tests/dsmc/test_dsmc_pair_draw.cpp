@@ -80,7 +80,7 @@ TEST(DsmcPairDraw, OrderedPairsAreUniform) {
   expect_ordered_pairs_uniform<CounterRng>();
 }
 
-// The collision words of a cell (Philox4x32Words): one group of eight words is computed by
+// The collision words of a cell (Philox4x32Words): one group of eight words (two: group2) is computed by
 // detail::philox_sse2::group / philox_avx2::group with the round keys advanced in a register; both must give
 // Random123's scalar Philox4x32 words (words8_scalar) for keys and counters with high bits
 // and block bases up to the 2^32 wrap. Fails if a round key, a multiplier or the word
@@ -97,6 +97,16 @@ TEST(DsmcCollisionWords, GroupPathsEqualRandom123) {
         if (Philox4x32Lanes::have_avx2()) {
           grainbath::detail::philox_avx2::group(key, c0, c1, c2, base, avx2);
           for (int j = 0; j < 8; ++j) ASSERT_EQ(avx2[j], ref[j]) << "key " << key << " base " << base << " a " << a;
+        }
+        // group2 (Philox4x32Words::refill): groups base and base + 4 (the counter wraps mod 2^32)
+        std::uint64_t ref2[16], sse2_2[16] = {}, avx2_2[16] = {};
+        Philox4x32Lanes::words8_scalar(key, c0, c1, c2, base, ref2);
+        Philox4x32Lanes::words8_scalar(key, c0, c1, c2, base + 4u, ref2 + 8);
+        grainbath::detail::philox_sse2::group2(key, c0, c1, c2, base, sse2_2);
+        for (int j = 0; j < 16; ++j) ASSERT_EQ(sse2_2[j], ref2[j]) << "group2 key " << key << " base " << base << " a " << a;
+        if (Philox4x32Lanes::have_avx2()) {
+          grainbath::detail::philox_avx2::group2(key, c0, c1, c2, base, avx2_2);
+          for (int j = 0; j < 16; ++j) ASSERT_EQ(avx2_2[j], ref2[j]) << "group2 key " << key << " base " << base << " a " << a;
         }
       }
     }
@@ -118,7 +128,7 @@ TEST(DsmcCollisionWords, KeyedOnSeedStreamCellStepDraw) {
   for (std::uint32_t g = 0; g < 3; ++g) Philox4x32Lanes::words8_scalar(seed, c0, c1, static_cast<std::uint32_t>(step), 4 * g, ref + 8 * g);
   for (int d = 0; d < 20; ++d) EXPECT_EQ(rng.bits64(), ref[d]) << "draw " << d;
   EXPECT_EQ(rng.uniform(), (static_cast<double>(ref[20] >> 11) + 0.5) * 0x1.0p-53);
-  EXPECT_EQ(rng.groups_used(), 3u);
+  EXPECT_EQ(rng.groups_used(), 4u);  // computed two groups at a time (Philox4x32Words::kWindow)
   const std::uint64_t first = ref[0];
   EXPECT_NE(Philox4x32Words(seed + 1, Stream::grain_collisions, cell, step).bits64(), first);
   EXPECT_NE(Philox4x32Words(seed, Stream::sort_shuffle, cell, step).bits64(), first);
