@@ -58,6 +58,21 @@ std::size_t fused_tile_rows(std::size_t particles, const std::array<int, 3>& cel
 
 namespace {
 
+// The cell index kernels' arguments: positions and velocities to stream over dt, the grid.
+detail::StreamCellsArgs stream_cells_args(const CellGrid& grid, const std::array<double, 3>& length, double dt,
+                                          const std::array<const double*, 3>& pos,
+                                          const std::array<const double*, 3>& vel) {
+  return {{pos[0], pos[1], pos[2]},
+          {vel[0], vel[1], vel[2]},
+          dt,
+          {length[0], length[1], length[2]},
+          {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
+          {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
+           static_cast<double>(grid.cells[2]) - 1.0},
+          static_cast<double>(grid.cells[0]),
+          static_cast<double>(grid.cells[1])};
+}
+
 // The previous arrays (x, y, z, vx, vy, vz, bath residual) and the new ones.
 struct GatherArrays {
   const double* from[7];
@@ -420,15 +435,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     const double* __restrict ovy = w.previous[4].data();
     const double* __restrict ovz = w.previous[5].data();
     // the cell index kernels' arguments for this step's streaming (previous arrays)
-    const detail::StreamCellsArgs stream_args{{ox, oy, oz},
-                                              {ovx, ovy, ovz},
-                                              dt,
-                                              {Lx, Ly, Lz},
-                                              {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
-                                              {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
-                                               static_cast<double>(grid.cells[2]) - 1.0},
-                                              static_cast<double>(grid.cells[0]),
-                                              static_cast<double>(grid.cells[1])};
+    const detail::StreamCellsArgs stream_args = stream_cells_args(grid, {Lx, Ly, Lz}, dt, {ox, oy, oz}, {ovx, ovy, ovz});
 #pragma omp parallel
     {
       const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -546,15 +553,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
                             {x, y, z, vx, vy, vz, hz}};
   // the cell index kernel's arguments for the prediction of the next step's cells (the new
   // arrays after the collisions)
-  const detail::StreamCellsArgs next_args{{x, y, z},
-                                          {vx, vy, vz},
-                                          dt,
-                                          {Lx, Ly, Lz},
-                                          {grid.inv_size[0], grid.inv_size[1], grid.inv_size[2]},
-                                          {static_cast<double>(grid.cells[0]) - 1.0, static_cast<double>(grid.cells[1]) - 1.0,
-                                           static_cast<double>(grid.cells[2]) - 1.0},
-                                          static_cast<double>(grid.cells[0]),
-                                          static_cast<double>(grid.cells[1])};
+  const detail::StreamCellsArgs next_args = stream_cells_args(grid, {Lx, Ly, Lz}, dt, {x, y, z}, {vx, vy, vz});
   // the next step's cell of slot j: the streaming pass's expression on the state after the
   // collisions (the next step's previous arrays), so the same cell as that pass would give
   auto predict_one = [&](std::size_t j) {
