@@ -10,8 +10,7 @@ exe=$1
 case_dir=$2
 work=$3
 source "$(dirname "$0")/mpi_env.sh"
-rm -rf "$work"
-mkdir -p "$work"
+fresh_work_dir "$work"
 seeds=1,2,3,4,5
 "$exe" sweep "$case_dir" --set run.seed=$seeds --out "$work/fork" -j 2 > /dev/null 2>&1
 mpi 2 sweep "$case_dir" --set run.seed=$seeds --out "$work/mpi" > /dev/null 2>&1

@@ -9,3 +9,5 @@ export OMPI_MCA_btl_vader_single_copy_mechanism=none
 export OMP_WAIT_POLICY=PASSIVE
 # mpi NP ARGS...: the grainbath under test on NP ranks
 mpi() { local np=$1; shift; mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"; }
+# fresh_work_dir DIR: an empty work directory for the test (what a previous run left is removed)
+fresh_work_dir() { rm -rf "$1"; mkdir -p "$1"; }

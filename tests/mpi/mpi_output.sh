@@ -24,8 +24,7 @@ case_dir=$2
 homogeneous=$3
 work=$4
 source "$(dirname "$0")/mpi_env.sh"
-rm -rf "$work"
-mkdir -p "$work"
+fresh_work_dir "$work"
 fail=0
 ck=(--set checkpoint.every=0.05 --set checkpoint.keep=true)
 first=checkpoint-000000000001.h5

@@ -25,8 +25,7 @@ checks=("$@")
 plain=${PLAIN_GRAINBATH:-}
 source "$(dirname "$0")/mpi_env.sh"
 
-rm -rf "$work"
-mkdir -p "$work"
+fresh_work_dir "$work"
 fail=0
 same() {  # same REF OTHER LABEL
   if ! h5diff --exclude-path /parameters "$1/results.h5" "$2/results.h5" > "$work/h5diff.log" 2>&1; then

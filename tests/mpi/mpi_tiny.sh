@@ -15,8 +15,7 @@ exe=$1
 cases=$2
 work=$3
 source "$(dirname "$0")/mpi_env.sh"
-rm -rf "$work"
-mkdir -p "$work"
+fresh_work_dir "$work"
 fail=0
 limit=${MPI_TINY_LIMIT:-120}  # seconds per run: each takes about one; a hang is a failure
 run_plain() {  # run_plain OUT ARGS...
