@@ -136,6 +136,52 @@ BENCHMARK(BM_PrefetchedChain)
     ->Args({0, 3, 16})
     ->Unit(benchmark::kMillisecond);
 
+// Do lines loaded a moment ago stay in the core's caches? (docs/performance/edmd.md,
+// 2026-11-26 exact event batches: the event loop still waited on lines it had just loaded.)
+// Per step: 8 random lines A over 256 MiB (huge pages) are loaded together, then <gap>
+// other random lines together, then (reread = 1) the 8 lines A again; each group's
+// addresses depend on the previous group's values (always 0, unknown to the CPU), so the
+// three groups run one after the other. time_per_step(reread 1) - time_per_step(reread 0)
+// is what the second reading of A costs: a few ns if A is still in L1/L2, about one DRAM
+// latency if it was evicted by the gap's lines.
+void BM_ReuseAfterTouch(benchmark::State& state) {
+  const int gap = static_cast<int>(state.range(0));
+  const bool reread = state.range(1) != 0;
+  constexpr std::size_t kBytes = std::size_t{256} << 20;
+  constexpr std::size_t kLines = kBytes / sizeof(Node);
+  constexpr std::size_t kSteps = std::size_t{1} << 16;
+  constexpr int kTouched = 8;
+  const NodeBuffer nodes = random_cycle(kLines, 99, true);  // its links are not used here
+  for (std::size_t i = 0; i < kLines; ++i) nodes[i].pad[0] = 0;
+  std::mt19937_64 g(2468);
+  std::uniform_int_distribution<std::uint32_t> line(0, static_cast<std::uint32_t>(kLines - 2));
+  std::vector<std::uint32_t> touched(kSteps * kTouched), others(kSteps * static_cast<std::size_t>(gap) + 1);
+  for (auto& x : touched) x = line(g);
+  for (auto& x : others) x = line(g);
+  for (auto _ : state) {
+    std::uint32_t carry = 0;
+    for (std::size_t k = 0; k < kSteps; ++k) {
+      const std::uint32_t* a = &touched[k * kTouched];
+      std::uint32_t sa = 0;
+      for (int q = 0; q < kTouched; ++q) sa += nodes[a[q] + (carry & 1u)].pad[0];
+      std::uint32_t sg = 0;
+      const std::uint32_t* o = &others[k * static_cast<std::size_t>(gap)];
+      for (int q = 0; q < gap; ++q) sg += nodes[o[q] + (sa & 1u)].pad[0];
+      carry = sa + sg;
+      if (reread) {
+        std::uint32_t sr = 0;
+        for (int q = 0; q < kTouched; ++q) sr += nodes[a[q] + (carry & 1u)].pad[0];
+        carry += sr;
+      }
+    }
+    benchmark::DoNotOptimize(carry);
+  }
+  state.counters["time_per_step"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(kSteps),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ReuseAfterTouch)->ArgsProduct({{0, 16, 64, 256, 512, 1024, 2048}, {0, 1}})->Unit(benchmark::kMillisecond);
+
 }  // namespace
 
 BENCHMARK_MAIN();
