@@ -97,21 +97,37 @@ BENCHMARK(BM_PointerChase)
     ->ArgsProduct({{256, 1024, 8 * 1024, 32 * 1024, 128 * 1024, 512 * 1024}, {1, 8}, {0, 1}})
     ->Unit(benchmark::kMillisecond);
 
+// 256 MiB of lines on huge pages whose first word is 0, read at random places by the two
+// benchmarks below (the cycle's links are not used; the seed only fixes its layout)
+constexpr std::size_t kRandomLines = (std::size_t{256} << 20) / sizeof(Node);
+NodeBuffer zeroed_lines(std::uint64_t seed) {
+  NodeBuffer nodes = random_cycle(kRandomLines, seed, true);
+  for (std::size_t i = 0; i < kRandomLines; ++i) nodes[i].pad[0] = 0;
+  return nodes;
+}
+
+// Random line indices into those lines (the last line left out: the dependent loads add
+// a 0 or 1 that the CPU cannot know in advance)
+struct RandomLines {
+  std::mt19937_64 g;
+  std::uniform_int_distribution<std::uint32_t> line{0, static_cast<std::uint32_t>(kRandomLines - 2)};
+  explicit RandomLines(std::uint64_t seed) : g(seed) {}
+  std::vector<std::uint32_t> draw(std::size_t n) {
+    std::vector<std::uint32_t> v(n);
+    for (auto& x : v) x = line(g);
+    return v;
+  }
+};
+
 void BM_PrefetchedChain(benchmark::State& state) {
   const int distance = static_cast<int>(state.range(0));
   const int level = static_cast<int>(state.range(1));
   const int extra = static_cast<int>(state.range(2));
-  constexpr std::size_t kBytes = std::size_t{256} << 20;
-  constexpr std::size_t kLines = kBytes / sizeof(Node);
   constexpr std::size_t kSteps = std::size_t{1} << 20;
   constexpr int kMaxExtra = 16;
-  const NodeBuffer nodes = random_cycle(kLines, 777, true);  // its links are not used here
-  for (std::size_t i = 0; i < kLines; ++i) nodes[i].pad[0] = 0;
-  std::mt19937_64 g(4242);
-  std::uniform_int_distribution<std::uint32_t> line(0, static_cast<std::uint32_t>(kLines - 2));
-  std::vector<std::uint32_t> chain(kSteps + 64), others(kSteps * kMaxExtra);
-  for (auto& x : chain) x = line(g);
-  for (auto& x : others) x = line(g);
+  const NodeBuffer nodes = zeroed_lines(777);
+  RandomLines pick(4242);
+  const std::vector<std::uint32_t> chain = pick.draw(kSteps + 64), others = pick.draw(kSteps * kMaxExtra);
   for (auto _ : state) {
     std::uint32_t carry = 0, sink = 0;
     for (std::size_t k = 0; k < kSteps; ++k) {
@@ -147,17 +163,12 @@ BENCHMARK(BM_PrefetchedChain)
 void BM_ReuseAfterTouch(benchmark::State& state) {
   const int gap = static_cast<int>(state.range(0));
   const bool reread = state.range(1) != 0;
-  constexpr std::size_t kBytes = std::size_t{256} << 20;
-  constexpr std::size_t kLines = kBytes / sizeof(Node);
   constexpr std::size_t kSteps = std::size_t{1} << 16;
   constexpr int kTouched = 8;
-  const NodeBuffer nodes = random_cycle(kLines, 99, true);  // its links are not used here
-  for (std::size_t i = 0; i < kLines; ++i) nodes[i].pad[0] = 0;
-  std::mt19937_64 g(2468);
-  std::uniform_int_distribution<std::uint32_t> line(0, static_cast<std::uint32_t>(kLines - 2));
-  std::vector<std::uint32_t> touched(kSteps * kTouched), others(kSteps * static_cast<std::size_t>(gap) + 1);
-  for (auto& x : touched) x = line(g);
-  for (auto& x : others) x = line(g);
+  const NodeBuffer nodes = zeroed_lines(99);
+  RandomLines pick(2468);
+  const std::vector<std::uint32_t> touched = pick.draw(kSteps * kTouched),
+                                   others = pick.draw(kSteps * static_cast<std::size_t>(gap) + 1);
   for (auto _ : state) {
     std::uint32_t carry = 0;
     for (std::size_t k = 0; k < kSteps; ++k) {
