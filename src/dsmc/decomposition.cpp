@@ -86,6 +86,66 @@ long long sum(long long x) {
 }
 }  // namespace mpi_env
 
+namespace {
+// A migrating grain travels as one record of doubles: id (its 64 bits), velocity, position
+// (one per dimension) and, in runs with a medium, the carried bath residual (also outside
+// MPI builds: the fused step packs its leavers with it, src/dsmc/fused.cpp).
+struct MigrantRecord {
+  int dims;
+  bool hazard;
+  std::size_t width;
+  explicit MigrantRecord(const Config& c)
+      : dims(c.domain.dimensions), hazard(medium_present(c)), width(4 + static_cast<std::size_t>(dims) + (hazard ? 1 : 0)) {}
+  // the record's layout: the id's 64 bits, vx, vy, vz, the position (one per dimension),
+  // the bath residual if a medium is present
+  void pack(std::uint64_t id, const double (&v)[3], const double (&r)[3], double residual, std::vector<double>& o) const {
+    double bits;
+    std::memcpy(&bits, &id, sizeof bits);  // the 64-bit id travels bit for bit
+    o.insert(o.end(), {bits, v[0], v[1], v[2], r[0]});
+    if (dims > 1) o.push_back(r[1]);
+    if (dims > 2) o.push_back(r[2]);
+    if (hazard) o.push_back(residual);
+  }
+  void unpack(const double* rec, std::uint64_t& id, double (&v)[3], double (&r)[3], double& residual) const {
+    std::memcpy(&id, &rec[0], sizeof id);
+    v[0] = rec[1], v[1] = rec[2], v[2] = rec[3];
+    r[0] = rec[4];
+    r[1] = dims > 1 ? rec[5] : 0.0;
+    r[2] = dims > 2 ? rec[6] : 0.0;
+    residual = hazard ? rec[4 + dims] : 0.0;
+  }
+  void pack(const Particles& p, std::size_t i, std::vector<double>& o) const {
+    pack(p.id[i], {p.vx[i], p.vy[i], p.vz[i]}, {p.x[i], dims > 1 ? p.y[i] : 0.0, dims > 2 ? p.z[i] : 0.0},
+         hazard ? p.bath_hazard[i] : 0.0, o);
+  }
+  std::uint32_t cell(const CellGrid& grid, const double* r) const {
+    return grid(r[4], dims > 1 ? r[5] : 0.0, dims > 2 ? r[6] : 0.0);
+  }
+  // append the records in `in` to the particles, and their cells to `cells`
+  void append(const std::vector<double>& in, const CellGrid& grid, Particles& p, std::vector<std::uint32_t>& cells) const {
+    const std::size_t n = p.size(), arrived = in.size() / width;
+    p.resize(n + arrived, false);
+    p.x.resize(n + arrived);
+    if (dims > 1) p.y.resize(n + arrived);
+    if (dims > 2) p.z.resize(n + arrived);
+    if (hazard) p.bath_hazard.resize(n + arrived);
+    cells.resize(n + arrived);
+    for (std::size_t j = 0; j < arrived; ++j) {
+      const double* rec = in.data() + j * width;
+      const std::size_t i = n + j;
+      double v[3], r[3], residual;
+      unpack(rec, p.id[i], v, r, residual);
+      p.vx[i] = v[0], p.vy[i] = v[1], p.vz[i] = v[2];
+      p.x[i] = r[0];
+      if (dims > 1) p.y[i] = r[1];
+      if (dims > 2) p.z[i] = r[2];
+      if (hazard) p.bath_hazard[i] = residual;
+      cells[i] = cell(grid, rec);
+    }
+  }
+};
+}  // namespace
+
 // ---------------------------------------------------------------- decomposition
 #ifdef GRAINBATH_MPI
 namespace {
@@ -120,50 +180,6 @@ std::vector<double> exchange_doubles(const std::vector<std::vector<double>>& out
                 MPI_DOUBLE, MPI_COMM_WORLD);
   return recv;
 }
-
-// A migrating grain travels as one record of doubles: id (its 64 bits), velocity, position
-// (one per dimension) and, in runs with a medium, the carried bath residual.
-struct MigrantRecord {
-  int dims;
-  bool hazard;
-  std::size_t width;
-  explicit MigrantRecord(const Config& c)
-      : dims(c.domain.dimensions), hazard(medium_present(c)), width(4 + static_cast<std::size_t>(dims) + (hazard ? 1 : 0)) {}
-  void pack(const Particles& p, std::size_t i, std::vector<double>& o) const {
-    double id;
-    std::memcpy(&id, &p.id[i], sizeof id);  // the 64-bit id travels bit for bit
-    o.insert(o.end(), {id, p.vx[i], p.vy[i], p.vz[i], p.x[i]});
-    if (dims > 1) o.push_back(p.y[i]);
-    if (dims > 2) o.push_back(p.z[i]);
-    if (hazard) o.push_back(p.bath_hazard[i]);
-  }
-  std::uint32_t cell(const CellGrid& grid, const double* r) const {
-    return grid(r[4], dims > 1 ? r[5] : 0.0, dims > 2 ? r[6] : 0.0);
-  }
-  // append the records in `in` to the particles, and their cells to `cells`
-  void append(const std::vector<double>& in, const CellGrid& grid, Particles& p, std::vector<std::uint32_t>& cells) const {
-    const std::size_t n = p.size(), arrived = in.size() / width;
-    p.resize(n + arrived, false);
-    p.x.resize(n + arrived);
-    if (dims > 1) p.y.resize(n + arrived);
-    if (dims > 2) p.z.resize(n + arrived);
-    if (hazard) p.bath_hazard.resize(n + arrived);
-    cells.resize(n + arrived);
-    for (std::size_t j = 0; j < arrived; ++j) {
-      const double* r = in.data() + j * width;
-      const std::size_t i = n + j;
-      std::memcpy(&p.id[i], &r[0], sizeof(std::uint64_t));
-      p.vx[i] = r[1];
-      p.vy[i] = r[2];
-      p.vz[i] = r[3];
-      p.x[i] = r[4];
-      if (dims > 1) p.y[i] = r[5];
-      if (dims > 2) p.z[i] = r[6];
-      if (hazard) p.bath_hazard[i] = r[4 + dims];
-      cells[i] = cell(grid, r);
-    }
-  }
-};
 
 // One round of the ring: send `to_left` / `to_right` to the neighbours and receive what they
 // sent this way (any length: the receiver probes the size, so no separate count message).
@@ -418,8 +434,14 @@ void Decomposition::send_to_owners(State& s, const Config& c) {
 #endif
 }
 
-std::size_t Decomposition::migrant_width(const Config& c) {
-  return 4 + static_cast<std::size_t>(c.domain.dimensions) + (medium_present(c) ? 1 : 0);
+std::size_t Decomposition::migrant_width(const Config& c) { return MigrantRecord(c).width; }
+void Decomposition::pack_migrant(const Config& c, std::uint64_t id, const double (&v)[3], const double (&r)[3],
+                                 double residual, std::vector<double>& out) {
+  MigrantRecord(c).pack(id, v, r, residual, out);
+}
+void Decomposition::unpack_migrant(const Config& c, const double* record, std::uint64_t& id, double (&v)[3],
+                                   double (&r)[3], double& residual) {
+  MigrantRecord(c).unpack(record, id, v, r, residual);
 }
 
 void Decomposition::migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed) {

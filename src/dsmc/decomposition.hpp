@@ -113,6 +113,12 @@ class Decomposition {
   // order migrate() appends them. Collective (every rank calls it every step).
   std::vector<double> migrate_records(const Config& c, const std::vector<double>& leaving, std::size_t staying);
   static std::size_t migrant_width(const Config& c);
+  // One record of `leaving` / of the result, in migrate()'s own layout (unused components:
+  // y, z beyond the dimensions and the residual without a medium, are left out / read as 0).
+  static void pack_migrant(const Config& c, std::uint64_t id, const double (&v)[3], const double (&r)[3],
+                           double residual, std::vector<double>& out);
+  static void unpack_migrant(const Config& c, const double* record, std::uint64_t& id, double (&v)[3], double (&r)[3],
+                             double& residual);
   void note_particles(std::size_t n) { peak_particles_ = std::max(peak_particles_, n); }
   // Share [lo, hi) of `count` items (ids at start-up) for this rank: contiguous, in rank
   // order, cut at multiples of `granule` (the moment blocks of measure_moments).

@@ -255,10 +255,10 @@ template <int Dim, bool kHazard, bool kArrivals = false>
       if (std::max(std::max(i0, i1), std::max(i2, i3)) >= fresh) [[unlikely]] {
         for (std::size_t q = j; q < j + 4; ++q) {
           const std::uint32_t i = perm[q];
-          const bool moved = i < fresh;
-          x[q] = moved ? wrap_periodic(ox[i] + ovx[i] * dt, length[0]) : ox[i];
-          if constexpr (Dim > 1) y[q] = moved ? wrap_periodic(oy[i] + ovy[i] * dt, length[1]) : oy[i];
-          if constexpr (Dim > 2) z[q] = moved ? wrap_periodic(oz[i] + ovz[i] * dt, length[2]) : oz[i];
+          const bool own = i < fresh;  // this rank's grain, not yet streamed
+          x[q] = own ? wrap_periodic(ox[i] + ovx[i] * dt, length[0]) : ox[i];
+          if constexpr (Dim > 1) y[q] = own ? wrap_periodic(oy[i] + ovy[i] * dt, length[1]) : oy[i];
+          if constexpr (Dim > 2) z[q] = own ? wrap_periodic(oz[i] + ovz[i] * dt, length[2]) : oz[i];
           vx[q] = ovx[i];
           vy[q] = ovy[i];
           vz[q] = ovz[i];
@@ -489,13 +489,11 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     leaving.reserve(left * width);
     for (const auto& mine : leavers)
       for (std::uint32_t i : mine) {
-        double bits;
-        std::memcpy(&bits, &p.id[i], sizeof bits);  // the 64-bit id travels bit for bit
-        leaving.insert(leaving.end(), {bits, w.previous[3][i], w.previous[4][i], w.previous[5][i],
-                                       wrap_periodic(w.previous[0][i] + w.previous[3][i] * dt, Lx)});
-        if constexpr (Dim > 1) leaving.push_back(wrap_periodic(w.previous[1][i] + w.previous[4][i] * dt, Ly));
-        if constexpr (Dim > 2) leaving.push_back(wrap_periodic(w.previous[2][i] + w.previous[5][i] * dt, Lz));
-        if (hazard) leaving.push_back(w.previous[6][i]);
+        const double v[3] = {w.previous[3][i], w.previous[4][i], w.previous[5][i]};
+        double r[3] = {wrap_periodic(w.previous[0][i] + v[0] * dt, Lx), 0.0, 0.0};
+        if constexpr (Dim > 1) r[1] = wrap_periodic(w.previous[1][i] + v[1] * dt, Ly);
+        if constexpr (Dim > 2) r[2] = wrap_periodic(w.previous[2][i] + v[2] * dt, Lz);
+        Decomposition::pack_migrant(c, p.id[i], v, r, hazard ? w.previous[6][i] : 0.0, leaving);
         w.cell[i] = kRemoved;  // not scattered here
       }
     const std::vector<double> in = dec.migrate_records(c, leaving, n0 - left);
@@ -508,17 +506,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     w.cell.resize(total);
     std::uint32_t* last = counts + static_cast<std::size_t>(threads_used - 1) * cells;
     for (std::size_t j = 0; j < arrived; ++j) {
-      const double* r = in.data() + j * width;
       const std::size_t i = n0 + j;
-      std::memcpy(&p.id[i], &r[0], sizeof(std::uint64_t));
-      w.previous[3][i] = r[1];
-      w.previous[4][i] = r[2];
-      w.previous[5][i] = r[3];
-      w.previous[0][i] = r[4];
-      if constexpr (Dim > 1) w.previous[1][i] = r[5];
-      if constexpr (Dim > 2) w.previous[2][i] = r[6];
-      if (hazard) w.previous[6][i] = r[4 + Dim];
-      const std::uint32_t k = grid(r[4], Dim > 1 ? r[5] : 0.0, Dim > 2 ? r[6] : 0.0);
+      double v[3], r[3], residual;
+      Decomposition::unpack_migrant(c, in.data() + j * width, p.id[i], v, r, residual);
+      for (int a = 0; a < 3; ++a) w.previous[3 + a][i] = v[a];
+      for (int a = 0; a < Dim; ++a) w.previous[a][i] = r[a];
+      if (hazard) w.previous[6][i] = residual;
+      const std::uint32_t k = grid(r[0], r[1], r[2]);
       w.cell[i] = k;
       ++last[k];
     }
