@@ -7,7 +7,37 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 export OMPI_MCA_btl_tcp_if_include=lo OMPI_MCA_oob_tcp_if_include=lo
 export OMPI_MCA_btl_vader_single_copy_mechanism=none
 export OMP_WAIT_POLICY=PASSIVE
-# mpi NP ARGS...: the grainbath under test on NP ranks
-mpi() { local np=$1; shift; mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"; }
+# within SECONDS CMD...: CMD (an mpirun) under a time limit, in a session of its own, so that
+# every process it started can be found afterwards. A rank that ignores mpirun's SIGTERM
+# outlives a killed mpirun (seen: `timeout -k 2 3 mpirun -np 2 bash -c 'trap "" TERM; sleep
+# 1001'` left both sleeps running, re-parented to init, each in its own process group but in
+# the caller's session); whatever is still alive in the session when CMD returns is killed.
+# Exit status as timeout's: 124 when the limit was reached (137 if mpirun had to be killed
+# too). mpirun gets WITHIN_KILL_AFTER seconds (default 5) after the SIGTERM to stop its
+# ranks before it is killed itself.
+within() {
+  local limit=$1; shift
+  local sid_file rc=0 sid
+  sid_file=$(mktemp)
+  # timeout's child is not a process-group leader, so setsid execs in place: the session id
+  # is the pid that bash writes before exec-ing CMD.
+  timeout -k "${WITHIN_KILL_AFTER:-5}" "$limit" setsid bash -c 'echo $$ > "$0"; exec "$@"' "$sid_file" "$@" || rc=$?
+  sid=$(cat "$sid_file"); rm -f "$sid_file"
+  if [ -n "$sid" ]; then
+    local left  # (zombies, already dead, are left to init)
+    left=$(ps -o pid=,stat=,args= -s "$sid" | awk '$2 !~ /^Z/' || true)
+    if [ -n "$left" ]; then
+      echo "within: killing what the run left behind: $(echo "$left" | tr '\n' ';')" >&2
+      pkill -KILL -s "$sid" || true
+    fi
+  fi
+  return "$rc"
+}
+# mpi NP ARGS...: the grainbath under test on NP ranks (a hang fails the run after
+# MPI_RUN_LIMIT seconds, before ctest's own timeout would kill the script and orphan ranks)
+mpi() {
+  local np=$1; shift
+  within "${MPI_RUN_LIMIT:-240}" mpirun --oversubscribe --bind-to none -np "$np" "$exe" "$@"
+}
 # fresh_work_dir DIR: an empty work directory for the test (what a previous run left is removed)
 fresh_work_dir() { rm -rf "$1"; mkdir -p "$1"; }

@@ -27,7 +27,7 @@ run_plain() {  # run_plain OUT ARGS...
 run_np() {  # run_np NP OUT ARGS...
   local np=$1 out=$2; shift 2
   local rc=0
-  timeout -k 5 "$limit" mpirun --oversubscribe --bind-to none -np "$np" "$exe" run "$@" --out "$work/$out" -q \
+  within "$limit" mpirun --oversubscribe --bind-to none -np "$np" "$exe" run "$@" --out "$work/$out" -q \
     > "$work/$out.log" 2>&1 || rc=$?
   if [ $rc -eq 124 ] || [ $rc -eq 137 ]; then
     echo "FAIL $out: $np ranks did not finish within $limit s (a hang)"; fail=1; return 1
