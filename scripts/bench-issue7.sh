@@ -5,7 +5,7 @@
 #   scripts/bench-issue7.sh BUILD_DIR OUT_DIR [REPEATS] [MPI_BUILD_DIR]
 # BUILD_DIR needs the targets bench_dsmc, bench_edmd, bench_memory and grainbath; MPI_BUILD_DIR (optional) a grainbath
 # built with -DGRAINBATH_MPI=ON, for the 1-process vs 2-rank figure of the DSMC-1 case.
-# Writes OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
+# Writes OUT_DIR/machine.txt (CPU model, caches, git commit), OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
 # (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd), OUT_DIR/edmd-case.txt
 # (10^6 disks as a case: engine and whole-run rates) and OUT_DIR/mpi.txt.
 set -eu
@@ -16,6 +16,16 @@ mpibuild=${4:-}
 here=$(cd "$(dirname "$0")/.." && pwd)
 mkdir -p "$out"
 py=/usr/bin/python3
+
+# The machine first: the VM under this project changed between sessions (AMD EPYC to Intel
+# Xeon on 2026-11-26) and the tables are only comparable on the same hardware.
+{
+  echo "== machine ($(date -u '+%Y-%m-%d %H:%M:%S') UTC)"
+  grep -m1 'model name' /proc/cpuinfo || true
+  lscpu 2>/dev/null | grep -E '^(CPU\(s\)|Model|CPU family|L1d|L2|L3|CPU max MHz|CPU MHz)' || true
+  echo "AVX2: $(grep -qw avx2 /proc/cpuinfo && echo yes || echo no), AVX-512F: $(grep -qw avx512f /proc/cpuinfo && echo yes || echo no)"
+  echo "git: $(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+} | tee "$out/machine.txt"
 
 echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
 "$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" "$reps" 'DSMC1_SpartaBox/1/' 'DSMC1_SpartaBox/2/' \
