@@ -24,8 +24,12 @@
 
 #include <sys/mman.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
+#include <numbers>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -192,6 +196,195 @@ void BM_ReuseAfterTouch(benchmark::State& state) {
                          benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_ReuseAfterTouch)->ArgsProduct({{0, 16, 64, 256, 512, 1024, 2048}, {0, 1}})->Unit(benchmark::kMillisecond);
+
+// What a disk collision's neighbour scans cost in memory, for two layouts of the candidates
+// (docs/performance/edmd.md, 2026-11-26 afternoon: how much a redesign of the event loop's
+// data could save at N = 10^6). Disks at area fraction 0.5 in square cells of side sigma
+// (0.64 disks per cell, at most 4), as the engine keeps them; per event a cell drawn at
+// random and a partner cell beside it, and the 3 x 3 blocks around both scanned, every
+// candidate's record read (position, velocity, local time, counter) into a pair test. Each
+// event's cell index depends on the previous event's result (always +0), so events run one
+// after the other as the calendar makes them.
+//   layout 0, "rows + records": the engine's layout: per cell a row of 5 uint32 (count and up
+//     to 4 member ids; a 3-cell run of a block row is 60 contiguous bytes), and 64-byte
+//     records by id, ids numbered in Morton order of the cells (the engine's order after a
+//     rebuild): a scan loads the rows, then the members' records (two dependent levels);
+//   layout 1, "records in the cells": per cell 256 bytes holding the count and up to 4
+//     48-byte disk records (x, y, vx, vy, t, counter): one level, the 3 cells of a block row
+//     contiguous (768 bytes);
+//   layouts 2 and 3: layout 0 with the ids numbered in random order (no sort at all) and in
+//     row-major order of the cells (a block row's records contiguous, the rows a grid row
+//     apart).
+// Third argument: how many events ahead the cells of coming events are requested
+// (__builtin_prefetch into L1; 0: none), as a calendar that knows its next events could:
+// layout 0, 2, 3 request the rows of event e + 2 * ahead and the members' records of event
+// e + ahead (whose rows were requested `ahead` events earlier); layout 1 the cells of event
+// e + ahead. Memory on huge pages (madvise), as the engine's. Reported: time per event (two
+// scans).
+struct DiskRecord64 {
+  double x, y, z, t, vx, vy, vz;
+  std::uint64_t counter;
+};
+struct DiskRecord48 {
+  double x, y, vx, vy, t;
+  std::uint64_t counter;
+};
+struct alignas(64) CellRecords {
+  std::uint32_t count, pad;
+  DiskRecord48 slot[4];
+  std::uint64_t pad_end[7];
+};
+static_assert(sizeof(CellRecords) == 256, "four cache lines per cell");
+
+template <class T>
+struct HugeArray {
+  std::unique_ptr<T[], void (*)(T*)> p{nullptr, [](T* q) { std::free(q); }};
+  explicit HugeArray(std::size_t n) {
+    constexpr std::size_t kAlign = 2u << 20;
+    const std::size_t bytes = (n * sizeof(T) + kAlign - 1) / kAlign * kAlign;
+    p.reset(static_cast<T*>(std::aligned_alloc(kAlign, bytes)));
+    if (!p) throw std::bad_alloc();
+    madvise(p.get(), bytes, MADV_HUGEPAGE);
+    std::memset(static_cast<void*>(p.get()), 0, bytes);
+  }
+  T& operator[](std::size_t i) const { return p[i]; }
+};
+
+std::uint64_t morton2(std::uint32_t x, std::uint32_t y) {
+  std::uint64_t m = 0;
+  for (int b = 0; b < 16; ++b) m |= (std::uint64_t{x} >> b & 1u) << (2 * b) | (std::uint64_t{y} >> b & 1u) << (2 * b + 1);
+  return m;
+}
+
+// a collision-like test of two records: enough arithmetic that the compiler keeps every load
+inline double pair_test(double xi, double yi, double vxi, double vyi, double ti, double xj, double yj, double vxj,
+                        double vyj, double tj, std::uint64_t counter) {
+  const double dx = (xj + vxj * (ti - tj)) - xi, dy = (yj + vyj * (ti - tj)) - yi, dvx = vxj - vxi, dvy = vyj - vyi;
+  const double b = dx * dvx + dy * dvy;
+  return (dx * dx + dy * dy - 1.0) / (1.0 + b * b) + static_cast<double>(counter & 1u);
+}
+
+void BM_DiskNeighbourScan(benchmark::State& state) {
+  const int layout = static_cast<int>(state.range(0));
+  const std::size_t n_target = static_cast<std::size_t>(state.range(1));
+  const std::size_t ahead = static_cast<std::size_t>(state.range(2));
+  // cells of side sigma at area fraction 0.5: n / (pi/4) cells in all
+  const auto side = static_cast<std::uint32_t>(std::lround(std::sqrt(static_cast<double>(n_target) / (0.5 / (std::numbers::pi / 4)))));
+  const std::size_t cells = std::size_t{side} * side;
+  std::mt19937_64 g(1357);
+  // occupancy: each disk into a random cell with room (the engine's cells hold up to 4)
+  std::vector<std::uint8_t> count(cells, 0);
+  std::size_t n = 0;
+  std::uniform_int_distribution<std::size_t> any_cell(0, cells - 1);
+  while (n < n_target) {
+    const std::size_t c = any_cell(g);
+    if (count[c] < 4) ++count[c], ++n;
+  }
+  // ids in Morton order of the cells
+  std::vector<std::uint32_t> order(cells);
+  std::iota(order.begin(), order.end(), 0u);
+  if (layout == 0 || layout == 1)
+    std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+      return morton2(a % side, a / side) < morton2(b % side, b / side);
+    });
+  std::vector<std::uint32_t> id_of_rank(n);  // layout 2: ids handed out in random order
+  std::iota(id_of_rank.begin(), id_of_rank.end(), 0u);
+  if (layout == 2) std::shuffle(id_of_rank.begin(), id_of_rank.end(), g);
+  HugeArray<std::uint32_t> rows(cells * 5);
+  HugeArray<DiskRecord64> records(n);
+  HugeArray<CellRecords> in_cells(layout == 1 ? cells : 1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::uint32_t next_id = 0;
+  for (const std::uint32_t c : order) {
+    rows[5 * std::size_t{c}] = count[c];
+    if (layout == 1) in_cells[c].count = count[c];
+    for (std::uint32_t q = 0; q < count[c]; ++q) {
+      const std::uint32_t id = id_of_rank[next_id++];
+      rows[5 * std::size_t{c} + 1 + q] = id;
+      const DiskRecord64 r{(c % side) + u(g), (c / side) + u(g), 0.0, u(g), u(g) - 0.5, u(g) - 0.5, 0.0, id};
+      records[id] = r;
+      if (layout == 1) in_cells[c].slot[q] = DiskRecord48{r.x, r.y, r.vx, r.vy, r.t, r.counter};
+    }
+  }
+  constexpr std::size_t kEvents = std::size_t{1} << 16;
+  std::vector<std::uint32_t> event_cell(kEvents + 2 * 64);  // (room for the look-ahead)
+  std::uniform_int_distribution<std::uint32_t> interior(1, side - 3);  // both blocks inside the grid
+  for (auto& c : event_cell) c = interior(g) * side + interior(g);
+  auto scan_rows = [&](std::uint32_t centre, double xi, double yi, double& best) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = &rows[5 * (std::size_t{centre} + static_cast<std::size_t>(dy) * side - 1)];
+      for (int k = 0; k < 3; ++k, row += 5)
+        for (std::uint32_t q = 0; q < row[0]; ++q) {
+          const DiskRecord64& r = records[row[1 + q]];
+          best = std::min(best, pair_test(xi, yi, 0.1, 0.2, 0.0, r.x, r.y, r.vx, r.vy, r.t, r.counter));
+        }
+    }
+  };
+  auto scan_cells = [&](std::uint32_t centre, double xi, double yi, double& best) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const CellRecords* cell = &in_cells[std::size_t{centre} + static_cast<std::size_t>(dy) * side - 1];
+      for (int k = 0; k < 3; ++k, ++cell)
+        for (std::uint32_t q = 0; q < cell->count; ++q) {
+          const DiskRecord48& r = cell->slot[q];
+          best = std::min(best, pair_test(xi, yi, 0.1, 0.2, 0.0, r.x, r.y, r.vx, r.vy, r.t, r.counter));
+        }
+    }
+  };
+  // the 3 x 4 cells of an event's two blocks: rows of 4 cells starting at centre - 1 + dy side
+  auto request_rows = [&](std::uint32_t centre) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = &rows[5 * (std::size_t{centre} + static_cast<std::size_t>(dy) * side - 1)];
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 19);
+    }
+  };
+  auto request_records = [&](std::uint32_t centre) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const std::uint32_t* row = &rows[5 * (std::size_t{centre} + static_cast<std::size_t>(dy) * side - 1)];
+      for (int k = 0; k < 4; ++k, row += 5)
+        for (std::uint32_t q = 0; q < row[0]; ++q) __builtin_prefetch(&records[row[1 + q]]);
+    }
+  };
+  auto request_cells = [&](std::uint32_t centre) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const CellRecords* cell = &in_cells[std::size_t{centre} + static_cast<std::size_t>(dy) * side - 1];
+      for (int k = 0; k < 4; ++k) __builtin_prefetch(cell + k);
+    }
+  };
+  double sink = 0;
+  for (auto _ : state) {
+    std::uint32_t carry = 0;
+    for (std::size_t e = 0; e < kEvents; ++e) {
+      if (ahead > 0) {
+        if (layout == 1) {
+          request_cells(event_cell[e + ahead]);
+        } else {
+          request_rows(event_cell[e + 2 * ahead]);
+          request_records(event_cell[e + ahead]);
+        }
+      }
+      const std::uint32_t c = event_cell[e] + (carry & 1u), partner = c + 1;
+      const double xi = c % side + 0.5, yi = static_cast<double>(c / side) + 0.5;
+      double best = 1e300;
+      if (layout != 1) {
+        scan_rows(c, xi, yi, best);
+        scan_rows(partner, xi + 1.0, yi, best);
+      } else {
+        scan_cells(c, xi, yi, best);
+        scan_cells(partner, xi + 1.0, yi, best);
+      }
+      sink += best;
+      carry = best > 1e299 ? 1u : 0u;  // never: every block holds a disk (0.64 per cell, 9 cells)...
+      carry &= 0u;                     // ...and the dependence is what matters, not the value
+    }
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["time_per_event"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(kEvents),
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["disks"] = static_cast<double>(n);
+}
+BENCHMARK(BM_DiskNeighbourScan)->ArgsProduct({{0, 1, 2, 3}, {10000, 1000000}, {0}})->ArgsProduct({{0, 1}, {1000000}, {1, 2, 4, 8}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
