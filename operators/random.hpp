@@ -384,12 +384,12 @@ inline void store_words4(std::uint64_t* w, U first, U second) {
 #pragma GCC pop_options
 #endif
 
-// The AVX-512 copy (eight lanes, one zmm register): half the instructions of the AVX2 copy
-// for the same words, which matters where the words are a throughput cost (the DSMC bath's
-// words4: 24 % of DSMC-2's time on the Xeon VM of 2026-11-26). Integer instructions only, so
-// the same bits (tests: Philox4x32Lanes.SimdPathsEqualRandom123,
-// DsmcCollisionWords.GroupPathsEqualRandom123). Only called when the CPU has AVX-512F
-// (Philox4x32Lanes::have_avx512).
+// The AVX-512 copy (eight lanes, one zmm register), words4 only: half the instructions of the
+// AVX2 copy for the same words, which matters where the words are a throughput cost (the DSMC
+// bath's words4, 24 % of DSMC-2's time on the Xeon VM of 2026-11-26; the bath kernel 33.9 ->
+// 30.8 ns per test, docs/performance/dsmc1.md, h-dsmc10). Integer instructions only, so the
+// same bits (test: Philox4x32Lanes.SimdPathsEqualRandom123). Only called when the CPU has
+// AVX-512F (Philox4x32Lanes::have_avx512).
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
 #else
@@ -415,25 +415,6 @@ inline void store_words4(std::uint64_t* w, U first, U second) {
 #define GRAINBATH_PHILOX_LANES_8
 #include "operators/philox_lanes.inc"
 #undef GRAINBATH_PHILOX_LANES_8
-// Two consecutive groups of eight words (Philox4x32Words::refill; philox_avx2::group2's
-// words): blocks base .. base + 7 are the eight lanes of one register (lanes 0-3 the first
-// group, 4-7 the second), one chain of ten rounds instead of AVX2's two.
-inline void group2(std::uint64_t key, std::uint32_t c0, std::uint32_t c1, std::uint32_t c2, std::uint32_t base,
-                   std::uint64_t* w) {
-  U x0 = broadcast(c0), x1 = broadcast(c1), x2 = broadcast(c2);
-  U x3 = add32(broadcast(base), lane_index(0));  // low halves base + j mod 2^32
-  U k0 = broadcast(static_cast<std::uint32_t>(key)), k1 = broadcast(static_cast<std::uint32_t>(key >> 32));
-  const U w0 = broadcast(kPhiloxW0), w1 = broadcast(kPhiloxW1);
-  for (int r = 0; r < 10; ++r) {
-    philox_round(x0, x1, x2, x3, k0, k1);
-    k0 = add32(k0, w0);
-    k1 = add32(k1, w1);
-  }
-  const __m512i f = reinterpret_cast<__m512i>(words_low(x0, x1)), s = reinterpret_cast<__m512i>(words_high(x2, x3));
-  // w[0..3] first lanes 0-3, w[4..7] second lanes 0-3, w[8..11] first 4-7, w[12..15] second 4-7
-  _mm512_storeu_si512(w, _mm512_maskz_shuffle_i64x2(0xff, f, s, 0x44));      // (f q0, f q1, s q0, s q1)
-  _mm512_storeu_si512(w + 8, _mm512_maskz_shuffle_i64x2(0xff, f, s, 0xee));  // (f q2, f q3, s q2, s q3)
-}
 }  // namespace philox_avx512
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -477,7 +458,7 @@ struct Philox4x32Lanes {
     }();
     return avx2;
   }
-  // Whether the AVX-512 Philox paths run (words4, Philox4x32Words's refill): the AVX2 paths
+  // Whether the AVX-512 Philox path runs (words4): the AVX2 paths
   // run, the CPU has AVX-512F, and GRAINBATH_SIMD is not "avx2" (which keeps the AVX2 paths,
   // so that tests compare the two in one machine; the same bits either way).
   static bool have_avx512() {
@@ -596,9 +577,10 @@ class Philox4x32Words {
   [[gnu::noinline, gnu::cold]] void refill() {
     // two groups of eight words, the same bits as words8 with n = 2 (philox_lanes.inc groups():
     // the round keys advanced in a register instead of words8's table, cheaper for few groups)
-    if (Philox4x32Lanes::have_avx512())
-      detail::philox_avx512::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
-    else if (Philox4x32Lanes::have_avx2())
+    // (AVX2, not AVX-512, even where the CPU has it: a zmm copy, both groups in one register,
+    // made DSMC-1 slower on the Xeon VM of 2026-11-26, 1 of 8 interleaved pairs faster,
+    // +3.4 ns median: docs/performance/dsmc1.md, h-dsmc10)
+    if (Philox4x32Lanes::have_avx2())
       detail::philox_avx2::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
     else
       detail::philox_sse2::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
