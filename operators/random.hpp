@@ -383,6 +383,44 @@ inline void store_words4(std::uint64_t* w, U first, U second) {
 #else
 #pragma GCC pop_options
 #endif
+
+// The AVX-512 copy (eight lanes, one zmm register), words4 only: half the instructions of the
+// AVX2 copy for the same words, which matters where the words are a throughput cost (the DSMC
+// bath's words4, 24 % of DSMC-2's time on the Xeon VM of 2026-11-26; the bath kernel 33.9 ->
+// 30.8 ns per test, docs/performance/dsmc1.md, h-dsmc10). Integer instructions only, so the
+// same bits (test: Philox4x32Lanes.SimdPathsEqualRandom123). Only called when the CPU has
+// AVX-512F (Philox4x32Lanes::have_avx512).
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+#endif
+namespace philox_avx512 {
+typedef unsigned long long U __attribute__((vector_size(64)));
+inline constexpr int kLanes = 8;
+// (the maskz forms with a full mask: the same instructions, and GCC 12's unmasked forms pass
+// _mm512_undefined_epi32(), which -Wuninitialized reports at every use)
+inline U mul_lo32(U a, U b) {
+  return reinterpret_cast<U>(_mm512_maskz_mul_epu32(0xff, reinterpret_cast<__m512i>(a), reinterpret_cast<__m512i>(b)));
+}
+// four groups per register: lanes (a 0, a 1, b 0, b 1, c 0, c 1, d 0, d 1), so group g's
+// words are the 128-bit quarter g of `first` and then of `second`
+inline void store_words4(std::uint64_t* w, U first, U second) {
+  const __m512i f = reinterpret_cast<__m512i>(first), s = reinterpret_cast<__m512i>(second);
+  const __m512i lo = _mm512_set_epi64(11, 10, 3, 2, 9, 8, 1, 0), hi = _mm512_set_epi64(15, 14, 7, 6, 13, 12, 5, 4);
+  _mm512_storeu_si512(w, _mm512_permutex2var_epi64(f, lo, s));
+  _mm512_storeu_si512(w + 8, _mm512_permutex2var_epi64(f, hi, s));
+}
+#define GRAINBATH_PHILOX_LANES_8
+#include "operators/philox_lanes.inc"
+#undef GRAINBATH_PHILOX_LANES_8
+}  // namespace philox_avx512
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
 }  // namespace detail
 
 struct Philox4x32Lanes {
@@ -420,6 +458,18 @@ struct Philox4x32Lanes {
     }();
     return avx2;
   }
+  // Whether the AVX-512 Philox path runs (words4): the AVX2 paths
+  // run, the CPU has AVX-512F, and GRAINBATH_SIMD is not "avx2" (which keeps the AVX2 paths,
+  // so that tests compare the two in one machine; the same bits either way).
+  static bool have_avx512() {
+    static const bool avx512 = [] {
+      if (!have_avx2()) return false;
+      const char* simd = std::getenv("GRAINBATH_SIMD");
+      if (simd != nullptr && std::string_view(simd) == "avx2") return false;
+      return __builtin_cpu_supports("avx512f") != 0;
+    }();
+    return avx512;
+  }
 
   // The block "words4" of (key; c0, c1, c2, base): the two Philox4x32 blocks with counters
   // (c0, c1, c2, base + j), j = 0, 1, packed as four 64-bit words (the layout of words8):
@@ -433,7 +483,9 @@ struct Philox4x32Lanes {
 
   static void words4(std::uint64_t key, const std::uint32_t* c0, const std::uint32_t* c1, std::uint32_t c2,
                      std::uint32_t base, std::size_t n, std::uint64_t* w) {
-    if (have_avx2())
+    if (have_avx512())
+      detail::philox_avx512::words4(key, c0, c1, c2, base, n, w);
+    else if (have_avx2())
       detail::philox_avx2::words4(key, c0, c1, c2, base, n, w);
     else
       detail::philox_sse2::words4(key, c0, c1, c2, base, n, w);
@@ -525,6 +577,9 @@ class Philox4x32Words {
   [[gnu::noinline, gnu::cold]] void refill() {
     // two groups of eight words, the same bits as words8 with n = 2 (philox_lanes.inc groups():
     // the round keys advanced in a register instead of words8's table, cheaper for few groups)
+    // (AVX2, not AVX-512, even where the CPU has it: a zmm copy, both groups in one register,
+    // made DSMC-1 slower on the Xeon VM of 2026-11-26, 1 of 8 interleaved pairs faster,
+    // +3.4 ns median: docs/performance/dsmc1.md, h-dsmc10)
     if (Philox4x32Lanes::have_avx2())
       detail::philox_avx2::group2(seed_, c0_, c1_, c2_, 4u * group_, words_);
     else

@@ -21,8 +21,9 @@ const char* kUnits = R"(Units (scaled, Bisi & Spiga):
          background collision rate (nB/eps)|v-w|, eps = [background] knudsen.
   EDMD:  lengths in grain diameters (sigma = 1), m = 1, temperatures in energy units.
 See docs/CASE_FILE.md for every key, its default and its unit.
-Environment: GRAINBATH_SIMD=sse2 forces the baseline SIMD paths of the DSMC kernels
-(default auto: AVX2 where the CPU has it; the results are the same bits).)";
+Environment: GRAINBATH_SIMD=sse2 forces the baseline SIMD paths of the DSMC kernels,
+GRAINBATH_SIMD=avx2 rules out AVX-512 (default auto: AVX2 and AVX-512 where the CPU has
+them; the results are the same bits).)";
 }
 
 namespace {
@@ -73,13 +74,14 @@ int cli_main(int argc, char** argv) {
     return app.exit(e);
   }
   // GRAINBATH_SIMD chooses the SIMD paths of the hot DSMC kernels (operators/random.hpp,
-  // Philox4x32Lanes::have_avx2): unset or "auto" = AVX2 where the CPU has it, "sse2" = the
-  // baseline; the results are the same bits either way. A misspelt value is an error, not
-  // a silent "auto".
-  if (const char* simd = std::getenv("GRAINBATH_SIMD");
-      simd != nullptr && std::string_view(simd) != "auto" && std::string_view(simd) != "sse2") {
-    std::cerr << "error: environment variable GRAINBATH_SIMD: expected \"auto\" or \"sse2\", found \"" << simd
-              << "\"\n";
+  // Philox4x32Lanes::have_avx2, have_avx512): unset or "auto" = AVX2 (and the AVX-512
+  // Philox words) where the CPU has them, "avx2" = no AVX-512, "sse2" = the baseline; the
+  // results are the same bits either way. A misspelt value is an error, not a silent "auto".
+  if (const char* simd = std::getenv("GRAINBATH_SIMD"); simd != nullptr && std::string_view(simd) != "auto" &&
+                                                         std::string_view(simd) != "avx2" &&
+                                                         std::string_view(simd) != "sse2") {
+    std::cerr << "error: environment variable GRAINBATH_SIMD: expected \"auto\", \"avx2\" or \"sse2\", found \""
+              << simd << "\"\n";
     return 2;
   }
   if (*run) return grainbath::cli::command_run(run_args);

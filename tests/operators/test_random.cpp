@@ -288,7 +288,7 @@ TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
       // words4 (two blocks per group, the bath kernel's budget), for every group count up to
       // 9 (odd counts take the AVX2 path's single-group tail) and for all n groups
       for (const std::size_t m : {std::size_t{1}, std::size_t{2}, std::size_t{3}, std::size_t{4}, std::size_t{5},
-                                  std::size_t{8}, std::size_t{9}, n}) {
+                                  std::size_t{6}, std::size_t{7}, std::size_t{8}, std::size_t{9}, n}) {
         std::vector<std::uint64_t> ref4(4 * m + 4, 7), sse4(4 * m + 4, 7), avx4(4 * m + 4, 7), best4(4 * m + 4, 7);
         for (std::size_t a = 0; a < m; ++a)
           Philox4x32Lanes::words4_scalar(key, c0[a], c1[a], 123456789u, base, &ref4[4 * a]);
@@ -303,6 +303,11 @@ TEST(Philox4x32Lanes, SimdPathsEqualRandom123) {
         if (Philox4x32Lanes::have_avx2()) {
           detail::philox_avx2::words4(key, c0.data(), c1.data(), 123456789u, base, m, avx4.data());
           EXPECT_EQ(avx4, ref4) << m;
+        }
+        if (Philox4x32Lanes::have_avx512()) {  // four groups per zmm: m = 1..3, 5, 9 have a short tail
+          std::vector<std::uint64_t> z4(4 * m + 4, 7);
+          detail::philox_avx512::words4(key, c0.data(), c1.data(), 123456789u, base, m, z4.data());
+          EXPECT_EQ(z4, ref4) << m;
         }
         Philox4x32Lanes::words4(key, c0.data(), c1.data(), 123456789u, base, m, best4.data());
         EXPECT_EQ(best4, ref4) << m;
