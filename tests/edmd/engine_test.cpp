@@ -208,6 +208,40 @@ TEST(EdmdCalendar, CalendarQueueAndHeapGiveTheSameOrder) {
   EXPECT_TRUE(cal.valid());
 }
 
+TEST(EdmdCalendar, WaitingEntriesKeepTheHeapOrder) {
+  // EventCalendar::update links an entry only a few updates later. With fewer entries than
+  // the calendar keeps waiting, every entry can be waiting at once (no entry in any bucket):
+  // top() must still find the (time, index) minimum, through ties, +inf and times beyond
+  // the window (re-base), exactly as the heap does.
+  for (const std::uint32_t n : {2u, 3u, 4u, 5u, 9u}) {
+    EventHeap heap;
+    EventCalendar cal;
+    heap.reset(n);
+    cal.reset(n, 0.0, 0.5);
+    CounterRng rng(11, Stream::edmd_collisions, n, 0);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const double t = rng.exponential();
+      heap.update(i, t);
+      cal.update(i, t);
+    }
+    for (int step = 0; step < 5000; ++step) {
+      ASSERT_EQ(heap.top(), cal.top()) << n << " " << step;
+      ASSERT_EQ(heap.top_key(), cal.top_key()) << n << " " << step;
+      const std::uint32_t i = heap.top();
+      const double now = heap.top_key();
+      if (!std::isfinite(now)) break;
+      const double u = rng.uniform();
+      // the same time as now (a tie with the next entries), far beyond the window, or near
+      double t = u < 0.2 ? now : u < 0.3 ? now + 1000.0 * rng.exponential() : now + rng.exponential();
+      if (u > 0.9) t = std::floor(t);  // exact ties between entries
+      if (t < now) t = now;
+      heap.update(i, t);
+      cal.update(i, t);
+      ASSERT_TRUE(cal.valid()) << n << " " << step;
+    }
+  }
+}
+
 TEST(EdmdEngine, AirTableEnergyBudgetCloses) {
   // kinetic-energy change = work of the accelerations - inelastic loss
   Config c = config_from(
