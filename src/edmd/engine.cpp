@@ -1102,9 +1102,7 @@ void Engine::rebuild_calendar() {
   // predict everyone into a provisional calendar, then size the buckets from the mean delay
   // to the next event (about half an event per bucket near the front; EventCalendar::reset)
   // and re-insert
-  // deferred links where the calendar's lines miss the caches (the same threshold as the
-  // next-event prefetch; event_calendar.hpp update())
-  heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0, prefetch_next_);
+  heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
   std::vector<double> ev_time(n_);
   for (std::uint32_t i = 0; i < n_; ++i) ev_time[i] = heap_.key(i);
@@ -1114,7 +1112,7 @@ void Engine::rebuild_calendar() {
     if (std::isfinite(ev_time[i])) sum += ev_time[i], ++finite;
   calendar_width_ = finite ? 0.5 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
-  heap_.reset(n_, 0.0, calendar_width_, prefetch_next_);
+  heap_.reset(n_, 0.0, calendar_width_);
   for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);
 #endif
   at_rebuild_ = true;
