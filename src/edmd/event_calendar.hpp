@@ -55,8 +55,10 @@ class EventCalendar {
   // lines are requested here and used an event or two later. top() looks at the waiting
   // entries too (an entry earlier than the linked minimum makes it link them all first), so
   // the minimum is the same (time, index) minimum as before and the event order unchanged.
-  // Only with defer_links (reset): at N = 10^4, where these lines are cached, the waiting
-  // list's bookkeeping made disks 0.83-0.97x as fast (docs/performance/edmd.md).
+  // Measured in one process (bench_edmd BM_EdmdDeferAB, two engines in alternating chunks):
+  // 1.05-1.12x at 10^6 disks, 1.05-1.08x at 10^5 spheres, but 0.93x at 10^4 disks, where
+  // these lines are cached and only the bookkeeping remains; hence only with defer_links
+  // (reset), which the engine sets at N >= 50000 (docs/performance/edmd.md).
   void update(std::uint32_t i, double key) {
     if (!defer_) {  // link at once (the calendar's whole cache footprint is small)
       unlink(i);
