@@ -13,6 +13,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <ctime>
+#include <algorithm>
+#include <vector>
 
 #include "edmd/edmd.hpp"
 #include "edmd/event_calendar.hpp"
@@ -139,5 +142,71 @@ BENCHMARK_CAPTURE(BM_Edmd, disks_nu0.70, 2, 0.70)->Arg(10000)->Arg(1000000)->Uni
 BENCHMARK(BM_Calendar)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_PairStatistics)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 BENCHMARK(BM_CalendarWidth)->Arg(2)->Arg(4)->Arg(8)->Arg(16)->Arg(32)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+// The calendar's deferred links (EventCalendar::update, EngineSetup::calendar_defer) off and
+// on, timed side by side in one process: two engines from the same start, advanced in
+// alternating chunks of 200k collisions (which one goes first swaps every round), CPU time
+// per chunk. On the shared 2-core VM the rate of one binary drifts by +-15 % between
+// processes, more than the effect; chunks a fraction of a second apart see the same machine
+// (docs/performance/edmd.md, 2026-11-26 afternoon). Arguments: N, packing x 100, dims,
+// rounds. Both engines must process the same events (the order does not depend on the
+// deferral): the event counts are compared at the end.
+double thread_cpu_seconds() {
+  timespec t;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+void BM_EdmdDeferAB(benchmark::State& state) {
+  Config c;
+  c.particles = state.range(0);
+  c.packing_fraction = static_cast<double>(state.range(1)) / 100.0;
+  c.dims = static_cast<int>(state.range(2));
+  const int rounds = static_cast<int>(state.range(3));
+  const auto init = make_initial_state(c, 1);
+  EngineSetup setup = make_setup(c, 1);
+  setup.calendar_defer = 0;
+  Engine off(setup, init.positions, init.velocities);
+  setup.calendar_defer = 1;
+  Engine on(setup, init.positions, init.velocities);
+  const std::uint64_t n = static_cast<std::uint64_t>(c.particles);
+  off.advance(ElasticRestitution{}, kInf, 5 * n);  // melt the lattice
+  on.advance(ElasticRestitution{}, kInf, 5 * n);
+  const std::uint64_t chunk = 200000;
+  std::uint64_t target = off.counters().collisions;
+  std::vector<double> t_off, t_on;
+  for (auto _ : state) {
+    for (int r = 0; r < rounds; ++r) {
+      target += chunk;
+      for (int k = 0; k < 2; ++k) {
+        const bool run_on = (k == 0) == (r % 2 == 1);
+        Engine& e = run_on ? on : off;
+        const double t0 = thread_cpu_seconds();
+        e.advance(ElasticRestitution{}, kInf, target);
+        (run_on ? t_on : t_off).push_back(thread_cpu_seconds() - t0);
+      }
+    }
+  }
+  if (off.counters().events != on.counters().events) state.SkipWithError("the two engines processed different events");
+  double s_off = 0.0, s_on = 0.0;
+  int faster = 0;
+  for (std::size_t r = 0; r < t_off.size(); ++r) s_off += t_off[r], s_on += t_on[r], faster += t_on[r] < t_off[r];
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  const double d = static_cast<double>(chunk);
+  state.counters["off_collisions_per_second"] = d * static_cast<double>(t_off.size()) / s_off;
+  state.counters["on_collisions_per_second"] = d * static_cast<double>(t_on.size()) / s_on;
+  state.counters["off_median_chunk_rate"] = d / median(t_off);
+  state.counters["on_median_chunk_rate"] = d / median(t_on);
+  state.counters["rounds_on_faster"] = faster;
+}
+BENCHMARK(BM_EdmdDeferAB)
+    ->Args({1000000, 50, 2, 20})
+    ->Args({1000000, 70, 2, 20})
+    ->Args({100000, 30, 3, 20})
+    ->Args({10000, 50, 2, 20})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

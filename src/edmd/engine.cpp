@@ -145,6 +145,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
             }
       }
   prefetch_next_ = n_ >= 50000;  // about 13 MB of Kin + Sched: beyond the per-core caches
+  defer_links_ = s.calendar_defer < 0 ? prefetch_next_ : s.calendar_defer != 0;
   rebuild_every_ = static_cast<std::uint64_t>(s.rebuild_interval * static_cast<double>(n_));
   next_rebuild_ = rebuild_every_;
 
@@ -1102,7 +1103,9 @@ void Engine::rebuild_calendar() {
   // predict everyone into a provisional calendar, then size the buckets from the mean delay
   // to the next event (about half an event per bucket near the front; EventCalendar::reset)
   // and re-insert
-  heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0);
+  // deferred links where the calendar's lines miss the caches (by default the threshold of
+  // the next-event prefetch; EngineSetup::calendar_defer, event_calendar.hpp update())
+  heap_.reset(n_, 0.0, calendar_width_ > 0.0 ? calendar_width_ : 1.0, defer_links_);
   for (std::uint32_t i = 0; i < n_; ++i) predict(i);
   std::vector<double> ev_time(n_);
   for (std::uint32_t i = 0; i < n_; ++i) ev_time[i] = heap_.key(i);
@@ -1112,7 +1115,7 @@ void Engine::rebuild_calendar() {
     if (std::isfinite(ev_time[i])) sum += ev_time[i], ++finite;
   calendar_width_ = finite ? 0.5 * (sum / finite) / static_cast<double>(n_) : 1.0;
   if (!(calendar_width_ > 0.0)) calendar_width_ = 1e-6;
-  heap_.reset(n_, 0.0, calendar_width_);
+  heap_.reset(n_, 0.0, calendar_width_, defer_links_);
   for (std::uint32_t i = 0; i < n_; ++i) heap_.update(i, ev_time[i]);
 #endif
   at_rebuild_ = true;

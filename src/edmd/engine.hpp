@@ -105,6 +105,10 @@ struct EngineSetup {
   std::optional<BackgroundState> background;
   std::uint64_t seed = 1;
   double rebuild_interval = 10.0;  // collisions per particle between automatic rebuilds (0: never)
+  // Calendar links deferred (EventCalendar::update): -1 at N >= 50000 (where the calendar's
+  // lines miss the caches), 0 never, 1 always. Results do not depend on it (the same event
+  // order); bench_edmd's BM_EdmdDeferAB times the two side by side.
+  int calendar_defer = -1;
   double vn_bin_width = 0.05;  // histogram of normal speed at collision
   int vn_bins = 200;
 };
@@ -382,6 +386,7 @@ class Engine {
   // Next-event prefetch on (advance()): only for systems whose records do not stay in the
   // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
+  bool defer_links_ = false;  // EngineSetup::calendar_defer, resolved
   Counters c_;
 };
 

@@ -25,7 +25,9 @@ namespace grainbath::edmd {
 class EventCalendar {
  public:
   // n entries, all at +inf; `width` the bucket width in time, window starting at `base`.
-  void reset(std::size_t n, double base, double width) {
+  // defer_links: update() links late (see update()); the engine asks for it at large N only.
+  void reset(std::size_t n, double base, double width, bool defer_links = false) {
+    defer_ = defer_links;
     // 8n buckets: with the engine's width (a quarter of the mean delay per N) the window
     // spans 4 mean delays, as 2n buckets of 4 times the width did, but a bucket near the
     // front holds about half an entry instead of two, so find_min walks fewer nodes (each a
@@ -42,21 +44,53 @@ class EventCalendar {
     cur_ = 0;
     ahead1_ = ahead2_ = 0;
     cached_ = false;
+    npending_ = 0;
     for (std::uint32_t i = 0; i < n; ++i) link(i, kOverflow);
   }
+  // Deferred link: update() unlinks i at once but links it into its new bucket only
+  // kDefer updates later. Linking an entry into an occupied bucket loads the bucket's head
+  // (heads_, 32 MiB at N = 10^6) and the occupancy word, both at a random place known only
+  // once the new key is: with the link done right away these were the two largest stalls of
+  // update() at N = 10^6 (perf on the Intel VM: 40 % and 27 % of its samples); deferred, their
+  // lines are requested here and used an event or two later. top() looks at the waiting
+  // entries too (an entry earlier than the linked minimum makes it link them all first), so
+  // the minimum is the same (time, index) minimum as before and the event order unchanged.
+  // Measured in one process (bench_edmd BM_EdmdDeferAB, two engines in alternating chunks):
+  // 1.05-1.12x at 10^6 disks, 1.05-1.08x at 10^5 spheres, but 0.93x at 10^4 disks, where
+  // these lines are cached and only the bookkeeping remains; hence only with defer_links
+  // (reset), which the engine sets at N >= 50000 (docs/performance/edmd.md).
   void update(std::uint32_t i, double key) {
-    unlink(i);
-    node_[i].key = key;
-    link(i, slot_for(key));
-    if (cached_ && (i == min_ || key < min_key_ || (key == min_key_ && i < min_))) cached_ = false;
+    if (!defer_) {  // link at once (the calendar's whole cache footprint is small)
+      unlink(i);
+      node_[i].key = key;
+      link(i, slot_for(key));
+      if (cached_ && (i == min_ || key < min_key_ || (key == min_key_ && i < min_))) cached_ = false;
+      return;
+    }
+    Node& e = node_[i];
+    if (e.where == kPending) drop_pending(i);
+    else unlink(i);
+    e.key = key;
+    if (cached_ && i == min_) cached_ = false;
+    if (npending_ == kDefer) {  // the oldest waiting entry is linked now
+      link_pending(pending_[0]);
+      for (int k = 1; k < kDefer; ++k) pending_[k - 1] = pending_[k];
+      --npending_;
+    }
+    e.where = kPending;
+    pending_[npending_++] = i;
+    const std::uint32_t s = slot_for(key);
+    if (s != kOverflow) __builtin_prefetch(&heads_[s]), __builtin_prefetch(&occupied_[s >> 6]);
   }
   double key(std::uint32_t i) const { return node_[i].key; }
   std::uint32_t top() {
     if (!cached_) find_min();
+    if (npending_ > 0) settle();  // never without defer_links: main's path plus this test
     return min_;
   }
   double top_key() {
     if (!cached_) find_min();
+    if (npending_ > 0) settle();
     return min_key_;
   }
   // The probable next top once top() has been processed and re-scheduled later (a prefetch
@@ -117,7 +151,14 @@ class EventCalendar {
   }
   bool valid() const {
     for (std::size_t i = 0; i < node_.size(); ++i)
-      if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow) return false;
+      if (node_[i].where != slot_for(node_[i].key) && node_[i].where != kOverflow && node_[i].where != kPending)
+        return false;
+    // exactly the waiting entries are marked waiting
+    std::size_t waiting = 0;
+    for (std::size_t i = 0; i < node_.size(); ++i) waiting += node_[i].where == kPending;
+    if (waiting != static_cast<std::size_t>(npending_)) return false;
+    for (int k = 0; k < npending_; ++k)
+      if (node_[pending_[k]].where != kPending) return false;
     // a bucket's bit is set exactly when its list is not empty
     for (std::size_t s = 0; s < heads_.size(); ++s)
       if (occupied(s) != (heads_[s] != kNone)) return false;
@@ -128,6 +169,8 @@ class EventCalendar {
   static constexpr std::uint32_t kNone = 0xffffffffu;
   static constexpr std::uint32_t kOverflow = 0xfffffffeu;
   static constexpr std::size_t kAhead = 8;
+  static constexpr std::uint32_t kPending = 0xfffffffdu;  // where: waiting to be linked (update)
+  static constexpr int kDefer = 4;  // waiting entries (an event updates one to three)
   struct alignas(32) Node {
     double key = std::numeric_limits<double>::infinity();
     std::uint32_t next = kNone, prev = kNone, where = kOverflow;
@@ -175,6 +218,38 @@ class EventCalendar {
     }
     if (e.next != kNone) node_[e.next].prev = e.prev;
   }
+  // Links a waiting entry into its bucket; the cached minimum is dropped if it precedes it.
+  void link_pending(std::uint32_t i) {
+    const double key = node_[i].key;
+    link(i, slot_for(key));
+    if (cached_ && (key < min_key_ || (key == min_key_ && i < min_))) cached_ = false;
+  }
+  void drop_pending(std::uint32_t i) {
+    int k = 0;
+    while (pending_[k] != i) ++k;
+    for (; k + 1 < npending_; ++k) pending_[k] = pending_[k + 1];
+    --npending_;
+  }
+  void link_all_pending() {
+    for (int k = 0; k < npending_; ++k) link_pending(pending_[k]);
+    npending_ = 0;
+  }
+  // The (key, index) minimum over all entries, waiting ones included: the minimum of the
+  // linked entries, unless a waiting entry precedes it (then all are linked and it is
+  // looked for again).
+  void settle() {
+    for (;;) {
+      if (!cached_) find_min();
+      bool earlier = false;
+      for (int k = 0; k < npending_; ++k) {
+        const std::uint32_t p = pending_[k];
+        const double key = node_[p].key;
+        earlier |= key < min_key_ || (key == min_key_ && p < min_);
+      }
+      if (!earlier) return;
+      link_all_pending();
+    }
+  }
   // The first non-empty bucket at or after `from` (heads_.size() if none).
   std::size_t next_occupied(std::size_t from) const {
     const std::size_t m = heads_.size();
@@ -202,6 +277,10 @@ class EventCalendar {
         min_key_ = best_key;
         cached_ = true;
         return;
+      }
+      if (npending_ > 0) {  // waiting entries first: they may belong to the window
+        link_all_pending();
+        continue;
       }
       // Window exhausted: every bucket is empty, so every entry is in the overflow list.
       // Move the window to the earliest time and re-bucket all entries, reading the nodes in
@@ -237,6 +316,9 @@ class EventCalendar {
   std::size_t cur_ = 0;
   std::size_t ahead1_ = 0, ahead2_ = 0;  // request_ahead(): buckets before these were requested
   bool cached_ = false;
+  std::uint32_t pending_[kDefer] = {};  // waiting entries, oldest first (update)
+  int npending_ = 0;
+  bool defer_ = false;  // update() links late (reset's defer_links)
   std::uint32_t min_ = 0;
   double min_key_ = 0.0;
 };

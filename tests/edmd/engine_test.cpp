@@ -177,35 +177,71 @@ TEST(EdmdCalendar, CalendarQueueAndHeapGiveTheSameOrder) {
   // Random schedule/pop sequence with ties, +inf entries and far-future (overflow) times:
   // the calendar queue must pop exactly what the heap pops.
   const std::uint32_t n = 500;
-  EventHeap heap;
-  EventCalendar cal;
-  heap.reset(n);
-  cal.reset(n, 0.0, 0.01);
-  CounterRng rng(5, Stream::edmd_collisions, 0, 0);
-  double now = 0.0;
-  for (std::uint32_t i = 0; i < n; ++i) {
-    const double t = rng.uniform() < 0.05 ? kInf : now + rng.exponential();
-    heap.update(i, t);
-    cal.update(i, t);
+  for (const bool defer : {false, true}) {  // linking at once, and late (EventCalendar::update)
+    EventHeap heap;
+    EventCalendar cal;
+    heap.reset(n);
+    cal.reset(n, 0.0, 0.01, defer);
+    CounterRng rng(5, Stream::edmd_collisions, 0, 0);
+    double now = 0.0;
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const double t = rng.uniform() < 0.05 ? kInf : now + rng.exponential();
+      heap.update(i, t);
+      cal.update(i, t);
+    }
+    for (int step = 0; step < 20000; ++step) {
+      ASSERT_EQ(heap.top(), cal.top()) << step;
+      ASSERT_EQ(heap.top_key(), cal.top_key()) << step;
+      const std::uint32_t i = heap.top();
+      now = heap.top_key();
+      if (!std::isfinite(now)) break;
+      const double u = rng.uniform();
+      double t = u < 0.1 ? now : u < 0.15 ? kInf : u < 0.2 ? now + 100.0 * rng.exponential() : now + rng.exponential();
+      if (u > 0.95) t = std::floor(t * 4.0) / 4.0;  // exact ties
+      heap.update(i, t);
+      cal.update(i, t);
+      const std::uint32_t k = static_cast<std::uint32_t>(rng.uniform() * n);  // an unrelated re-schedule
+      const double tk = now + rng.exponential();
+      heap.update(k, tk);
+      cal.update(k, tk);
+    }
+    EXPECT_TRUE(heap.valid());
+    EXPECT_TRUE(cal.valid());
   }
-  for (int step = 0; step < 20000; ++step) {
-    ASSERT_EQ(heap.top(), cal.top()) << step;
-    ASSERT_EQ(heap.top_key(), cal.top_key()) << step;
-    const std::uint32_t i = heap.top();
-    now = heap.top_key();
-    if (!std::isfinite(now)) break;
-    const double u = rng.uniform();
-    double t = u < 0.1 ? now : u < 0.15 ? kInf : u < 0.2 ? now + 100.0 * rng.exponential() : now + rng.exponential();
-    if (u > 0.95) t = std::floor(t * 4.0) / 4.0;  // exact ties
-    heap.update(i, t);
-    cal.update(i, t);
-    const std::uint32_t k = static_cast<std::uint32_t>(rng.uniform() * n);  // an unrelated re-schedule
-    const double tk = now + rng.exponential();
-    heap.update(k, tk);
-    cal.update(k, tk);
+}
+
+TEST(EdmdCalendar, WaitingEntriesKeepTheHeapOrder) {
+  // EventCalendar::update links an entry only a few updates later. With fewer entries than
+  // the calendar keeps waiting, every entry can be waiting at once (no entry in any bucket):
+  // top() must still find the (time, index) minimum, through ties, +inf and times beyond
+  // the window (re-base), exactly as the heap does.
+  for (const std::uint32_t n : {2u, 3u, 4u, 5u, 9u}) {
+    EventHeap heap;
+    EventCalendar cal;
+    heap.reset(n);
+    cal.reset(n, 0.0, 0.5, true);
+    CounterRng rng(11, Stream::edmd_collisions, n, 0);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const double t = rng.exponential();
+      heap.update(i, t);
+      cal.update(i, t);
+    }
+    for (int step = 0; step < 5000; ++step) {
+      ASSERT_EQ(heap.top(), cal.top()) << n << " " << step;
+      ASSERT_EQ(heap.top_key(), cal.top_key()) << n << " " << step;
+      const std::uint32_t i = heap.top();
+      const double now = heap.top_key();
+      if (!std::isfinite(now)) break;
+      const double u = rng.uniform();
+      // the same time as now (a tie with the next entries), far beyond the window, or near
+      double t = u < 0.2 ? now : u < 0.3 ? now + 1000.0 * rng.exponential() : now + rng.exponential();
+      if (u > 0.9) t = std::floor(t);  // exact ties between entries
+      if (t < now) t = now;
+      heap.update(i, t);
+      cal.update(i, t);
+      ASSERT_TRUE(cal.valid()) << n << " " << step;
+    }
   }
-  EXPECT_TRUE(heap.valid());
-  EXPECT_TRUE(cal.valid());
 }
 
 TEST(EdmdEngine, AirTableEnergyBudgetCloses) {
