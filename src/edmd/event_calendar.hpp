@@ -56,7 +56,7 @@ class EventCalendar {
   // entries too (an entry earlier than the linked minimum makes it link them all first), so
   // the minimum is the same (time, index) minimum as before and the event order unchanged.
   // Measured in one process (bench_edmd BM_EdmdDeferAB, two engines in alternating chunks):
-  // 1.05-1.12x at 10^6 disks, 1.05-1.08x at 10^5 spheres, but 0.93x at 10^4 disks, where
+  // 1.04-1.12x at 10^6 disks, 1.02-1.08x at 10^5 spheres, but 0.93-0.98x at 10^4 disks, where
   // these lines are cached and only the bookkeeping remains; hence only with defer_links
   // (reset), which the engine sets at N >= 50000 (docs/performance/edmd.md).
   void update(std::uint32_t i, double key) {
