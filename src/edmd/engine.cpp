@@ -129,7 +129,7 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
     comp(w_, d) = l / nc_[d];
   }
   if (dims_ == 2) nc_[2] = 1, w_.z = 1.0;
-  records_ = dims_ == 2;
+  records_ = dims_ == 2 && s.cell_records != 0;
   cap_ = 4;  // grows (doubles) on overflow; small keeps the cell arrays cache-friendly
   // predict_pair's union of cells: for each offset d = c_j - c_i (components -1, 0, 1) the
   // cells c_j + e (e in [-1, 1]^D, z order then y then x) that are not within one cell of
@@ -215,7 +215,7 @@ void Engine::assign_cell(std::uint32_t i) {
 void Engine::fill_cells() {
   for (;;) {
     const std::size_t cells = static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2];
-    if (records_) recs_.assign(cells * cap_, CellRec{});
+    if (records_) recs_.assign(cells * cap_, CellRec{}), occupied_cells_.assign((cells + 63) / 64, 0);
     else members_.assign(cells * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
@@ -244,6 +244,7 @@ void Engine::insert_cell(std::uint32_t i) {
     CellRec* m = cell_recs(c);
     s = m->count++;
     m[s].slot = i;
+    occupied_cells_[static_cast<std::size_t>(c) >> 6] |= std::uint64_t{1} << (c & 63);
   } else {
     std::uint32_t* b = cell_block(c);
     s = b[0]++;
@@ -261,6 +262,7 @@ void Engine::remove_cell(std::uint32_t i) {
     CellRec* m = cell_recs(c);
     const std::uint32_t n = --m->count;
     last = m[n].slot;
+    if (n == 0) occupied_cells_[static_cast<std::size_t>(c) >> 6] &= ~(std::uint64_t{1} << (c & 63));
     // the last member's record moves into the hole, all but line 0's count
     if (pos != n) std::memcpy(static_cast<void*>(&m[pos]), &m[n], offsetof(CellRec, count));
   } else {
@@ -307,11 +309,24 @@ void Engine::request_next_records(std::uint32_t r) const {
   __builtin_prefetch(&k_[r]);
 }
 
+void Engine::request_partner_cells(std::uint32_t i, std::uint32_t j) const {
+  const auto& ci = sc_[i].cell;
+  const auto& cj = sc_[j].cell;
+  const int dx = cj[0] - ci[0], dy = cj[1] - ci[1];
+  if (!(ci[0] > 0 && ci[0] < nc_[0] - 1 && ci[1] > 0 && ci[1] < nc_[1] - 1 && cj[0] > 0 && cj[0] < nc_[0] - 1 &&
+        cj[1] > 0 && cj[1] < nc_[1] - 1 && std::abs(dx) <= 1 && std::abs(dy) <= 1))
+    return;
+  const int ci_index = cell_index(ci[0], ci[1], 0);
+  for (const int off : union_extra_[(dx + 1) + 3 * (dy + 1) + 9]) request_cell(ci_index + off);
+}
+
 void Engine::request_next_neighbourhood(std::uint32_t r) const {
   const Sched& s = sc_[r];
   if (s.type == ev_collision) {
     __builtin_prefetch(&k_[s.coll_partner]);  // the staleness test reads its counter first
     __builtin_prefetch(&sc_[s.coll_partner]);
+    static const bool px = getenv("GB_PX") != nullptr;
+    if (records_ && px) request_partner_cells(r, s.coll_partner);
   }
   // the rows of r's 3^D block of cells (interior cells only: the rows are contiguous there),
   // as scan_neighbours_d and predict_pair_d request them
@@ -320,11 +335,29 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
                         (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
   if (!interior) return;
   if (records_) {
+    static const int var = getenv("GB_VAR") ? atoi(getenv("GB_VAR")) : 0;
+    if (var == 2) return;
+    if (var == 1 && s.type == ev_cell) {
+      const int d = s.aux >> 1, dir = (s.aux & 1) ? 1 : -1;
+      __builtin_prefetch(cell_recs(cell_index(c[0], c[1], 0)) + s.cell_pos);
+      int n[2] = {c[0], c[1]};
+      n[d] += dir;
+      request_cell(cell_index(n[0], n[1], 0));
+      n[d] += dir;
+      if (n[d] < 0 || n[d] >= nc_[d]) return;
+      const int o = 1 - d;
+      for (int e = -1; e <= 1; ++e) {
+        int m[2] = {n[0], n[1]};
+        m[o] += e;
+        request_cell(cell_index(m[0], m[1], 0));
+      }
+      return;
+    }
     // disks: the first line of each cell (its count and first member: the candidates
     // themselves, not only their ids)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(c[0] - 1, c[1] + dy, 0);
-      for (int dx = 0; dx < 3; ++dx) __builtin_prefetch(cell_recs(row + dx));
+      for (int dx = 0; dx < 3; ++dx) request_cell(row + dx);
     }
     return;
   }
@@ -440,7 +473,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 // the interior ones. The shifted candidate position is ((r_j + dt v_j) + shift) - r_i,
 // the operation order of scan_cell: the same collision times as the cell-by-cell scan.
 // Returns false, having changed nothing, if the candidates overflow the buffer.
-template <int D>
+template <int D, bool R>
 bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
   const auto& c = sc_[i].cell;
@@ -450,12 +483,13 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
                         (D == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
   constexpr int kMax = 192;
   // a candidate: disks its record in the cell, spheres its slot (its Kin read in the test)
-  using Cand = std::conditional_t<D == 2, const CellRec*, std::uint32_t>;
+  using Cand = std::conditional_t<R, const CellRec*, std::uint32_t>;
   Cand buf[kMax];
   int nb = 0;
   // appends the members of a cell (but i) to buf; their count, -1 if buf would overflow
   auto gather = [&](int cell) {
-    if constexpr (D == 2) {
+    if constexpr (R) {
+      if (!cell_occupied(cell)) return 0;
       const CellRec* m = cell_recs(cell);
       const int cnt = static_cast<int>(m->count);
       if (nb + cnt > kMax) return -1;
@@ -488,8 +522,8 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0] + lo[0], c[1] + dy, c[2] + dz);
-        if constexpr (D == 2) {
-          for (int dx = 0; dx <= hi[0] - lo[0]; ++dx) __builtin_prefetch(cell_recs(row + dx));
+        if constexpr (R) {
+          for (int dx = 0; dx <= hi[0] - lo[0]; ++dx) request_cell(row + dx);
         } else {
           __builtin_prefetch(cell_block(row));
           __builtin_prefetch(cell_block(row) + (hi[0] - lo[0] + 1) * (cap_ + 1) - 1);
@@ -569,7 +603,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   if (interior) {
     for (int q = 0; q < nb; ++q) {
       const Cand j = buf[q];
-      if constexpr (D == 2) {
+      if constexpr (R) {
         const double dtj = t - j->t;
         filter(j, j->vx, j->vy, 0.0, j->x + dtj * j->vx, j->y + dtj * j->vy, 0.0);
       } else {
@@ -584,7 +618,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
       const double sx = seg_shift[sg][0], sy = seg_shift[sg][1], sz = seg_shift[sg][2];
       for (; q < seg_end[sg]; ++q) {
         const Cand j = buf[q];
-        if constexpr (D == 2) {
+        if constexpr (R) {
           const double dtj = t - j->t;
           filter(j, j->vx, j->vy, 0.0, (j->x + dtj * j->vx) + sx, (j->y + dtj * j->vy) + sy, 0.0);
         } else {
@@ -599,7 +633,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   for (int s = 0; s < ns; ++s) {
     const double b = sb[s], q2 = sq2[s];
     const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s])));
-    if constexpr (D == 2) best.offer(tc, sj[s]->slot, sj[s]->counter);
+    if constexpr (R) best.offer(tc, sj[s]->slot, sj[s]->counter);
     else best.offer(tc, sj[s], k_[sj[s]].counter);
   }
   store_top2(i, best);
@@ -610,8 +644,9 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
 // at offset `layer_dir` in direction `layer_dim` (after a cell crossing: the other cells
 // were scanned before and their best collision is kept in Sched::coll_time).
 void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
-  if (!accelerated_ && (dims_ == 3 ? scan_neighbours_d<3>(i, layer_dim, layer_dir)
-                                   : scan_neighbours_d<2>(i, layer_dim, layer_dir)))
+  if (!accelerated_ && (dims_ == 3  ? scan_neighbours_d<3, false>(i, layer_dim, layer_dir)
+                        : records_ ? scan_neighbours_d<2, true>(i, layer_dim, layer_dir)
+                                   : scan_neighbours_d<2, false>(i, layer_dim, layer_dir)))
     return;
   // air table (quartic pair times), or more candidates than the gather buffer holds: cell
   // by cell
@@ -709,8 +744,9 @@ bool Engine::promote_second(std::uint32_t i) {
 // are adjacent), so one pass over the union of cells serves both, loading every neighbour's
 // record once. Falls back to two scans near boundaries or under acceleration.
 void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
-  if (dims_ == 3) predict_pair_d<3>(i, j);
-  else predict_pair_d<2>(i, j);
+  if (dims_ == 3) predict_pair_d<3, false>(i, j);
+  else if (records_) predict_pair_d<2, true>(i, j);
+  else predict_pair_d<2, false>(i, j);
 }
 
 // The dimension is a compile-time constant here: the loops over cells and components
@@ -718,7 +754,7 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
 // every disk), so leaving them out changes at most the sign of a zero sum, which no test
 // below can see (b >= 0 and disc <= 0 hold for +0 and -0 alike): the same decisions and
 // the same collision times as the 3-component arithmetic.
-template <int D>
+template <int D, bool R>
 void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   const auto& ci = sc_[i].cell;
   const auto& cj = sc_[j].cell;
@@ -734,13 +770,14 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   const int d[3] = {cj[0] - ci[0], cj[1] - ci[1], D == 3 ? cj[2] - ci[2] : 0};
   constexpr int kMax = 320;
   // a candidate: disks its record in the cell, spheres its slot (as in scan_neighbours_d)
-  using Cand = std::conditional_t<D == 2, const CellRec*, std::uint32_t>;
+  using Cand = std::conditional_t<R, const CellRec*, std::uint32_t>;
   Cand buf[kMax];
   int nb = 0;
   bool overflow = false;
   constexpr int zr = D == 3 ? 1 : 0;
   auto add_cell = [&](int cell) {
-    if constexpr (D == 2) {
+    if constexpr (R) {
+      if (!cell_occupied(cell)) return;
       const CellRec* m = cell_recs(cell);
       const int cnt = static_cast<int>(m->count);
       if (nb + cnt > kMax) {
@@ -768,8 +805,8 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
       const int row = cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz);
-      if constexpr (D == 2) {
-        for (int dx = 0; dx < 3; ++dx) __builtin_prefetch(cell_recs(row + dx));
+      if constexpr (R) {
+        for (int dx = 0; dx < 3; ++dx) request_cell(row + dx);
       } else {
         __builtin_prefetch(cell_block(row));
         __builtin_prefetch(cell_block(row) + 3 * (cap_ + 1) - 1);
@@ -778,8 +815,8 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   if (adjacent) {
     const int ci_index = cell_index(ci[0], ci[1], ci[2]);
     for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) {
-      if constexpr (D == 2) {
-        __builtin_prefetch(cell_recs(ci_index + off));
+      if constexpr (R) {
+        request_cell(ci_index + off);
       } else {
         const std::uint32_t* block = cell_block(ci_index + off);
         __builtin_prefetch(block);
@@ -834,7 +871,7 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   for (int q = 0; q < nb; ++q) {
     const Cand k = buf[q];
     double kt, kx, ky, kvx, kvy;
-    if constexpr (D == 2) {
+    if constexpr (R) {
       kt = k->t, kx = k->x, ky = k->y, kvx = k->vx, kvy = k->vy;
     } else {
       const Kin& kk = k_[k];
@@ -871,7 +908,7 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
     for (int s = 0; s < ns[l]; ++s) {
       const double q2 = sq2[l][s];
       const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s])));
-      if constexpr (D == 2) best[l].offer(tc, sk[l][s]->slot, sk[l][s]->counter);
+      if constexpr (R) best[l].offer(tc, sk[l][s]->slot, sk[l][s]->counter);
       else best[l].offer(tc, sk[l][s], k_[sk[l][s]].counter);
     }
   store_top2(i, best[0]);
@@ -1382,6 +1419,7 @@ bool Engine::cell_records_consistent() const {
   for (int c = 0; c < cells; ++c) {
     const int cnt = cell_count(c);
     if (cnt < 0 || cnt > cap_) return false;
+    if (((occupied_cells_[static_cast<std::size_t>(c) >> 6] >> (c & 63)) & 1u) != (cnt > 0 ? 1u : 0u)) return false;
     members += static_cast<std::size_t>(cnt);
     for (int q = 0; q < cnt; ++q) {
       const CellRec& r = cell_recs(c)[q];

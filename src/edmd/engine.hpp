@@ -109,6 +109,11 @@ struct EngineSetup {
   // lines miss the caches), 0 never, 1 always. Results do not depend on it (the same event
   // order); bench_edmd's BM_EdmdDeferAB times the two side by side.
   int calendar_defer = -1;
+  // Disks' cell blocks hold copies of the members' kinematics, read by the neighbour scans
+  // (Engine::CellRec): -1 (default) or 1 for disks, 0 never (spheres never have them).
+  // Results do not depend on it (the same candidates in the same order, bit for bit);
+  // bench_edmd's BM_EdmdCellsAB times the two side by side.
+  int cell_records = -1;
   double vn_bin_width = 0.05;  // histogram of normal speed at collision
   int vn_bins = 200;
 };
@@ -277,11 +282,12 @@ class Engine {
   // addresses come from lines the previous stage requested.
   void request_next_records(std::uint32_t r) const;     // its Sched and Kin lines
   void request_next_neighbourhood(std::uint32_t r) const;  // its partner, its cells' member rows
+  void request_partner_cells(std::uint32_t i, std::uint32_t j) const;
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
-  template <int D>
-  void predict_pair_d(std::uint32_t i, std::uint32_t j);  // predict_pair for D dimensions
+  template <int D, bool R>
+  void predict_pair_d(std::uint32_t i, std::uint32_t j);  // predict_pair for D dimensions, R: records_
   bool promote_second(std::uint32_t i);  // first candidate stale: take the second if still valid
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   template <int D>
@@ -289,8 +295,8 @@ class Engine {
   template <int D>
   double next_event_d(std::uint32_t i);  // schedule_d without the calendar update: sets type, returns the time
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
-  template <int D>
-  bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
+  template <int D, bool R>
+  bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path, R: records_
   // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
   struct Top2 {
     double t1, t2;
@@ -379,8 +385,17 @@ class Engine {
     std::uint32_t count;  // the cell's member count, in line 0 only
   };
   static_assert(sizeof(CellRec) == 64, "a cell record is one cache line");
-  bool records_ = false;  // dims_ == 2
+  bool records_ = false;  // dims_ == 2 (EngineSetup::cell_records)
   HugePageVector<CellRec> recs_;
+  // records_: bit c set while cell c has members. An empty cell costs a whole line in
+  // recs_ (a row of member ids shares its lines with the neighbouring cells); with the bits
+  // (200 KB at 10^6 disks, held in L2) the scans and requests skip the empty cells' lines.
+  std::vector<std::uint64_t> occupied_cells_;
+  bool use_bits_ = getenv("GB_NOBITS") == nullptr;
+  bool cell_occupied(int c) const { return !use_bits_ || ((occupied_cells_[static_cast<std::size_t>(c) >> 6] >> (c & 63)) & 1u); }
+  void request_cell(int c) const {
+    if (cell_occupied(c)) __builtin_prefetch(cell_recs(c));
+  }
   // predict_pair: j's cells outside i's 3^D block, by offset c_j - c_i (constructor)
   std::array<std::vector<int>, 27> union_extra_;
   std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
@@ -416,6 +431,8 @@ class Engine {
   // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
   bool defer_links_ = false;  // EngineSetup::calendar_defer, resolved
+  bool no_runner_nb_ = getenv("GB_NORUN") != nullptr;
+  bool early_px_ = getenv("GB_EPX") != nullptr;
   Counters c_;
 };
 
@@ -521,7 +538,9 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
     if (next != heap_.kNoHint) request_next_records(next);
     // the calendar's next buckets: their nodes, and the records of their grains
-    if (prefetch_next_) heap_.request_ahead([this](std::uint32_t r) { request_next_records(r); });
+    if (prefetch_next_)
+      heap_.request_ahead([this](std::uint32_t r) { request_next_records(r); },
+                          [this](std::uint32_t r) { request_next_neighbourhood(r); });
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
@@ -529,6 +548,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
         // move_to): request it now so that the two misses overlap
         __builtin_prefetch(&sc_[ev.coll_partner]);
         heap_.request(ev.coll_partner);  // its calendar node, for the re-schedule at the end
+        if (records_ && early_px_) request_partner_cells(i, ev.coll_partner);
         if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);
@@ -546,7 +566,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     }
     // (a third stage, requesting the next grain's cell members' Kin, with stage 2 moved
     // into the collision, measured slower: docs/performance/edmd.md, 2026-11-25 night)
-    if (next != heap_.kNoHint) request_next_neighbourhood(next);
+    if (next != heap_.kNoHint && !no_runner_nb_) request_next_neighbourhood(next);
   }
 }
 
