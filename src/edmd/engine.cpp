@@ -215,7 +215,10 @@ void Engine::assign_cell(std::uint32_t i) {
 void Engine::fill_cells() {
   for (;;) {
     const std::size_t cells = static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2];
-    if (records_) recs_.assign(cells * cap_, CellRec{}), occupied_cells_.assign((cells + 63) / 64, 0);
+    if (records_) {
+      head_.assign(cells, CellRec{});
+      tail_.assign(cells * (cap_ - 1), CellRec{});
+    }
     else members_.assign(cells * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
@@ -241,10 +244,8 @@ void Engine::insert_cell(std::uint32_t i) {
   }
   std::uint32_t s;
   if (records_) {
-    CellRec* m = cell_recs(c);
-    s = m->count++;
-    m[s].slot = i;
-    occupied_cells_[static_cast<std::size_t>(c) >> 6] |= std::uint64_t{1} << (c & 63);
+    s = head_[c].count++;
+    rec(c, static_cast<int>(s)).slot = i;
   } else {
     std::uint32_t* b = cell_block(c);
     s = b[0]++;
@@ -259,12 +260,10 @@ void Engine::remove_cell(std::uint32_t i) {
   const std::uint16_t pos = sc_[i].cell_pos;
   std::uint32_t last;
   if (records_) {
-    CellRec* m = cell_recs(c);
-    const std::uint32_t n = --m->count;
-    last = m[n].slot;
-    if (n == 0) occupied_cells_[static_cast<std::size_t>(c) >> 6] &= ~(std::uint64_t{1} << (c & 63));
+    const int n = static_cast<int>(--head_[c].count);
+    last = rec(c, n).slot;
     // the last member's record moves into the hole, all but line 0's count
-    if (pos != n) std::memcpy(static_cast<void*>(&m[pos]), &m[n], offsetof(CellRec, count));
+    if (pos != n) std::memcpy(static_cast<void*>(&rec(c, pos)), &rec(c, n), offsetof(CellRec, count));
   } else {
     std::uint32_t* b = cell_block(c);
     last = b[b[0]];  // the last member, b[1 + count - 1]
@@ -309,24 +308,11 @@ void Engine::request_next_records(std::uint32_t r) const {
   __builtin_prefetch(&k_[r]);
 }
 
-void Engine::request_partner_cells(std::uint32_t i, std::uint32_t j) const {
-  const auto& ci = sc_[i].cell;
-  const auto& cj = sc_[j].cell;
-  const int dx = cj[0] - ci[0], dy = cj[1] - ci[1];
-  if (!(ci[0] > 0 && ci[0] < nc_[0] - 1 && ci[1] > 0 && ci[1] < nc_[1] - 1 && cj[0] > 0 && cj[0] < nc_[0] - 1 &&
-        cj[1] > 0 && cj[1] < nc_[1] - 1 && std::abs(dx) <= 1 && std::abs(dy) <= 1))
-    return;
-  const int ci_index = cell_index(ci[0], ci[1], 0);
-  for (const int off : union_extra_[(dx + 1) + 3 * (dy + 1) + 9]) request_cell(ci_index + off);
-}
-
 void Engine::request_next_neighbourhood(std::uint32_t r) const {
   const Sched& s = sc_[r];
   if (s.type == ev_collision) {
     __builtin_prefetch(&k_[s.coll_partner]);  // the staleness test reads its counter first
     __builtin_prefetch(&sc_[s.coll_partner]);
-    static const bool px = getenv("GB_PX") != nullptr;
-    if (records_ && px) request_partner_cells(r, s.coll_partner);
   }
   // the rows of r's 3^D block of cells (interior cells only: the rows are contiguous there),
   // as scan_neighbours_d and predict_pair_d request them
@@ -335,24 +321,6 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
                         (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
   if (!interior) return;
   if (records_) {
-    static const int var = getenv("GB_VAR") ? atoi(getenv("GB_VAR")) : 0;
-    if (var == 2) return;
-    if (var == 1 && s.type == ev_cell) {
-      const int d = s.aux >> 1, dir = (s.aux & 1) ? 1 : -1;
-      __builtin_prefetch(cell_recs(cell_index(c[0], c[1], 0)) + s.cell_pos);
-      int n[2] = {c[0], c[1]};
-      n[d] += dir;
-      request_cell(cell_index(n[0], n[1], 0));
-      n[d] += dir;
-      if (n[d] < 0 || n[d] >= nc_[d]) return;
-      const int o = 1 - d;
-      for (int e = -1; e <= 1; ++e) {
-        int m[2] = {n[0], n[1]};
-        m[o] += e;
-        request_cell(cell_index(m[0], m[1], 0));
-      }
-      return;
-    }
     // disks: the first line of each cell (its count and first member: the candidates
     // themselves, not only their ids)
     for (int dy = -1; dy <= 1; ++dy) {
@@ -489,13 +457,12 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   // appends the members of a cell (but i) to buf; their count, -1 if buf would overflow
   auto gather = [&](int cell) {
     if constexpr (R) {
-      if (!cell_occupied(cell)) return 0;
-      const CellRec* m = cell_recs(cell);
-      const int cnt = static_cast<int>(m->count);
+      const int cnt = static_cast<int>(head_[cell].count);
       if (nb + cnt > kMax) return -1;
       for (int q = 0; q < cnt; ++q) {
-        buf[nb] = m + q;
-        nb += (m[q].slot != i);
+        const CellRec* m = &rec(cell, q);
+        buf[nb] = m;
+        nb += (m->slot != i);
       }
       return cnt;
     } else {
@@ -777,14 +744,12 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   constexpr int zr = D == 3 ? 1 : 0;
   auto add_cell = [&](int cell) {
     if constexpr (R) {
-      if (!cell_occupied(cell)) return;
-      const CellRec* m = cell_recs(cell);
-      const int cnt = static_cast<int>(m->count);
+      const int cnt = static_cast<int>(head_[cell].count);
       if (nb + cnt > kMax) {
         overflow = true;
         return;
       }
-      for (int q = 0; q < cnt; ++q) buf[nb++] = m + q;
+      for (int q = 0; q < cnt; ++q) buf[nb++] = &rec(cell, q);
     } else {
       const std::uint32_t* m = cell_block(cell) + 1;
       const int cnt = static_cast<int>(m[-1]);
@@ -1419,10 +1384,9 @@ bool Engine::cell_records_consistent() const {
   for (int c = 0; c < cells; ++c) {
     const int cnt = cell_count(c);
     if (cnt < 0 || cnt > cap_) return false;
-    if (((occupied_cells_[static_cast<std::size_t>(c) >> 6] >> (c & 63)) & 1u) != (cnt > 0 ? 1u : 0u)) return false;
     members += static_cast<std::size_t>(cnt);
     for (int q = 0; q < cnt; ++q) {
-      const CellRec& r = cell_recs(c)[q];
+      const CellRec& r = rec(c, q);
       if (r.slot >= n_) return false;
       const Sched& s = sc_[r.slot];
       const Kin& k = k_[r.slot];

@@ -282,7 +282,6 @@ class Engine {
   // addresses come from lines the previous stage requested.
   void request_next_records(std::uint32_t r) const;     // its Sched and Kin lines
   void request_next_neighbourhood(std::uint32_t r) const;  // its partner, its cells' member rows
-  void request_partner_cells(std::uint32_t i, std::uint32_t j) const;
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
@@ -373,11 +372,13 @@ class Engine {
   // Spheres: cell c's block at c * (cap_ + 1): [member count, members...]; the count sits
   // next to the members, so a neighbour scan touches one cache line per row of cells, not two
   HugePageVector<std::uint32_t> members_;
-  // Disks (records_): cell c's block is cap_ cache lines from c * cap_, line q a copy of
-  // member q's kinematics, kept bitwise equal to its Kin (publish()); the scans read the
-  // candidates from the cells, one dependent level fewer than rows + Kin, and the coming
-  // events' cells can be requested without reading anything first (docs/performance/edmd.md,
-  // 2026-11-26 evening; BM_DiskNeighbourScan: 237 against 385-420 ns per event at 10^6).
+  // Disks (records_): one cache line per member, a copy of its kinematics kept bitwise
+  // equal to its Kin (publish()); the scans read the candidates from the cells, one
+  // dependent level fewer than rows + Kin, and the coming events' cells can be requested
+  // without reading anything first (docs/performance/edmd.md, 2026-11-26 evening;
+  // BM_DiskNeighbourScan: 237 against 385-420 ns per event at 10^6). Member 0 and the count
+  // in head_ (by cell: a block row's heads are contiguous, and the adjacent-line prefetch
+  // brings a neighbouring cell's head, not an empty slot), members 1 .. cap_ - 1 in tail_.
   struct alignas(64) CellRec {
     double x, y, t, vx, vy;
     std::uint64_t counter;
@@ -386,31 +387,26 @@ class Engine {
   };
   static_assert(sizeof(CellRec) == 64, "a cell record is one cache line");
   bool records_ = false;  // dims_ == 2 (EngineSetup::cell_records)
-  HugePageVector<CellRec> recs_;
-  // records_: bit c set while cell c has members. An empty cell costs a whole line in
-  // recs_ (a row of member ids shares its lines with the neighbouring cells); with the bits
-  // (200 KB at 10^6 disks, held in L2) the scans and requests skip the empty cells' lines.
-  std::vector<std::uint64_t> occupied_cells_;
-  bool use_bits_ = getenv("GB_NOBITS") == nullptr;
-  bool cell_occupied(int c) const { return !use_bits_ || ((occupied_cells_[static_cast<std::size_t>(c) >> 6] >> (c & 63)) & 1u); }
-  void request_cell(int c) const {
-    if (cell_occupied(c)) __builtin_prefetch(cell_recs(c));
-  }
+  HugePageVector<CellRec> head_;  // by cell: its count and member 0
+  HugePageVector<CellRec> tail_;  // members 1 .. cap_ - 1 of cell c from c * (cap_ - 1)
+  void request_cell(int c) const { __builtin_prefetch(&head_[c]); }
   // predict_pair: j's cells outside i's 3^D block, by offset c_j - c_i (constructor)
   std::array<std::vector<int>, 27> union_extra_;
   std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
   const std::uint32_t* cell_block(int c) const { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
-  CellRec* cell_recs(int c) { return &recs_[static_cast<std::size_t>(c) * cap_]; }
-  const CellRec* cell_recs(int c) const { return &recs_[static_cast<std::size_t>(c) * cap_]; }
+  CellRec& rec(int c, int q) { return q == 0 ? head_[c] : tail_[static_cast<std::size_t>(c) * (cap_ - 1) + q - 1]; }
+  const CellRec& rec(int c, int q) const {
+    return q == 0 ? head_[c] : tail_[static_cast<std::size_t>(c) * (cap_ - 1) + q - 1];
+  }
   // either layout (the generic paths)
-  int cell_count(int c) const { return records_ ? static_cast<int>(cell_recs(c)->count) : static_cast<int>(cell_block(c)[0]); }
-  std::uint32_t cell_member(int c, int q) const { return records_ ? cell_recs(c)[q].slot : cell_block(c)[1 + q]; }
+  int cell_count(int c) const { return records_ ? static_cast<int>(head_[c].count) : static_cast<int>(cell_block(c)[0]); }
+  std::uint32_t cell_member(int c, int q) const { return records_ ? rec(c, q).slot : cell_block(c)[1 + q]; }
   // copies i's Kin into its cell record (disks); every change of a Kin goes through here
   void publish(std::uint32_t i) {
     if (!records_) return;
     const Sched& s = sc_[i];
     const Kin& k = k_[i];
-    CellRec& r = cell_recs(cell_index(s.cell[0], s.cell[1], s.cell[2]))[s.cell_pos];
+    CellRec& r = rec(cell_index(s.cell[0], s.cell[1], s.cell[2]), s.cell_pos);
     r.x = k.r.x, r.y = k.r.y, r.t = k.t, r.vx = k.v.x, r.vy = k.v.y, r.counter = k.counter;
   }
 
@@ -431,8 +427,6 @@ class Engine {
   // cache (at N = 1e4 it would only add instructions). Results do not depend on it.
   bool prefetch_next_ = false;
   bool defer_links_ = false;  // EngineSetup::calendar_defer, resolved
-  bool no_runner_nb_ = getenv("GB_NORUN") != nullptr;
-  bool early_px_ = getenv("GB_EPX") != nullptr;
   Counters c_;
 };
 
@@ -538,9 +532,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     const std::uint32_t next = prefetch_next_ ? heap_.runner_up() : heap_.kNoHint;
     if (next != heap_.kNoHint) request_next_records(next);
     // the calendar's next buckets: their nodes, and the records of their grains
-    if (prefetch_next_)
-      heap_.request_ahead([this](std::uint32_t r) { request_next_records(r); },
-                          [this](std::uint32_t r) { request_next_neighbourhood(r); });
+    if (prefetch_next_) heap_.request_ahead([this](std::uint32_t r) { request_next_records(r); });
     const Sched& ev = sc_[i];
     switch (ev.type) {
       case ev_collision:
@@ -548,7 +540,6 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
         // move_to): request it now so that the two misses overlap
         __builtin_prefetch(&sc_[ev.coll_partner]);
         heap_.request(ev.coll_partner);  // its calendar node, for the re-schedule at the end
-        if (records_ && early_px_) request_partner_cells(i, ev.coll_partner);
         if (k_[ev.coll_partner].counter != ev.coll_partner_counter) {
           ++c_.stale;
           move_to(i, now_);
@@ -566,7 +557,7 @@ void Engine::advance(const Law& law, double t_end, std::uint64_t max_collisions)
     }
     // (a third stage, requesting the next grain's cell members' Kin, with stage 2 moved
     // into the collision, measured slower: docs/performance/edmd.md, 2026-11-25 night)
-    if (next != heap_.kNoHint && !no_runner_nb_) request_next_neighbourhood(next);
+    if (next != heap_.kNoHint) request_next_neighbourhood(next);
   }
 }
 

@@ -15,7 +15,6 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <limits>
 #include <vector>
 
@@ -43,10 +42,8 @@ class EventCalendar {
     width_ = width > 0 ? width : 1.0;
     inv_width_ = 1.0 / width_;
     cur_ = 0;
-    ahead1_ = ahead2_ = ahead3_ = 0;
+    ahead1_ = ahead2_ = 0;
     cached_ = false;
-    kAhead = getenv("GB_AHEAD") ? std::atoi(getenv("GB_AHEAD")) : 8;
-    kNear = getenv("GB_NEAR") ? std::atoi(getenv("GB_NEAR")) : 0;
     npending_ = 0;
     for (std::uint32_t i = 0; i < n; ++i) link(i, kOverflow);
   }
@@ -138,18 +135,11 @@ class EventCalendar {
   // width, engine.cpp rebuild_calendar), and the window moves about two buckets per event.
   // kAhead = 16 and 32 measured the same as 8; a third stage requesting
   // the grains' neighbourhoods two buckets ahead measured slower (docs/performance/edmd.md).
-  template <class OnEntry, class OnNear>
-  void request_ahead(OnEntry&& on_entry, OnNear&& on_near) {
+  template <class OnEntry>
+  void request_ahead(OnEntry&& on_entry) {
     const std::size_t m = heads_.size();
     if (ahead1_ < cur_) ahead1_ = cur_;
     if (ahead2_ < cur_) ahead2_ = cur_;
-    if (ahead3_ < cur_) ahead3_ = cur_;
-    for (const std::size_t end = std::min(cur_ + kNear, m); ahead3_ < end; ++ahead3_)
-      if (occupied(ahead3_)) {
-        const std::uint32_t h = heads_[ahead3_];
-        on_near(h);
-        if (const std::uint32_t nx = node_[h].next; nx != kNone) on_near(nx);
-      }
     for (const std::size_t end = std::min(cur_ + kAhead, m); ahead1_ < end; ++ahead1_)
       if (occupied(ahead1_)) __builtin_prefetch(&node_[heads_[ahead1_]]);
     for (const std::size_t end = std::min(cur_ + kAhead / 2, m); ahead2_ < end; ++ahead2_)
@@ -178,7 +168,7 @@ class EventCalendar {
  private:
   static constexpr std::uint32_t kNone = 0xffffffffu;
   static constexpr std::uint32_t kOverflow = 0xfffffffeu;
-  std::size_t kAhead = 8, kNear = 0;
+  static constexpr std::size_t kAhead = 8;
   static constexpr std::uint32_t kPending = 0xfffffffdu;  // where: waiting to be linked (update)
   static constexpr int kDefer = 4;  // waiting entries (an event updates one to three)
   struct alignas(32) Node {
@@ -314,7 +304,7 @@ class EventCalendar {
       overflow_head_ = kNone;
       for (std::uint32_t k = 0; k < n; ++k) link(k, slot_for(node_[k].key));
       cur_ = 0;
-      ahead1_ = ahead2_ = ahead3_ = 0;
+      ahead1_ = ahead2_ = 0;
     }
   }
 
@@ -324,7 +314,7 @@ class EventCalendar {
   std::uint32_t overflow_head_ = kNone;
   double base_ = 0.0, width_ = 1.0, inv_width_ = 1.0;
   std::size_t cur_ = 0;
-  std::size_t ahead1_ = 0, ahead2_ = 0, ahead3_ = 0;  // request_ahead(): buckets before these were requested
+  std::size_t ahead1_ = 0, ahead2_ = 0;  // request_ahead(): buckets before these were requested
   bool cached_ = false;
   std::uint32_t pending_[kDefer] = {};  // waiting entries, oldest first (update)
   int npending_ = 0;

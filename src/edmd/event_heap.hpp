@@ -41,8 +41,8 @@ class EventHeap {
   // prefetch hints of the calendar's interface: nothing to request here
   void request(std::uint32_t) const {}
   void request_update(std::uint32_t, double) const {}
-  template <class OnEntry, class OnNear>
-  void request_ahead(OnEntry&&, OnNear&&) const {}
+  template <class OnEntry>
+  void request_ahead(OnEntry&&) const {}
   void update(std::uint32_t i, double key) {
     const std::size_t k = pos_[i];
     const Entry e{key, i};
