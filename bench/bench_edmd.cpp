@@ -156,8 +156,7 @@ double thread_cpu_seconds() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
-template <class Set>
-void edmd_ab(benchmark::State& state, Set set) {
+void BM_EdmdDeferAB(benchmark::State& state) {
   Config c;
   c.particles = state.range(0);
   c.packing_fraction = static_cast<double>(state.range(1)) / 100.0;
@@ -165,9 +164,9 @@ void edmd_ab(benchmark::State& state, Set set) {
   const int rounds = static_cast<int>(state.range(3));
   const auto init = make_initial_state(c, 1);
   EngineSetup setup = make_setup(c, 1);
-  set(setup, false);
+  setup.calendar_defer = 0;
   Engine off(setup, init.positions, init.velocities);
-  set(setup, true);
+  setup.calendar_defer = 1;
   Engine on(setup, init.positions, init.velocities);
   const std::uint64_t n = static_cast<std::uint64_t>(c.particles);
   off.advance(ElasticRestitution{}, kInf, 5 * n);  // melt the lattice
@@ -202,27 +201,11 @@ void edmd_ab(benchmark::State& state, Set set) {
   state.counters["on_median_chunk_rate"] = d / median(t_on);
   state.counters["rounds_on_faster"] = faster;
 }
-void BM_EdmdDeferAB(benchmark::State& state) {
-  edmd_ab(state, [](EngineSetup& s, bool on) { s.calendar_defer = on ? 1 : 0; });
-}
 BENCHMARK(BM_EdmdDeferAB)
     ->Args({1000000, 50, 2, 20})
     ->Args({1000000, 70, 2, 20})
     ->Args({100000, 30, 3, 20})
     ->Args({10000, 50, 2, 20})
-    ->Iterations(1)
-    ->Unit(benchmark::kMillisecond);
-
-// The same harness for the disks' cell records (EngineSetup::cell_records; docs/performance/edmd.md,
-// 2026-11-26 evening): off = the member rows + Kin by slot, on = copies in the cells.
-void BM_EdmdCellsAB(benchmark::State& state) {
-  edmd_ab(state, [](EngineSetup& s, bool on) { s.cell_records = on ? 1 : 0; });
-}
-BENCHMARK(BM_EdmdCellsAB)
-    ->Args({1000000, 50, 2, 20})
-    ->Args({1000000, 70, 2, 20})
-    ->Args({10000, 50, 2, 20})
-    ->Args({10000, 70, 2, 20})
     ->Iterations(1)
     ->Unit(benchmark::kMillisecond);
 

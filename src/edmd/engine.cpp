@@ -1,9 +1,7 @@
 #include "edmd/engine.hpp"
 
 #include <algorithm>
-#include <cstddef>
 #include <cstdio>
-#include <cstring>
 #include <sstream>
 
 namespace grainbath::edmd {
@@ -129,7 +127,6 @@ Engine::Engine(const EngineSetup& s, const std::vector<Vec3>& positions, const s
     comp(w_, d) = l / nc_[d];
   }
   if (dims_ == 2) nc_[2] = 1, w_.z = 1.0;
-  records_ = dims_ == 2 && s.cell_records != 0;
   cap_ = 4;  // grows (doubles) on overflow; small keeps the cell arrays cache-friendly
   // predict_pair's union of cells: for each offset d = c_j - c_i (components -1, 0, 1) the
   // cells c_j + e (e in [-1, 1]^D, z order then y then x) that are not within one cell of
@@ -214,16 +211,11 @@ void Engine::assign_cell(std::uint32_t i) {
 
 void Engine::fill_cells() {
   for (;;) {
-    const std::size_t cells = static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2];
-    if (records_) {
-      head_.assign(cells, CellRec{});
-      tail_.assign(cells * (cap_ - 1), CellRec{});
-    }
-    else members_.assign(cells * (cap_ + 1), 0);
+    members_.assign(static_cast<std::size_t>(nc_[0]) * nc_[1] * nc_[2] * (cap_ + 1), 0);
     bool ok = true;
     for (std::uint32_t i = 0; i < n_ && ok; ++i) {
       const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
-      if (cell_count(c) >= cap_) ok = false;
+      if (cell_block(c)[0] >= static_cast<std::uint32_t>(cap_)) ok = false;
       else insert_cell(i);
     }
     if (ok) return;
@@ -238,39 +230,23 @@ void Engine::grow_cells() {
 
 void Engine::insert_cell(std::uint32_t i) {
   const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
-  if (cell_count(c) >= cap_) {
+  std::uint32_t* b = cell_block(c);
+  if (b[0] >= static_cast<std::uint32_t>(cap_)) {
     grow_cells();  // rare: re-inserts everyone including i
     return;
   }
-  std::uint32_t s;
-  if (records_) {
-    s = head_[c].count++;
-    rec(c, static_cast<int>(s)).slot = i;
-  } else {
-    std::uint32_t* b = cell_block(c);
-    s = b[0]++;
-    b[1 + s] = i;
-  }
+  const std::uint32_t s = b[0]++;
+  b[1 + s] = i;
   sc_[i].cell_pos = static_cast<std::uint16_t>(s);
-  publish(i);
 }
 
 void Engine::remove_cell(std::uint32_t i) {
   const int c = cell_index(sc_[i].cell[0], sc_[i].cell[1], sc_[i].cell[2]);
-  const std::uint16_t pos = sc_[i].cell_pos;
-  std::uint32_t last;
-  if (records_) {
-    const int n = static_cast<int>(--head_[c].count);
-    last = rec(c, n).slot;
-    // the last member's record moves into the hole, all but line 0's count
-    if (pos != n) std::memcpy(static_cast<void*>(&rec(c, pos)), &rec(c, n), offsetof(CellRec, count));
-  } else {
-    std::uint32_t* b = cell_block(c);
-    last = b[b[0]];  // the last member, b[1 + count - 1]
-    b[1 + pos] = last;
-    --b[0];
-  }
-  sc_[last].cell_pos = pos;
+  std::uint32_t* b = cell_block(c);
+  const std::uint32_t last = b[b[0]];  // the last member, b[1 + count - 1]
+  b[1 + sc_[i].cell_pos] = last;
+  sc_[last].cell_pos = sc_[i].cell_pos;
+  --b[0];
 }
 
 // Free flight of i over dt (ballistic, or under the constant air-table acceleration).
@@ -295,12 +271,10 @@ void Engine::move_to(std::uint32_t i, double t) {
     advance_piece(i, dt);
     k.t = t;
     move_hook_(move_hook_context_, id_[i], r0, v0, k.r, k.v, accelerated_ ? a_[i] : Vec3{}, dt);
-    publish(i);
     return;
   }
   advance_piece(i, dt);
   k.t = t;
-  publish(i);
 }
 
 void Engine::request_next_records(std::uint32_t r) const {
@@ -320,15 +294,6 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
                         (dims_ == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
   if (!interior) return;
-  if (records_) {
-    // disks: the first line of each cell (its count and first member: the candidates
-    // themselves, not only their ids)
-    for (int dy = -1; dy <= 1; ++dy) {
-      const int row = cell_index(c[0] - 1, c[1] + dy, 0);
-      for (int dx = 0; dx < 3; ++dx) request_cell(row + dx);
-    }
-    return;
-  }
   const int zr = dims_ == 3 ? 1 : 0;
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
@@ -338,11 +303,8 @@ void Engine::request_next_neighbourhood(std::uint32_t r) const {
     }
 }
 
-// Every velocity change is followed by this (after the move_to that brought i to now), so
-// publishing here keeps the cell record equal to Kin.
 void Engine::trajectory_changed(std::uint32_t i) {
   ++k_[i].counter;
-  publish(i);
   draw_background_time(i);
 }
 
@@ -389,9 +351,10 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
 inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
                               Top2& best) const {
   const double t = ki.t;
-  const int cnt = cell_count(cell);
+  const std::uint32_t* m = cell_block(cell) + 1;
+  const int cnt = static_cast<int>(m[-1]);
   for (int q = 0; q < cnt; ++q) {
-    const std::uint32_t j = cell_member(cell, q);
+    const std::uint32_t j = m[q];
     if (j == i) continue;
     const Kin& kj = k_[j];
     const double dtj = t - kj.t;
@@ -441,7 +404,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
 // the interior ones. The shifted candidate position is ((r_j + dt v_j) + shift) - r_i,
 // the operation order of scan_cell: the same collision times as the cell-by-cell scan.
 // Returns false, having changed nothing, if the candidates overflow the buffer.
-template <int D, bool R>
+template <int D>
 bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   const Kin& ki = k_[i];
   const auto& c = sc_[i].cell;
@@ -450,57 +413,35 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   const bool interior = c[0] > 0 && c[0] < nc_[0] - 1 && c[1] > 0 && c[1] < nc_[1] - 1 &&
                         (D == 2 || (c[2] > 0 && c[2] < nc_[2] - 1));
   constexpr int kMax = 192;
-  // a candidate: disks its record in the cell, spheres its slot (its Kin read in the test)
-  using Cand = std::conditional_t<R, const CellRec*, std::uint32_t>;
-  Cand buf[kMax];
+  std::uint32_t buf[kMax];
   int nb = 0;
-  // appends the members of a cell (but i) to buf; their count, -1 if buf would overflow
-  auto gather = [&](int cell) {
-    if constexpr (R) {
-      const int cnt = static_cast<int>(head_[cell].count);
-      if (nb + cnt > kMax) return -1;
-      for (int q = 0; q < cnt; ++q) {
-        const CellRec* m = &rec(cell, q);
-        buf[nb] = m;
-        nb += (m->slot != i);
-      }
-      return cnt;
-    } else {
-      const std::uint32_t* m = cell_block(cell) + 1;
-      const int cnt = static_cast<int>(m[-1]);
-      if (nb + cnt > kMax) return -1;
-      for (int q = 0; q < cnt; ++q) {
-        const std::uint32_t j = m[q];
-        __builtin_prefetch(&k_[j]);
-        buf[nb] = j;
-        nb += (j != i);
-      }
-      return cnt;
-    }
-  };
   // boundary cells: candidates buf[seg_end[s - 1] .. seg_end[s]) carry the image shift
   // seg_shift[s]
   int seg_end[27];
   double seg_shift[27][3];  // plain doubles: a Vec3 array would be zeroed at every call
   int nseg = 0;
   if (interior) {
-    // no wrap, no image shift; rows of cells requested first (as in predict_pair; disks:
-    // each cell's first line, which holds its count and first member)
+    // no wrap, no image shift; rows of cells requested first (as in predict_pair)
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
-        const int row = cell_index(c[0] + lo[0], c[1] + dy, c[2] + dz);
-        if constexpr (R) {
-          for (int dx = 0; dx <= hi[0] - lo[0]; ++dx) request_cell(row + dx);
-        } else {
-          __builtin_prefetch(cell_block(row));
-          __builtin_prefetch(cell_block(row) + (hi[0] - lo[0] + 1) * (cap_ + 1) - 1);
-        }
+        const std::uint32_t* row = cell_block(cell_index(c[0] + lo[0], c[1] + dy, c[2] + dz));
+        __builtin_prefetch(row);
+        __builtin_prefetch(row + (hi[0] - lo[0] + 1) * (cap_ + 1) - 1);
       }
     for (int dz = lo[2]; dz <= hi[2]; ++dz)
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         const int row = cell_index(c[0], c[1] + dy, c[2] + dz);
-        for (int dx = lo[0]; dx <= hi[0]; ++dx)
-          if (gather(row + dx) < 0) return false;
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) {
+          const std::uint32_t* m = cell_block(row + dx) + 1;
+          const int cnt = static_cast<int>(m[-1]);
+          if (nb + cnt > kMax) return false;
+          for (int q = 0; q < cnt; ++q) {
+            const std::uint32_t j = m[q];
+            __builtin_prefetch(&k_[j]);
+            buf[nb] = j;
+            nb += (j != i);
+          }
+        }
       }
   } else {
     // wrapped cell coordinate and image shift per direction and offset (walls: skipped)
@@ -523,9 +464,16 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
         if (skip[1][dy + 1]) continue;
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
           if (skip[0][dx + 1]) continue;
-          const int cnt = gather(cell_index(cc[0][dx + 1], cc[1][dy + 1], cc[2][dz + 1]));
-          if (cnt < 0) return false;
+          const std::uint32_t* m = cell_block(cell_index(cc[0][dx + 1], cc[1][dy + 1], cc[2][dz + 1])) + 1;
+          const int cnt = static_cast<int>(m[-1]);
           if (cnt == 0) continue;
+          if (nb + cnt > kMax) return false;
+          for (int q = 0; q < cnt; ++q) {
+            const std::uint32_t j = m[q];
+            __builtin_prefetch(&k_[j]);
+            buf[nb] = j;
+            nb += (j != i);
+          }
           seg_end[nseg] = nb;
           seg_shift[nseg][0] = sh[0][dx + 1], seg_shift[nseg][1] = sh[1][dy + 1], seg_shift[nseg][2] = sh[2][dz + 1];
           ++nseg;
@@ -546,18 +494,18 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   // scan_cell is left out: sqrt(disc) <= -b in floating point (sqrt of a correctly rounded
   // value <= b^2), so the computed time is never below the bound and offer() rejects it
   // anyway (tc >= t2); it only saved work, and here it would cost a division and a branch.
-  Cand sj[kMax];
+  std::uint32_t sj[kMax];
   double sb[kMax], sq2[kMax], sdisc[kMax];
   int ns = 0;
-  // rj = candidate position at time t, vj its velocity
-  auto filter = [&](Cand j, double vjx, double vjy, double vjz, double rjx, double rjy, double rjz) {
+  // rj = candidate position at time t
+  auto filter = [&](std::uint32_t j, const Kin& kj, double rjx, double rjy, double rjz) {
     const double drx = rjx - ki.r.x, dry = rjy - ki.r.y;
-    const double dvx = vjx - ki.v.x, dvy = vjy - ki.v.y;
+    const double dvx = kj.v.x - ki.v.x, dvy = kj.v.y - ki.v.y;
     double b = drx * dvx + dry * dvy;
     double dr2 = drx * drx + dry * dry;
     double dv2 = dvx * dvx + dvy * dvy;
     if constexpr (D == 3) {
-      const double drz = rjz - ki.r.z, dvz = vjz - ki.v.z;
+      const double drz = rjz - ki.r.z, dvz = kj.v.z - ki.v.z;
       b += drz * dvz;
       dr2 += drz * drz;
       dv2 += dvz * dvz;
@@ -569,39 +517,27 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
   };
   if (interior) {
     for (int q = 0; q < nb; ++q) {
-      const Cand j = buf[q];
-      if constexpr (R) {
-        const double dtj = t - j->t;
-        filter(j, j->vx, j->vy, 0.0, j->x + dtj * j->vx, j->y + dtj * j->vy, 0.0);
-      } else {
-        const Kin& kj = k_[j];
-        const double dtj = t - kj.t;
-        filter(j, kj.v.x, kj.v.y, kj.v.z, kj.r.x + dtj * kj.v.x, kj.r.y + dtj * kj.v.y, kj.r.z + dtj * kj.v.z);
-      }
+      const std::uint32_t j = buf[q];
+      const Kin& kj = k_[j];
+      const double dtj = t - kj.t;
+      filter(j, kj, kj.r.x + dtj * kj.v.x, kj.r.y + dtj * kj.v.y, D == 3 ? kj.r.z + dtj * kj.v.z : 0.0);
     }
   } else {
     int q = 0;
     for (int sg = 0; sg < nseg; ++sg) {
       const double sx = seg_shift[sg][0], sy = seg_shift[sg][1], sz = seg_shift[sg][2];
       for (; q < seg_end[sg]; ++q) {
-        const Cand j = buf[q];
-        if constexpr (R) {
-          const double dtj = t - j->t;
-          filter(j, j->vx, j->vy, 0.0, (j->x + dtj * j->vx) + sx, (j->y + dtj * j->vy) + sy, 0.0);
-        } else {
-          const Kin& kj = k_[j];
-          const double dtj = t - kj.t;
-          filter(j, kj.v.x, kj.v.y, kj.v.z, (kj.r.x + dtj * kj.v.x) + sx, (kj.r.y + dtj * kj.v.y) + sy,
-                 (kj.r.z + dtj * kj.v.z) + sz);
-        }
+        const std::uint32_t j = buf[q];
+        const Kin& kj = k_[j];
+        const double dtj = t - kj.t;
+        filter(j, kj, (kj.r.x + dtj * kj.v.x) + sx, (kj.r.y + dtj * kj.v.y) + sy,
+               D == 3 ? (kj.r.z + dtj * kj.v.z) + sz : 0.0);
       }
     }
   }
   for (int s = 0; s < ns; ++s) {
     const double b = sb[s], q2 = sq2[s];
-    const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s])));
-    if constexpr (R) best.offer(tc, sj[s]->slot, sj[s]->counter);
-    else best.offer(tc, sj[s], k_[sj[s]].counter);
+    best.offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-b + std::sqrt(sdisc[s]))), sj[s], k_[sj[s]].counter);
   }
   store_top2(i, best);
   return true;
@@ -611,9 +547,8 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
 // at offset `layer_dir` in direction `layer_dim` (after a cell crossing: the other cells
 // were scanned before and their best collision is kept in Sched::coll_time).
 void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
-  if (!accelerated_ && (dims_ == 3  ? scan_neighbours_d<3, false>(i, layer_dim, layer_dir)
-                        : records_ ? scan_neighbours_d<2, true>(i, layer_dim, layer_dir)
-                                   : scan_neighbours_d<2, false>(i, layer_dim, layer_dir)))
+  if (!accelerated_ && (dims_ == 3 ? scan_neighbours_d<3>(i, layer_dim, layer_dir)
+                                   : scan_neighbours_d<2>(i, layer_dim, layer_dir)))
     return;
   // air table (quartic pair times), or more candidates than the gather buffer holds: cell
   // by cell
@@ -711,9 +646,8 @@ bool Engine::promote_second(std::uint32_t i) {
 // are adjacent), so one pass over the union of cells serves both, loading every neighbour's
 // record once. Falls back to two scans near boundaries or under acceleration.
 void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
-  if (dims_ == 3) predict_pair_d<3, false>(i, j);
-  else if (records_) predict_pair_d<2, true>(i, j);
-  else predict_pair_d<2, false>(i, j);
+  if (dims_ == 3) predict_pair_d<3>(i, j);
+  else predict_pair_d<2>(i, j);
 }
 
 // The dimension is a compile-time constant here: the loops over cells and components
@@ -721,7 +655,7 @@ void Engine::predict_pair(std::uint32_t i, std::uint32_t j) {
 // every disk), so leaving them out changes at most the sign of a zero sum, which no test
 // below can see (b >= 0 and disc <= 0 hold for +0 and -0 alike): the same decisions and
 // the same collision times as the 3-component arithmetic.
-template <int D, bool R>
+template <int D>
 void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   const auto& ci = sc_[i].cell;
   const auto& cj = sc_[j].cell;
@@ -736,31 +670,20 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   }
   const int d[3] = {cj[0] - ci[0], cj[1] - ci[1], D == 3 ? cj[2] - ci[2] : 0};
   constexpr int kMax = 320;
-  // a candidate: disks its record in the cell, spheres its slot (as in scan_neighbours_d)
-  using Cand = std::conditional_t<R, const CellRec*, std::uint32_t>;
-  Cand buf[kMax];
+  std::uint32_t buf[kMax];
   int nb = 0;
   bool overflow = false;
   constexpr int zr = D == 3 ? 1 : 0;
   auto add_cell = [&](int cell) {
-    if constexpr (R) {
-      const int cnt = static_cast<int>(head_[cell].count);
-      if (nb + cnt > kMax) {
-        overflow = true;
-        return;
-      }
-      for (int q = 0; q < cnt; ++q) buf[nb++] = &rec(cell, q);
-    } else {
-      const std::uint32_t* m = cell_block(cell) + 1;
-      const int cnt = static_cast<int>(m[-1]);
-      if (nb + cnt > kMax) {
-        overflow = true;
-        return;
-      }
-      for (int q = 0; q < cnt; ++q) {
-        __builtin_prefetch(&k_[m[q]]);
-        buf[nb++] = m[q];
-      }
+    const std::uint32_t* m = cell_block(cell) + 1;
+    const int cnt = static_cast<int>(m[-1]);
+    if (nb + cnt > kMax) {
+      overflow = true;
+      return;
+    }
+    for (int q = 0; q < cnt; ++q) {
+      __builtin_prefetch(&k_[m[q]]);
+      buf[nb++] = m[q];
     }
   };
   // request every row of cells first, and j's cells outside i's block (their member counts
@@ -769,24 +692,16 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   const bool adjacent = std::abs(d[0]) <= 1 && std::abs(d[1]) <= 1 && std::abs(d[2]) <= 1;
   for (int dz = -zr; dz <= zr; ++dz)
     for (int dy = -1; dy <= 1; ++dy) {
-      const int row = cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz);
-      if constexpr (R) {
-        for (int dx = 0; dx < 3; ++dx) request_cell(row + dx);
-      } else {
-        __builtin_prefetch(cell_block(row));
-        __builtin_prefetch(cell_block(row) + 3 * (cap_ + 1) - 1);
-      }
+      const std::uint32_t* row = cell_block(cell_index(ci[0] - 1, ci[1] + dy, ci[2] + dz));
+      __builtin_prefetch(row);
+      __builtin_prefetch(row + 3 * (cap_ + 1) - 1);
     }
   if (adjacent) {
     const int ci_index = cell_index(ci[0], ci[1], ci[2]);
     for (const int off : union_extra_[(d[0] + 1) + 3 * (d[1] + 1) + 9 * (d[2] + 1)]) {
-      if constexpr (R) {
-        request_cell(ci_index + off);
-      } else {
-        const std::uint32_t* block = cell_block(ci_index + off);
-        __builtin_prefetch(block);
-        __builtin_prefetch(block + cap_);
-      }
+      const std::uint32_t* block = cell_block(ci_index + off);
+      __builtin_prefetch(block);
+      __builtin_prefetch(block + cap_);
     }
   }
   for (int dz = -zr; dz <= zr; ++dz)
@@ -830,26 +745,19 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   using D2 = double __attribute__((vector_size(16)));
   const D2 rx = {ki.r.x, kj.r.x}, ry = {ki.r.y, kj.r.y}, rz = {ki.r.z, kj.r.z};
   const D2 vx = {ki.v.x, kj.v.x}, vy = {ki.v.y, kj.v.y}, vz = {ki.v.z, kj.v.z};
-  Cand sk[2][kMax];
+  std::uint32_t sk[2][kMax];
   double sb[2][kMax], sq2[2][kMax], sdisc[2][kMax];
   int ns[2] = {0, 0};
   for (int q = 0; q < nb; ++q) {
-    const Cand k = buf[q];
-    double kt, kx, ky, kvx, kvy;
-    if constexpr (R) {
-      kt = k->t, kx = k->x, ky = k->y, kvx = k->vx, kvy = k->vy;
-    } else {
-      const Kin& kk = k_[k];
-      kt = kk.t, kx = kk.r.x, ky = kk.r.y, kvx = kk.v.x, kvy = kk.v.y;
-    }
-    const double dtk = t - kt;
-    const double rkx = kx + dtk * kvx, rky = ky + dtk * kvy;
+    const std::uint32_t k = buf[q];
+    const Kin& kk = k_[k];
+    const double dtk = t - kk.t;
+    const double rkx = kk.r.x + dtk * kk.v.x, rky = kk.r.y + dtk * kk.v.y;
     const D2 drx = D2{rkx, rkx} - rx, dry = D2{rky, rky} - ry;
-    const D2 dvx = D2{kvx, kvx} - vx, dvy = D2{kvy, kvy} - vy;
+    const D2 dvx = D2{kk.v.x, kk.v.x} - vx, dvy = D2{kk.v.y, kk.v.y} - vy;
     D2 drz = {0.0, 0.0}, dvz = {0.0, 0.0};
     D2 b = drx * dvx + dry * dvy;
     if constexpr (D == 3) {
-      const Kin& kk = k_[k];
       const double rkz = kk.r.z + dtk * kk.v.z;
       drz = D2{rkz, rkz} - rz;
       dvz = D2{kk.v.z, kk.v.z} - vz;
@@ -872,9 +780,8 @@ void Engine::predict_pair_d(std::uint32_t i, std::uint32_t j) {
   for (int l = 0; l < 2; ++l)
     for (int s = 0; s < ns[l]; ++s) {
       const double q2 = sq2[l][s];
-      const double tc = t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s])));
-      if constexpr (R) best[l].offer(tc, sk[l][s]->slot, sk[l][s]->counter);
-      else best[l].offer(tc, sk[l][s], k_[sk[l][s]].counter);
+      best[l].offer(t + (q2 <= 0.0 ? 0.0 : q2 / (-sb[l][s] + std::sqrt(sdisc[l][s]))), sk[l][s],
+                    k_[sk[l][s]].counter);
     }
   store_top2(i, best[0]);
   store_top2(j, best[1]);
@@ -1377,27 +1284,6 @@ Vec3 Engine::momentum() const {
   return p;
 }
 
-bool Engine::cell_records_consistent() const {
-  if (!records_) return true;
-  const int cells = nc_[0] * nc_[1] * nc_[2];
-  std::size_t members = 0;
-  for (int c = 0; c < cells; ++c) {
-    const int cnt = cell_count(c);
-    if (cnt < 0 || cnt > cap_) return false;
-    members += static_cast<std::size_t>(cnt);
-    for (int q = 0; q < cnt; ++q) {
-      const CellRec& r = rec(c, q);
-      if (r.slot >= n_) return false;
-      const Sched& s = sc_[r.slot];
-      const Kin& k = k_[r.slot];
-      if (cell_index(s.cell[0], s.cell[1], s.cell[2]) != c || s.cell_pos != q) return false;
-      const double mine[5] = {r.x, r.y, r.t, r.vx, r.vy}, kin[5] = {k.r.x, k.r.y, k.t, k.v.x, k.v.y};
-      if (std::memcmp(mine, kin, sizeof mine) != 0 || r.counter != k.counter) return false;
-    }
-  }
-  return members == n_;
-}
-
 double Engine::min_distance() const {
   double best2 = kInf;
   for (std::uint32_t i = 0; i < n_; ++i) {
@@ -1418,8 +1304,9 @@ double Engine::min_distance() const {
           }
           if (skip) continue;
           const int cell = cell_index(cc[0], cc[1], cc[2]);
-          for (int q = 0; q < cell_count(cell); ++q) {
-            const std::uint32_t j = cell_member(cell, q);
+          const std::uint32_t* m = cell_block(cell) + 1;
+          for (int q = 0; q < static_cast<int>(m[-1]); ++q) {
+            const std::uint32_t j = m[q];
             if (j <= i) continue;
             Vec3 dr = k_[j].r - k_[i].r;
             for (int d = 0; d < dims_; ++d) {

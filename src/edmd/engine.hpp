@@ -109,11 +109,6 @@ struct EngineSetup {
   // lines miss the caches), 0 never, 1 always. Results do not depend on it (the same event
   // order); bench_edmd's BM_EdmdDeferAB times the two side by side.
   int calendar_defer = -1;
-  // Disks' cell blocks hold copies of the members' kinematics, read by the neighbour scans
-  // (Engine::CellRec): -1 (default) or 1 for disks, 0 never (spheres never have them).
-  // Results do not depend on it (the same candidates in the same order, bit for bit);
-  // bench_edmd's BM_EdmdCellsAB times the two side by side.
-  int cell_records = -1;
   double vn_bin_width = 0.05;  // histogram of normal speed at collision
   int vn_bins = 200;
 };
@@ -199,8 +194,6 @@ class Engine {
   double min_distance() const;
   // Heap property and one-entry-per-particle consistency (tests).
   bool calendar_valid() const { return heap_.valid(); }
-  // Disks: every cell's records are its members' Kin bit for bit (tests; true for spheres).
-  bool cell_records_consistent() const;
   std::uint64_t rebuilds() const { return rebuilds_; }
   // Replace velocities (e.g. rescaling during equilibration); rebuilds the calendar.
   void set_velocities(const std::vector<Vec3>& v);
@@ -285,8 +278,8 @@ class Engine {
   void advance_piece(std::uint32_t i, double dt);
   void predict(std::uint32_t i);   // full scan + schedule
   void predict_pair(std::uint32_t i, std::uint32_t j);  // both partners of a collision, one shared scan
-  template <int D, bool R>
-  void predict_pair_d(std::uint32_t i, std::uint32_t j);  // predict_pair for D dimensions, R: records_
+  template <int D>
+  void predict_pair_d(std::uint32_t i, std::uint32_t j);  // predict_pair for D dimensions
   bool promote_second(std::uint32_t i);  // first candidate stale: take the second if still valid
   void schedule(std::uint32_t i);  // combine stored collision, cell faces, walls, background
   template <int D>
@@ -294,8 +287,8 @@ class Engine {
   template <int D>
   double next_event_d(std::uint32_t i);  // schedule_d without the calendar update: sets type, returns the time
   void scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir);
-  template <int D, bool R>
-  bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path, R: records_
+  template <int D>
+  bool scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir);  // ballistic fast path
   // The two earliest collisions found so far by a scan (Sched's coll_* and coll2_*).
   struct Top2 {
     double t1, t2;
@@ -369,46 +362,13 @@ class Engine {
   std::array<int, 3> nc_{1, 1, 1};
   Vec3 w_;  // cell widths
   int cap_ = 8;
-  // Spheres: cell c's block at c * (cap_ + 1): [member count, members...]; the count sits
-  // next to the members, so a neighbour scan touches one cache line per row of cells, not two
+  // cell c's block at c * (cap_ + 1): [member count, members...]; the count sits next to
+  // the members, so a neighbour scan touches one cache line per row of cells, not two
   HugePageVector<std::uint32_t> members_;
-  // Disks (records_): one cache line per member, a copy of its kinematics kept bitwise
-  // equal to its Kin (publish()); the scans read the candidates from the cells, one
-  // dependent level fewer than rows + Kin, and the coming events' cells can be requested
-  // without reading anything first (docs/performance/edmd.md, 2026-11-26 evening;
-  // BM_DiskNeighbourScan: 237 against 385-420 ns per event at 10^6). Member 0 and the count
-  // in head_ (by cell: a block row's heads are contiguous, and the adjacent-line prefetch
-  // brings a neighbouring cell's head, not an empty slot), members 1 .. cap_ - 1 in tail_.
-  struct alignas(64) CellRec {
-    double x, y, t, vx, vy;
-    std::uint64_t counter;
-    std::uint32_t slot;
-    std::uint32_t count;  // the cell's member count, in line 0 only
-  };
-  static_assert(sizeof(CellRec) == 64, "a cell record is one cache line");
-  bool records_ = false;  // dims_ == 2 (EngineSetup::cell_records)
-  HugePageVector<CellRec> head_;  // by cell: its count and member 0
-  HugePageVector<CellRec> tail_;  // members 1 .. cap_ - 1 of cell c from c * (cap_ - 1)
-  void request_cell(int c) const { __builtin_prefetch(&head_[c]); }
   // predict_pair: j's cells outside i's 3^D block, by offset c_j - c_i (constructor)
   std::array<std::vector<int>, 27> union_extra_;
   std::uint32_t* cell_block(int c) { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
   const std::uint32_t* cell_block(int c) const { return &members_[static_cast<std::size_t>(c) * (cap_ + 1)]; }
-  CellRec& rec(int c, int q) { return q == 0 ? head_[c] : tail_[static_cast<std::size_t>(c) * (cap_ - 1) + q - 1]; }
-  const CellRec& rec(int c, int q) const {
-    return q == 0 ? head_[c] : tail_[static_cast<std::size_t>(c) * (cap_ - 1) + q - 1];
-  }
-  // either layout (the generic paths)
-  int cell_count(int c) const { return records_ ? static_cast<int>(head_[c].count) : static_cast<int>(cell_block(c)[0]); }
-  std::uint32_t cell_member(int c, int q) const { return records_ ? rec(c, q).slot : cell_block(c)[1 + q]; }
-  // copies i's Kin into its cell record (disks); every change of a Kin goes through here
-  void publish(std::uint32_t i) {
-    if (!records_) return;
-    const Sched& s = sc_[i];
-    const Kin& k = k_[i];
-    CellRec& r = rec(cell_index(s.cell[0], s.cell[1], s.cell[2]), s.cell_pos);
-    r.x = k.r.x, r.y = k.r.y, r.t = k.t, r.vx = k.v.x, r.vy = k.v.y, r.counter = k.counter;
-  }
 
   // The calendar: bounded calendar queue by default (O(1) per update); the 4-ary heap gives
   // bitwise the same event order and is kept for small systems / cross-checks.
