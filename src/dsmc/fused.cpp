@@ -302,7 +302,7 @@ template <int Dim, bool kHazard, bool kArrivals = false>
 
 // The cells [k0, k1) in id order by order_cell_by_key32_avx2 (cell_order.hpp): the ranking
 // in eight-lane compares, the same order as order_cell_by_key32.
-[[gnu::target("avx2")]] void order_cells_by_key32_avx2(const std::uint32_t* __restrict stable,
+[[gnu::target("avx2,popcnt")]] void order_cells_by_key32_avx2(const std::uint32_t* __restrict stable,
                                                        const std::int32_t* __restrict key32,
                                                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
                                                        const std::uint64_t* __restrict id, const std::size_t* start,
