@@ -110,6 +110,14 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
     EXPECT_EQ(perm2, perm) << "m " << m;
     EXPECT_EQ(id_out2, id_out) << "m " << m;
   }
+  // the AVX-512 ranking (the fused step's path where the CPU has AVX-512F)
+  if (__builtin_cpu_supports("avx512f")) {
+    std::vector<std::uint32_t> perm3(n, 0xdeadbeefu);
+    std::vector<std::uint64_t> id_out3(n, 0xdeadbeefull);
+    grainbath::dsmc::order_cell_by_key32_avx512(stable.data(), keys.data(), perm3.data(), id_out3.data(), id.data(), b0, b1);
+    EXPECT_EQ(perm3, perm) << "m " << m;
+    EXPECT_EQ(id_out3, id_out) << "m " << m;
+  }
 }
 
 TEST(DsmcCellOrder, Key32VariantOrdersByIdInPlace) {
