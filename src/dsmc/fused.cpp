@@ -432,7 +432,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::uint32_t* counts = w.counts.data();
   const double length[3] = {Lx, Ly, Lz};
   const bool avx2 = Philox4x32Lanes::have_avx2();
-  const bool avx512 = Philox4x32Lanes::have_avx512();  // the ranking (GRAINBATH_SIMD=avx2 rules it out)
+  // the ranking and the prediction (GRAINBATH_SIMD=avx2 rules it out)
+  const bool avx512 = Philox4x32Lanes::have_avx512();
   const bool simd_cells = cells < 0x80000000u;
   // MPI ranks: per thread, the (increasing) indices of the grains that streamed into
   // another rank's cells
@@ -688,6 +689,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       if (predict) {  // the block's cells for the next step, while its x and v are in cache
         std::size_t j = start[k0];
         const std::size_t jn = start[k1];
+        if (simd_cells && avx512) j = detail::predict_cells_avx512<Dim>(next_args, j, jn, next_cell);
         if (simd_cells)
           j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one)
                    : detail::stream_cells_sse2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one);

@@ -282,6 +282,16 @@ void check_stream_cells(std::uint32_t seed) {
     for (; q < n; ++q) only(q);
     for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell_only[j], ref[j]) << (path ? "AVX2" : "SSE2") << " no counts, particle " << j;
   }
+  // the prediction with AVX-512F (the fused step's path where the CPU has it), finished as there
+  if (grainbath::Philox4x32Lanes::have_avx512()) {
+    std::vector<std::uint32_t> cell_only(n, 0xffffffffu), untouched(cells, 0);
+    auto only = scalar_into(cell_only, untouched);
+    std::size_t q = detail::predict_cells_avx512<Dim>(g, 0, n, cell_only.data());
+    EXPECT_LT(n - q, 8u);
+    q = detail::stream_cells_avx2<Dim, false>(g, q, n, cell_only.data(), nullptr, only);
+    for (; q < n; ++q) only(q);
+    for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell_only[j], ref[j]) << "AVX-512 Dim " << Dim << " particle " << j;
+  }
 }
 
 TEST(DsmcStreamCells, SimdPathsGiveTheScalarCells) {
