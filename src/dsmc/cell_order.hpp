@@ -204,35 +204,46 @@ inline void order_cell_by_key32(const std::uint32_t* __restrict stable, const st
 }
 
 namespace detail {
-// rank_keys32 in AVX2: eight keys per vector, Q8 vectors (m <= 8 Q8), half the compares of
-// the SSE2 loop; the same integer compares, so the same ranks and the same order.
+// rank_keys32 in AVX2: the cell's keys in Q8 vectors of eight (m <= 8 Q8), the lanes past
+// the m real keys set to INT32_MAX; then for each key a in turn, its rank is the number of
+// real keys below it: one broadcast, Q8 compares, their sign masks (movemask) and a popcount,
+// and the key's slot is written at once. The same integer compares (key_a > key_b counts b
+// for a, as key_b < key_a counted a for b before), so the same ranks and the same order; a
+// padded lane is never below a key (none is above INT32_MAX). One loop per cell instead of
+// two (the ranks were stored as vectors and read back one by one, where perf showed the
+// ranking's samples), no vector store and reload of the ranks: DSMC-1 at 1e6 ~0.3 ms of
+// ~31 ms per step faster (alternating steps in one process; docs/performance/dsmc1.md, h-dsmc11).
 template <std::size_t Q8>
-[[gnu::target("avx2"), gnu::always_inline]] inline void rank_keys32_avx2(const std::int32_t* __restrict keys,
-                                                                        const std::uint32_t* __restrict stable,
-                                                                        std::size_t m, std::uint32_t* __restrict perm,
-                                                                        std::uint64_t* __restrict id_out) {
-  __m256i kv[Q8], rank[Q8];
+[[gnu::target("avx2,popcnt"), gnu::always_inline]] inline void rank_keys32_avx2(const std::int32_t* __restrict keys,
+                                                                               const std::uint32_t* __restrict stable,
+                                                                               std::size_t m, std::uint32_t* __restrict perm,
+                                                                               std::uint64_t* __restrict id_out) {
+  __m256i kv[Q8];
+  const __m256i top = _mm256_set1_epi32(std::numeric_limits<std::int32_t>::max());
+  const __m256i count = _mm256_set1_epi32(static_cast<std::int32_t>(m));
   for (std::size_t q = 0; q < Q8; ++q) {
-    kv[q] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(keys) + q);
-    rank[q] = _mm256_setzero_si256();
+    const auto l = static_cast<std::int32_t>(8 * q);
+    const __m256i lane = _mm256_setr_epi32(l, l + 1, l + 2, l + 3, l + 4, l + 5, l + 6, l + 7);
+    kv[q] = _mm256_blendv_epi8(top, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(keys) + q),
+                               _mm256_cmpgt_epi32(count, lane));
   }
   for (std::size_t a = 0; a < m; ++a) {
-    const __m256i key = _mm256_set1_epi32(keys[a]);
-    for (std::size_t q = 0; q < Q8; ++q) rank[q] = _mm256_sub_epi32(rank[q], _mm256_cmpgt_epi32(kv[q], key));
-  }
-  alignas(32) std::int32_t ranks[8 * Q8];
-  for (std::size_t q = 0; q < Q8; ++q) _mm256_store_si256(reinterpret_cast<__m256i*>(ranks) + q, rank[q]);
-  for (std::size_t a = 0; a < m; ++a) {
-    const auto r = static_cast<std::size_t>(ranks[a]);
+    const std::int32_t k = keys[a];
+    const __m256i key = _mm256_set1_epi32(k);
+    unsigned below = 0;  // bit b: key b is below key a
+    for (std::size_t q = 0; q < Q8; ++q)
+      below |= static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(key, kv[q])))) << (8 * q);
+    const auto r = static_cast<std::size_t>(__builtin_popcount(below));
     perm[r] = stable[a];
-    id_out[r] = static_cast<std::uint32_t>(keys[a]) ^ 0x80000000u;
+    id_out[r] = static_cast<std::uint32_t>(k) ^ 0x80000000u;
   }
 }
 }  // namespace detail
 
-// order_cell_by_key32 with the ranking in AVX2 (call only where the CPU has AVX2): the same
-// order and ids. Reads `keys` up to seven slots past b1 (kKey32Padding).
-[[gnu::target("avx2")]] inline void order_cell_by_key32_avx2(const std::uint32_t* __restrict stable,
+// order_cell_by_key32 with the ranking in AVX2 (call only where the CPU has AVX2, which every
+// such x86 CPU pairs with POPCNT): the same order and ids. Reads `keys` up to seven slots past
+// b1 (kKey32Padding).
+[[gnu::target("avx2,popcnt")]] inline void order_cell_by_key32_avx2(const std::uint32_t* __restrict stable,
                                                              const std::int32_t* __restrict keys,
                                                              std::uint32_t* __restrict perm,
                                                              std::uint64_t* __restrict id_out,
@@ -250,6 +261,42 @@ template <std::size_t Q8>
     default: break;
   }
   order_cell_by_key32(stable, keys, perm, id_out, id, b0, b1);
+}
+
+// order_cell_by_key32 with AVX-512F (call only where the CPU has it; the fused step takes it
+// where Philox4x32Lanes::have_avx512): the same order and ids. One path for every cell of
+// 2..32 keys: the keys in two 16-lane registers (masked loads, INT32_MAX past the cell, so
+// nothing is read past b1), each key's rank the popcount of two compares into mask registers,
+// as in rank_keys32_avx2 (the same strict compares, so the same ranks). The AVX2 ranking
+// chooses among one to four vectors by the cell's size, a branch the predictor misses for
+// about four cells in ten at a mean of 16; here only cells of 0, 1 or more than 32 keys (as
+// good as never in DSMC-1) branch off. DSMC-1 at 1e6: ~0.4-0.67 ms of ~32 ms per step faster
+// than the AVX2 ranking (steps alternating between the two in one process, 8 x 99 pairs,
+// 53-86 of 99 faster; docs/performance/dsmc1.md, h-dsmc11).
+[[gnu::target("avx512f,popcnt")]] inline void order_cell_by_key32_avx512(const std::uint32_t* __restrict stable,
+                                                                       const std::int32_t* __restrict keys,
+                                                                       std::uint32_t* __restrict perm,
+                                                                       std::uint64_t* __restrict id_out,
+                                                                       const std::uint64_t* __restrict id, std::size_t b0,
+                                                                       std::size_t b1) {
+  const std::size_t m = b1 - b0;
+  if (m < 2 || m > 32) [[unlikely]] {
+    order_cell_by_key32(stable, keys, perm, id_out, id, b0, b1);
+    return;
+  }
+  const std::uint64_t valid = (std::uint64_t{1} << m) - 1;  // bit b: key b is in the cell
+  const __m512i top = _mm512_set1_epi32(std::numeric_limits<std::int32_t>::max());
+  const __m512i kv0 = _mm512_mask_loadu_epi32(top, static_cast<__mmask16>(valid), keys + b0);
+  const __m512i kv1 = _mm512_mask_loadu_epi32(top, static_cast<__mmask16>(valid >> 16), keys + b0 + 16);
+  for (std::size_t a = 0; a < m; ++a) {
+    const std::int32_t k = keys[b0 + a];
+    const __m512i key = _mm512_set1_epi32(k);
+    const unsigned below = static_cast<unsigned>(_mm512_cmpgt_epi32_mask(key, kv0)) |
+                           (static_cast<unsigned>(_mm512_cmpgt_epi32_mask(key, kv1)) << 16);
+    const std::size_t r = b0 + static_cast<std::size_t>(__builtin_popcount(below));
+    perm[r] = stable[b0 + a];
+    id_out[r] = static_cast<std::uint32_t>(k) ^ 0x80000000u;
+  }
 }
 
 // Counting-sort offsets: `counts` holds [thread][cell] counts on entry and the first slot

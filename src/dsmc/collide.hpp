@@ -3,6 +3,7 @@
 // once per step with std::visit, never inside the loop): no virtual call, no allocation,
 // no std:: distribution object in the hot loops.
 #include <emmintrin.h>
+#include <immintrin.h>
 
 #include <cmath>
 #include <cstdint>
@@ -116,6 +117,76 @@ inline double pair_speed_bound(const double* __restrict vx, const double* __rest
   return std::sqrt(first) + std::sqrt(second);
 }
 
+namespace detail {
+// pair_speed_bound for cells of 2..24 grains without a data-dependent branch, where the CPU has
+// AVX-512F and VL (128- and 256-bit registers only). The SSE2 bound's loops run count / 2
+// times and its tails depend on count's parity: a cell's count (Poisson around 16 in DSMC-1)
+// decides three or four branches per cell that the predictor cannot know. Here every loop
+// runs its full length with masked loads (the lanes past the cell load zero, and fault-free
+// past the arrays' ends): the same sums in the same order, twelve pairs (a pair past the cell
+// adds +0.0, which changes no sum: a sum that starts at +0.0 is never -0.0), and the top two
+// |c|^2 of the same values plus zeros (masked lanes give c = 0; both maxima start at +0.0, and
+// the two largest of a multiset do not depend on the order they are taken in, so the result
+// is the SSE2 bound's bit for bit for finite velocities). No FMA: each product is rounded
+// before its sum, as in the SSE2 code (rounded() below). Cells above 24 grains (2.6 % at a
+// mean of 16) take the SSE2 bound. DSMC-1 at 1e6: ~0.4-0.65 ms of ~33 ms per step faster
+// (steps alternating between the two bounds in one process, 4 x 99 pairs, 61-80 of 99
+// faster; docs/performance/dsmc1.md, h-dsmc11), where splitting the SSE2 loop's dependent
+// max chain in two had made no difference: the branches, not the chains, cost.
+//
+// An opaque copy of a product: GCC contracts a * b + c into an FMA wherever the target has
+// FMA, which AVX-512F implies ("no-fma" beside "avx512f" does not switch it off: GCC 12 still
+// emitted vfmadd here, and the bound differed in the last bit).
+[[gnu::target("avx512f,avx512vl"), gnu::always_inline]] inline __m256d rounded(__m256d x) {
+  __asm__("" : "+v"(x));
+  return x;
+}
+[[gnu::target("avx512f,avx512vl")]] inline double pair_speed_bound_24(const double* __restrict vx,
+                                                                            const double* __restrict vy,
+                                                                            const double* __restrict vz, std::size_t count) {
+  const std::uint32_t valid = (std::uint32_t{1} << count) - 1;  // bit s: slot s of the cell
+  __m128d sx = _mm_setzero_pd(), sy = _mm_setzero_pd(), sz = _mm_setzero_pd();
+  for (int q = 0; q < 12; ++q) {  // pair q: lane 0 the even slot 2q, lane 1 the odd slot 2q + 1
+    const auto m = static_cast<__mmask8>(valid >> (2 * q));
+    sx = _mm_add_pd(sx, _mm_maskz_loadu_pd(m, vx + 2 * q));
+    sy = _mm_add_pd(sy, _mm_maskz_loadu_pd(m, vy + 2 * q));
+    sz = _mm_add_pd(sz, _mm_maskz_loadu_pd(m, vz + 2 * q));
+  }
+  const double inv = 1.0 / static_cast<double>(count);
+  const double mx = (_mm_cvtsd_f64(sx) + _mm_cvtsd_f64(_mm_unpackhi_pd(sx, sx))) * inv;
+  const double my = (_mm_cvtsd_f64(sy) + _mm_cvtsd_f64(_mm_unpackhi_pd(sy, sy))) * inv;
+  const double mz = (_mm_cvtsd_f64(sz) + _mm_cvtsd_f64(_mm_unpackhi_pd(sz, sz))) * inv;
+  const __m256d mx4 = _mm256_set1_pd(mx), my4 = _mm256_set1_pd(my), mz4 = _mm256_set1_pd(mz);
+  __m256d first4 = _mm256_setzero_pd(), second4 = _mm256_setzero_pd();  // per lane, the two largest |c|^2
+  for (int q = 0; q < 6; ++q) {  // slots 4q .. 4q + 3
+    const auto m = static_cast<__mmask8>(valid >> (4 * q));
+    const __m256d cx = _mm256_maskz_sub_pd(m, _mm256_maskz_loadu_pd(m, vx + 4 * q), mx4);
+    const __m256d cy = _mm256_maskz_sub_pd(m, _mm256_maskz_loadu_pd(m, vy + 4 * q), my4);
+    const __m256d cz = _mm256_maskz_sub_pd(m, _mm256_maskz_loadu_pd(m, vz + 4 * q), mz4);
+    const __m256d c2 = _mm256_add_pd(_mm256_add_pd(rounded(_mm256_mul_pd(cx, cx)), rounded(_mm256_mul_pd(cy, cy))),
+                                     rounded(_mm256_mul_pd(cz, cz)));
+    second4 = _mm256_max_pd(second4, _mm256_min_pd(first4, c2));
+    first4 = _mm256_max_pd(first4, c2);
+  }
+  // the two largest of the lanes' pairs: halves, then lanes (max and min are exact)
+  const __m128d f_lo = _mm256_castpd256_pd128(first4), f_hi = _mm256_extractf128_pd(first4, 1);
+  const __m128d s_lo = _mm256_castpd256_pd128(second4), s_hi = _mm256_extractf128_pd(second4, 1);
+  const __m128d f2 = _mm_max_pd(f_lo, f_hi);
+  const __m128d s2 = _mm_max_pd(_mm_max_pd(s_lo, s_hi), _mm_min_pd(f_lo, f_hi));
+  const __m128d f2h = _mm_unpackhi_pd(f2, f2), s2h = _mm_unpackhi_pd(s2, s2);
+  const double first = _mm_cvtsd_f64(_mm_max_sd(f2, f2h));
+  const double second = _mm_cvtsd_f64(_mm_max_sd(_mm_max_sd(s2, s2h), _mm_min_sd(f2, f2h)));
+  return std::sqrt(first) + std::sqrt(second);
+}
+
+// Whether pair_speed_bound_24 runs: AVX-512F and VL, and the AVX-512 paths not ruled out
+// (Philox4x32Lanes::have_avx512: GRAINBATH_SIMD=avx2 or sse2 keeps the SSE2 bound; the same bits).
+inline bool have_masked_bound() {
+  static const bool yes = Philox4x32Lanes::have_avx512() && __builtin_cpu_supports("avx512vl") != 0;
+  return yes;
+}
+}  // namespace detail
+
 // Integer uniform on [0, range), range >= 1, exactly, from 32 random bits (Lemire 2019,
 // "Fast random integer generation in an interval": multiply-shift, with a rejection that
 // removes the bias of 2^32 mod range). A rejected value (probability < range / 2^32) is
@@ -164,7 +235,9 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   double* __restrict vx = p.vx.data() + begin;
   double* __restrict vy = p.vy.data() + begin;
   double* __restrict vz = p.vz.data() + begin;
-  double g_max = pair_speed_bound(vx, vy, vz, count);
+  // the same bound either way (detail::pair_speed_bound_24)
+  double g_max = count <= 24 && detail::have_masked_bound() ? detail::pair_speed_bound_24(vx, vy, vz, count)
+                                                            : pair_speed_bound(vx, vy, vz, count);
   if (g_max <= 0.0) return;
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
   const auto candidates = static_cast<std::uint64_t>(expected);

@@ -302,12 +302,23 @@ template <int Dim, bool kHazard, bool kArrivals = false>
 
 // The cells [k0, k1) in id order by order_cell_by_key32_avx2 (cell_order.hpp): the ranking
 // in eight-lane compares, the same order as order_cell_by_key32.
-[[gnu::target("avx2")]] void order_cells_by_key32_avx2(const std::uint32_t* __restrict stable,
+[[gnu::target("avx2,popcnt")]] void order_cells_by_key32_avx2(const std::uint32_t* __restrict stable,
                                                        const std::int32_t* __restrict key32,
                                                        std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
                                                        const std::uint64_t* __restrict id, const std::size_t* start,
                                                        std::size_t k0, std::size_t k1) {
   for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32_avx2(stable, key32, perm, id_out, id, start[k], start[k + 1]);
+}
+
+// The same with order_cell_by_key32_avx512 (where Philox4x32Lanes::have_avx512): one path for
+// cells of 2..32 keys, no branch on the cell's size.
+[[gnu::target("avx512f,popcnt")]] void order_cells_by_key32_avx512(const std::uint32_t* __restrict stable,
+                                                                 const std::int32_t* __restrict key32,
+                                                                 std::uint32_t* __restrict perm,
+                                                                 std::uint64_t* __restrict id_out,
+                                                                 const std::uint64_t* __restrict id,
+                                                                 const std::size_t* start, std::size_t k0, std::size_t k1) {
+  for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32_avx512(stable, key32, perm, id_out, id, start[k], start[k + 1]);
 }
 
 // MPI ranks (dec.size() > 1): the rank holds the grains of its cells [cell_lo, cell_hi) and
@@ -421,6 +432,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   std::uint32_t* counts = w.counts.data();
   const double length[3] = {Lx, Ly, Lz};
   const bool avx2 = Philox4x32Lanes::have_avx2();
+  // the ranking and the prediction (GRAINBATH_SIMD=avx2 rules it out)
+  const bool avx512 = Philox4x32Lanes::have_avx512();
   const bool simd_cells = cells < 0x80000000u;
   // MPI ranks: per thread, the (increasing) indices of the grains that streamed into
   // another rank's cells
@@ -631,7 +644,9 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         window.offset[window.count++] = lead % n;
       }
       if (!wide) {
-        if (avx2)
+        if (avx512)
+          order_cells_by_key32_avx512(stable, key32, perm, id_out, id, start, k0, k1);
+        else if (avx2)
           order_cells_by_key32_avx2(stable, key32, perm, id_out, id, start, k0, k1);
         else
           for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
@@ -674,6 +689,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       if (predict) {  // the block's cells for the next step, while its x and v are in cache
         std::size_t j = start[k0];
         const std::size_t jn = start[k1];
+        if (simd_cells && avx512) j = detail::predict_cells_avx512<Dim>(next_args, j, jn, next_cell);
         if (simd_cells)
           j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one)
                    : detail::stream_cells_sse2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one);

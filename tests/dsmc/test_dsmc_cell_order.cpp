@@ -110,6 +110,14 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
     EXPECT_EQ(perm2, perm) << "m " << m;
     EXPECT_EQ(id_out2, id_out) << "m " << m;
   }
+  // the AVX-512 ranking (the fused step's path where the CPU has AVX-512F)
+  if (__builtin_cpu_supports("avx512f")) {
+    std::vector<std::uint32_t> perm3(n, 0xdeadbeefu);
+    std::vector<std::uint64_t> id_out3(n, 0xdeadbeefull);
+    grainbath::dsmc::order_cell_by_key32_avx512(stable.data(), keys.data(), perm3.data(), id_out3.data(), id.data(), b0, b1);
+    EXPECT_EQ(perm3, perm) << "m " << m;
+    EXPECT_EQ(id_out3, id_out) << "m " << m;
+  }
 }
 
 TEST(DsmcCellOrder, Key32VariantOrdersByIdInPlace) {
@@ -273,6 +281,16 @@ void check_stream_cells(std::uint32_t seed) {
                               : detail::stream_cells_avx2<Dim, false>(g, 0, n, cell_only.data(), nullptr, store_only);
     for (; q < n; ++q) only(q);
     for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell_only[j], ref[j]) << (path ? "AVX2" : "SSE2") << " no counts, particle " << j;
+  }
+  // the prediction with AVX-512F (the fused step's path where the CPU has it), finished as there
+  if (grainbath::Philox4x32Lanes::have_avx512()) {
+    std::vector<std::uint32_t> cell_only(n, 0xffffffffu), untouched(cells, 0);
+    auto only = scalar_into(cell_only, untouched);
+    std::size_t q = detail::predict_cells_avx512<Dim>(g, 0, n, cell_only.data());
+    EXPECT_LT(n - q, 8u);
+    q = detail::stream_cells_avx2<Dim, false>(g, q, n, cell_only.data(), nullptr, only);
+    for (; q < n; ++q) only(q);
+    for (std::size_t j = 0; j < n; ++j) ASSERT_EQ(cell_only[j], ref[j]) << "AVX-512 Dim " << Dim << " particle " << j;
   }
 }
 

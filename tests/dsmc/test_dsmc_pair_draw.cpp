@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <vector>
 
@@ -85,6 +86,36 @@ TEST(DsmcPairDraw, OrderedPairsAreUniform) {
 // Random123's scalar Philox4x32 words (words8_scalar) for keys and counters with high bits
 // and block bases up to the 2^32 wrap. Fails if a round key, a multiplier or the word
 // packing differs.
+// The branch-free bound of cells of 2..24 grains (AVX-512F/VL) gives the SSE2 bound's bits:
+// random velocities, ties (equal speeds), zeros and negative zeros, one fast grain, cells
+// at the very end of their arrays (the masked loads past them must not fault or count).
+TEST(DsmcPairDraw, MaskedBoundEqualsPairSpeedBound) {
+  if (!grainbath::dsmc::detail::have_masked_bound()) GTEST_SKIP() << "no AVX-512F/VL (or GRAINBATH_SIMD rules it out)";
+  CounterRng rng(9, Stream::grain_collisions, 3, 4);
+  for (std::size_t count = 2; count <= 24; ++count) {
+    for (int kind = 0; kind < 6; ++kind) {
+      for (int rep = 0; rep < 50; ++rep) {
+        std::vector<double> v[3];
+        for (auto& a : v) {
+          a.resize(count);
+          for (std::size_t s = 0; s < count; ++s) {
+            double x = 2.0 * rng.uniform() - 1.0;
+            if (kind == 1) x = std::round(4.0 * x) / 4.0;             // many ties
+            if (kind == 2) x = (s % 3 == 0) ? 0.0 : -0.0;             // zeros of both signs
+            if (kind == 3 && s == count / 2) x *= 1e6;                // one fast grain
+            if (kind == 4) x = -1e-300 * (1.0 + rng.uniform());       // tiny, negative
+            if (kind == 5) x = 0.75;                                  // all equal: bound 0
+            a[s] = x;
+          }
+        }
+        const double want = grainbath::dsmc::pair_speed_bound(v[0].data(), v[1].data(), v[2].data(), count);
+        const double got = grainbath::dsmc::detail::pair_speed_bound_24(v[0].data(), v[1].data(), v[2].data(), count);
+        ASSERT_EQ(std::memcmp(&want, &got, sizeof want), 0) << "count " << count << " kind " << kind << ": " << want << " vs " << got;
+      }
+    }
+  }
+}
+
 TEST(DsmcCollisionWords, GroupPathsEqualRandom123) {
   for (const std::uint64_t key : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{0xfedcba9876543210ull}}) {
     for (const std::uint32_t base : {0u, 4u, 4000000000u, 0xfffffffcu}) {
