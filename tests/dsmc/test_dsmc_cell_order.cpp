@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <numeric>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "dsmc/cell_order.hpp"
@@ -101,22 +102,23 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
       EXPECT_EQ(perm[j], 0xdeadbeefu) << "m " << m << " slot " << j;
       EXPECT_EQ(id_out[j], 0xdeadbeefull) << "m " << m << " slot " << j;
     }
-  // the AVX2 ranking (the fused step's path on AVX2 CPUs): the same slots, nothing else written
+  // the SIMD rankings (the fused step's paths on AVX2 and AVX-512F CPUs): the same slots,
+  // nothing else written
+  using Ranking = void (*)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*,
+                           const std::uint64_t*, std::size_t, std::size_t);
+  const struct {
+    const char* isa;
+    Ranking rank;
+  } variants[] = {{"avx2", grainbath::dsmc::order_cell_by_key32_avx2}, {"avx512f", grainbath::dsmc::order_cell_by_key32_avx512}};
   __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx2")) {
+  for (const auto& v : variants) {
+    const bool supported = std::string(v.isa) == "avx2" ? __builtin_cpu_supports("avx2") : __builtin_cpu_supports("avx512f");
+    if (!supported) continue;
     std::vector<std::uint32_t> perm2(n, 0xdeadbeefu);
     std::vector<std::uint64_t> id_out2(n, 0xdeadbeefull);
-    grainbath::dsmc::order_cell_by_key32_avx2(stable.data(), keys.data(), perm2.data(), id_out2.data(), id.data(), b0, b1);
-    EXPECT_EQ(perm2, perm) << "m " << m;
-    EXPECT_EQ(id_out2, id_out) << "m " << m;
-  }
-  // the AVX-512 ranking (the fused step's path where the CPU has AVX-512F)
-  if (__builtin_cpu_supports("avx512f")) {
-    std::vector<std::uint32_t> perm3(n, 0xdeadbeefu);
-    std::vector<std::uint64_t> id_out3(n, 0xdeadbeefull);
-    grainbath::dsmc::order_cell_by_key32_avx512(stable.data(), keys.data(), perm3.data(), id_out3.data(), id.data(), b0, b1);
-    EXPECT_EQ(perm3, perm) << "m " << m;
-    EXPECT_EQ(id_out3, id_out) << "m " << m;
+    v.rank(stable.data(), keys.data(), perm2.data(), id_out2.data(), id.data(), b0, b1);
+    EXPECT_EQ(perm2, perm) << v.isa << " m " << m;
+    EXPECT_EQ(id_out2, id_out) << v.isa << " m " << m;
   }
 }
 
