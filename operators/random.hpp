@@ -458,7 +458,8 @@ struct Philox4x32Lanes {
     }();
     return avx2;
   }
-  // Whether the AVX-512 Philox path runs (words4): the AVX2 paths
+  // Whether the AVX-512 paths run (these words4; in the DSMC fused step also the ranking and
+  // the next-cell prediction, and with AVX-512VL the cells' collision bound): the AVX2 paths
   // run, the CPU has AVX-512F, and GRAINBATH_SIMD is not "avx2" (which keeps the AVX2 paths,
   // so that tests compare the two in one machine; the same bits either way).
   static bool have_avx512() {

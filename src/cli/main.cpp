@@ -75,7 +75,7 @@ int cli_main(int argc, char** argv) {
   }
   // GRAINBATH_SIMD chooses the SIMD paths of the hot DSMC kernels (operators/random.hpp,
   // Philox4x32Lanes::have_avx2, have_avx512): unset or "auto" = AVX2 (and the AVX-512
-  // Philox words) where the CPU has them, "avx2" = no AVX-512, "sse2" = the baseline; the
+  // paths) where the CPU has them, "avx2" = no AVX-512, "sse2" = the baseline; the
   // results are the same bits either way. A misspelt value is an error, not a silent "auto".
   if (const char* simd = std::getenv("GRAINBATH_SIMD"); simd != nullptr && std::string_view(simd) != "auto" &&
                                                          std::string_view(simd) != "avx2" &&

@@ -10,7 +10,6 @@
 #include <cstdint>
 #include <numeric>
 #include <random>
-#include <string>
 #include <vector>
 
 #include "dsmc/cell_order.hpp"
@@ -106,14 +105,15 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
   // nothing else written
   using Ranking = void (*)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*,
                            const std::uint64_t*, std::size_t, std::size_t);
+  __builtin_cpu_init();
   const struct {
     const char* isa;
+    bool supported;
     Ranking rank;
-  } variants[] = {{"avx2", grainbath::dsmc::order_cell_by_key32_avx2}, {"avx512f", grainbath::dsmc::order_cell_by_key32_avx512}};
-  __builtin_cpu_init();
+  } variants[] = {{"avx2", __builtin_cpu_supports("avx2") != 0, grainbath::dsmc::order_cell_by_key32_avx2},
+                  {"avx512f", __builtin_cpu_supports("avx512f") != 0, grainbath::dsmc::order_cell_by_key32_avx512}};
   for (const auto& v : variants) {
-    const bool supported = std::string(v.isa) == "avx2" ? __builtin_cpu_supports("avx2") : __builtin_cpu_supports("avx512f");
-    if (!supported) continue;
+    if (!v.supported) continue;
     std::vector<std::uint32_t> perm2(n, 0xdeadbeefu);
     std::vector<std::uint64_t> id_out2(n, 0xdeadbeefull);
     v.rank(stable.data(), keys.data(), perm2.data(), id_out2.data(), id.data(), b0, b1);

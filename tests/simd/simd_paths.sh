@@ -2,8 +2,8 @@
 # The SIMD paths give the same numbers as the baseline paths (docs/dsmc.md, "Random
 # numbers"; docs/PERFORMANCE.md). The hot DSMC kernels pick AVX2 at run time where the CPU
 # has it (Philox4x32 words of the bath tests and of the cell collisions, the fused step's
-# cell index and gather) and SSE2 otherwise, and the Philox words in AVX-512 where it has
-# AVX-512F; GRAINBATH_SIMD=sse2 forces the baseline, GRAINBATH_SIMD=avx2 rules out AVX-512.
+# cell index and gather) and SSE2 otherwise, and AVX-512 where it has AVX-512F (the bath's
+# Philox words, the fused step's ranking and next-cell prediction, with VL the collision bound); GRAINBATH_SIMD=sse2 forces the baseline, GRAINBATH_SIMD=avx2 rules out AVX-512.
 # Each case is run the three ways and results.h5 (every dataset and attribute except /provenance) and
 # summary.json (performance.* left out; it holds state.hash, the fingerprint of every bit of
 # the final particle state, src/core/state_hash.hpp) must be identical. On a CPU without AVX2 both runs
@@ -23,7 +23,7 @@ fail=0
 for c in "$cases"/*/; do
   name=$(basename "$c")
   "$exe" run "$c" --out "$work/$name-auto" -q
-  # sse2: the baseline; avx2: the AVX2 paths without the AVX-512 Philox words (on a CPU
+  # sse2: the baseline; avx2: the AVX2 paths without the AVX-512 ones (on a CPU
   # without AVX-512 the same paths as auto)
   for forced in sse2 avx2; do
     GRAINBATH_SIMD=$forced "$exe" run "$c" --out "$work/$name-$forced" -q
