@@ -87,6 +87,7 @@ void print_table(const Summary& s) {
   row("theory: a2 van Noije-Ernst", "theory.haff.a2_van_noije_ernst", "");
   row("energy budget residual (rel.)", "energy.budget_relative_residual", "");
   row("wall time [s]", "performance.wall_seconds", "");
+  row("  of which the step loop [s]", "performance.loop_seconds", "");
   row("collisions per second", "performance.collisions_per_second", "");
   std::printf("\n");
 }

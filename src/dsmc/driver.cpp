@@ -373,6 +373,8 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
   const std::int64_t checkpoint_steps =
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
+  const auto loop_start = std::chrono::steady_clock::now();
+  const double setup_seconds = wall_seconds_since(wall_start);
   // Anything added to this loop that moves grains or reorders the arrays between two steps
   // must also set local_bath.step = -1 (LocalBathCache). Anything that changes x or v between
   // two fused steps must also set s.sort.next_cell_step = -1: without a medium the fused step reuses the cells it computed
@@ -453,6 +455,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     }
   }
   progress.finish();
+  const double loop_seconds = wall_seconds_since(loop_start);
   // results: the grains' part is reduced where they are, rank 0 writes the file from sums and
   // per-cell data; a failure there stops every rank with rank 0's message
   const FinalGrains grains = final_grains(c, s, dec);
@@ -460,7 +463,8 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   std::string error;
   if (dec.root()) {
     try {
-      write_results(c, ctx, rest, grains, wall_seconds_since(wall_start), summary);
+      write_results(c, ctx, rest, grains, RunTimes{wall_seconds_since(wall_start), setup_seconds, loop_seconds},
+                    summary);
     } catch (const std::exception& e) {
       error = e.what();
     }

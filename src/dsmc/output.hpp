@@ -23,10 +23,20 @@ struct FinalGrains {
 };
 FinalGrains final_grains(const Config& c, const State& s, const Decomposition& dec);
 
+// Wall-clock seconds of a run's parts (summary.json performance.*, docs/OUTPUT.md): the whole
+// run, and the step loop alone (every step with its in-loop sampling, progress line and
+// checkpoints; not the set-up before the first step nor the final reduction), which is what
+// LAMMPS and SPARTA report as "Loop time" and what their per-step figures are based on.
+struct RunTimes {
+  double wall = 0.0;   // from the start of the run to the end of the final reduction
+  double setup = 0.0;  // initialisation or checkpoint read, distribution, first sort, first sample
+  double loop = 0.0;   // the steps
+};
+
 // Statistics over the steady window, histograms, per-cell fields (+ XDMF), density-mode
 // and profile fits, theory; writes OUT/results.h5 and fills the summary (docs/OUTPUT.md).
 // `s`: everything but the grains (Decomposition::gather_cells; s.particles is not read).
 void write_results(const Config& c, const RunContext& ctx, const State& s, const FinalGrains& grains,
-                   double wall_seconds, Summary& summary);
+                   const RunTimes& times, Summary& summary);
 
 }  // namespace grainbath::dsmc

@@ -297,4 +297,12 @@ TEST(DsmcPerformance, SummaryReportsRates) {
   ASSERT_GT(collisions, 0.0);
   EXPECT_NEAR(s.number("performance.collisions_per_second") * wall, collisions, 1e-9 * collisions);
   EXPECT_EQ(s.number("performance.threads"), 1.0);
+  // the step loop and the set-up before it are parts of the run (RunTimes), and the loop's
+  // rates are the same counts over the loop's time
+  const double setup = s.number("performance.setup_seconds"), loop = s.number("performance.loop_seconds");
+  EXPECT_GT(setup, 0.0);
+  EXPECT_GT(loop, 0.0);
+  EXPECT_LE(setup + loop, wall);
+  EXPECT_NEAR(s.number("performance.loop_particle_steps_per_second") * loop, 30000.0 * 100, 1e-6 * 30000.0 * 100);
+  EXPECT_NEAR(s.number("performance.loop_collisions_per_second") * loop, collisions, 1e-9 * collisions);
 }
