@@ -176,12 +176,18 @@ BENCHMARK(BM_DSMC2_HomogeneousBath)->Arg(1)->Arg(2)->UseManualTime()->Iterations
 // DSMC-2 medium (alpha = 0.5, eps = 0.01, TB = 1, grains Maxwellian at T = 1) through
 // `steps` x 2 substeps of 0.005, by the per-grain kernel of the previous driver
 // (evolve_in_background with CounterRng, kernel 0) or the interleaved one (bath_evolve_batch,
-// kernel 1). For deterministic counts per test, run under valgrind at steps 10 and 1 and
+// kernel 1). Third argument 1 (interleaved kernel only): one substep of 0.01 per step, as the
+// driver runs the bath between two samples (the second half of a step joined to the first
+// half of the next, src/dsmc/driver.cpp); the same process in law, so the tests per step are
+// the same within the noise and the per-test times compare directly:
+//   build/bench/bench_dsmc --benchmark_filter='DSMC2_BathKernel/1/10/' --benchmark_repetitions=5 --benchmark_enable_random_interleaving=true
+// For deterministic counts per test, run under valgrind at steps 10 and 1 and
 // divide the difference of the totals by the difference of the tests (counter `tests`):
-//   valgrind --tool=cachegrind --branch-sim=yes build/bench/bench_dsmc --benchmark_filter='DSMC2_BathKernel/1/10/'
+//   valgrind --tool=cachegrind --branch-sim=yes build/bench/bench_dsmc --benchmark_filter='DSMC2_BathKernel/1/10/0'
 void BM_DSMC2_BathKernel(benchmark::State& state) {
   using namespace grainbath;
   const int kernel = static_cast<int>(state.range(0)), steps = static_cast<int>(state.range(1));
+  const bool joined = state.range(2) != 0;
   const std::size_t n = 20000;
   const BackgroundState b = BackgroundState::make(1.0, 0.01, {0, 0, 0}, 1.0, 0.5, 1.0);
   std::vector<double> vx(n), vy(n), vz(n), hz(n);
@@ -197,20 +203,22 @@ void BM_DSMC2_BathKernel(benchmark::State& state) {
   BackgroundCounters cnt;
   const double cpu0 = cpu_seconds();
   for (auto _ : state) {
-    for (int s = 0; s < 2 * steps; ++s) {
-      const Stream st = s % 2 ? Stream::background_second_half : Stream::background_first_half;
-      const auto step = static_cast<std::uint64_t>(s / 2);
+    for (int s = 0; s < (joined ? steps : 2 * steps); ++s) {
+      const Stream st = joined ? Stream::background_joined_halves
+                               : (s % 2 ? Stream::background_second_half : Stream::background_first_half);
+      const auto step = static_cast<std::uint64_t>(joined ? s : s / 2);
+      const double duration = joined ? 0.01 : 0.005;
       if (kernel == 0) {
         for (std::size_t i = 0; i < n; ++i) {
           CounterRng rng(1, st, id[i], step);
           Vec3 v{vx[i], vy[i], vz[i]};
-          evolve_in_background(v, hz[i], b, 1.0, 0.005, rng, cnt);
+          evolve_in_background(v, hz[i], b, 1.0, duration, rng, cnt);
           vx[i] = v.x, vy[i] = v.y, vz[i] = v.z;
         }
       } else {
         for (std::size_t lo = 0; lo < n; lo += 4096)
           bath_evolve_batch(std::min<std::size_t>(4096, n - lo), id.data() + lo, vx.data() + lo, vy.data() + lo,
-                            vz.data() + lo, hz.data() + lo, b, 1.0, 0.005, BathKey{1, st, step}, cnt);
+                            vz.data() + lo, hz.data() + lo, b, 1.0, duration, BathKey{1, st, step}, cnt);
       }
     }
   }
@@ -218,7 +226,15 @@ void BM_DSMC2_BathKernel(benchmark::State& state) {
   state.counters["cpu_ns_per_bath_test"] = 1e9 * (cpu_seconds() - cpu0) / static_cast<double>(cnt.candidates);
   state.counters["acceptance"] = static_cast<double>(cnt.collisions) / static_cast<double>(cnt.candidates);
 }
-BENCHMARK(BM_DSMC2_BathKernel)->Args({0, 10})->Args({0, 1})->Args({1, 10})->Args({1, 1})->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_DSMC2_BathKernel)
+    ->Args({0, 10, 0})
+    ->Args({0, 1, 0})
+    ->Args({1, 10, 0})
+    ->Args({1, 1, 0})
+    ->Args({1, 10, 1})
+    ->Args({1, 1, 1})
+    ->Iterations(1)
+    ->Unit(benchmark::kMillisecond);
 
 // STREAM-style triad a = b + s c over 3 x 32 MiB arrays: the single-core memory bandwidth
 // the DSMC figures are measured against (Issue #7: "the distance to the hardware limit").

@@ -46,6 +46,8 @@ enum class Stream : std::uint64_t {
   wall_collisions = 10,
   background_clock = 11,       // initial unit-exponential residual of each grain's bath candidate process
   initial_angular_velocities = 12,  // rough grains (EDMD [edmd] / DSMC [grains] rotational_temperature)
+  background_joined_halves = 13,    // the second bath half of step k - 1 and the first of step k as one
+                                    // substep over dt (keyed on k; src/dsmc/driver.cpp)
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

@@ -28,12 +28,16 @@ Scalars pack(const State& s) {
   k.u = {static_cast<std::uint64_t>(s.step), c.bath_candidates, c.bath_collisions, c.grain.candidates,
          c.grain.collisions, c.grain.clamped, c.grain.bound_exceeded, c.removed,
          static_cast<std::uint64_t>(s.fields.batches), s.fields.cells,
-         static_cast<std::uint64_t>(s.fields.window_samples), static_cast<std::uint64_t>(s.fields.taken)};
+         static_cast<std::uint64_t>(s.fields.window_samples), static_cast<std::uint64_t>(s.fields.taken),
+         s.bath_half_pending ? 1u : 0u};
   return k;
 }
 
 void unpack(const Scalars& k, State& s) {
-  if (k.d.size() != 5 || k.u.size() != 12) throw std::runtime_error("checkpoint: wrong scalar layout");
+  // 13 integers; 12 in checkpoints written before the bath halves were joined, which were
+  // always written with both halves applied
+  if (k.d.size() != 5 || (k.u.size() != 12 && k.u.size() != 13))
+    throw std::runtime_error("checkpoint: wrong scalar layout");
   RunCounters& c = s.counters;
   c.bath_energy = k.d[0];
   c.grain.energy_loss = k.d[1];
@@ -52,6 +56,7 @@ void unpack(const Scalars& k, State& s) {
   s.fields.cells = k.u[9];
   s.fields.window_samples = static_cast<std::int64_t>(k.u[10]);
   s.fields.taken = static_cast<std::int64_t>(k.u[11]);
+  s.bath_half_pending = k.u.size() > 12 && k.u[12] != 0;
 }
 
 // The state as named arrays (core/checkpoint.hpp): one list drives writing, reading and

@@ -599,6 +599,7 @@ State Decomposition::gather_cells(const State& s) const {
   State g;
   if (root()) {  // the values every rank shares, and one process's per-cell data
     g.step = s.step;
+    g.bath_half_pending = s.bath_half_pending;
     g.counters = s.counters;
     g.series = s.series;
     g.fields = s.fields;

@@ -3,6 +3,14 @@
 // Time step (Strang splitting of the collision operators, second order in dt):
 //   background collisions over dt/2 -> [stream over dt, sort into cells] -> grain-grain
 //   collisions over dt in every cell -> background collisions over dt/2.
+// Between two steps nothing else acts on the grains' velocities, so the second half of one
+// step and the first half of the next are one substep over dt (the bath process is Markov
+// and its thinning exact: two halves with the residual carried and one whole substep are the
+// same process in law): a pass over the grains and its per-grain set-up saved per step (the
+// random words differ, keyed on their own stream). The halves stay apart where the state is
+// observed: before every sample and at the end (State::bath_half_pending, checkpointed, so a
+// checkpoint written between samples resumes bitwise and where checkpoints fall never
+// changes the numbers).
 // Background substeps are exact in distribution for each grain (thinning with a per-grain
 // majorant, operators/background.hpp); grain-grain collisions use NTC per cell.
 // Every random number is keyed on (seed, stream; particle or cell id, step) and particles
@@ -380,8 +388,13 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   // two fused steps must also set s.sort.next_cell_step = -1: without a medium the fused step reuses the cells it computed
   // after the previous step's collisions (src/dsmc/fused.cpp, SortScratch::next_cell).
   for (; s.step < c.steps;) {
-    if (bath_on)
-      bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds, local_bath);
+    if (bath_on) {
+      if (s.bath_half_pending)  // the previous step's second half and this step's first half, joined
+        bath_substep(s, c, uniform_bath, c.dt, ctx.seed, Stream::background_joined_halves, dec, bounds, local_bath);
+      else
+        bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_first_half, dec, bounds, local_bath);
+      s.bath_half_pending = false;
+    }
     if (fused) {
       // stream, sort and collide in one pass (MPI: with the migration inside); counters per
       // block of dec.block_cells() cells, combined as grain_step combines them (bitwise the
@@ -404,8 +417,15 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       }
       grain_step(s, c, ctx.seed, per_cell, dec);
     }
-    if (bath_on)
-      bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half, dec, bounds, local_bath);
+    if (bath_on) {
+      // the second half now only before a sample and at the end; otherwise it is joined to the
+      // next step's first half (see the top of this file)
+      const std::int64_t next = s.step + 1;
+      if (next % c.sample_every_steps == 0 || next == c.steps)
+        bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half, dec, bounds, local_bath);
+      else
+        s.bath_half_pending = true;
+    }
     ++s.step;
     s.particle_steps_run += static_cast<double>(s.particles.size());
     if (c.rebalance_every > 0 && s.step % c.rebalance_every == 0) {

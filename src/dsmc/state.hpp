@@ -82,6 +82,10 @@ struct SortScratch {
 struct State {
   Particles particles;
   std::int64_t step = 0;
+  // runs with a medium: the second bath half-substep of step `step - 1` has not been applied
+  // yet (it is joined to the first half of the next step, src/dsmc/driver.cpp); false at
+  // every sampled step and at the end of the run
+  bool bath_half_pending = false;
   std::vector<double> remainder;          // NTC fractional candidates, per cell
   RunCounters counters;
   TimeSeries series;
