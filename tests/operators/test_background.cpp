@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <functional>
 #include <cstdio>
 #include <vector>
 #include <numbers>
@@ -319,6 +320,74 @@ TEST(BathKernel, CarriedResidualKeepsTheRatesAcrossSubsteps) {
   double s2 = 0;
   for (std::size_t i = 0; i < grains; ++i) s2 += norm2(Vec3{vx[i], vy[i], vz[i]} - b.velocity);
   EXPECT_NEAR(m * s2 / n / 3, TB, 5 * TB * std::sqrt(2.0 / 3 / n));
+}
+
+// Two bath substeps of dt/2 (the residual carried) and one of dt are the same process in law:
+// the driver joins the second half of a step to the first half of the next
+// (src/dsmc/driver.cpp, Stream::background_joined_halves). Grains all start at one velocity
+// far from the bath (so the law after dt depends on how many collisions happened and when),
+// about two collisions each over dt; the two ways are run with independent streams and the
+// means of vx, |v|^2, |v|^4, the residual and the candidate and collision counts per grain
+// must agree within 5 combined standard errors (measured from the samples).
+TEST(BathKernel, TwoHalfSubstepsAndOneWholeAgreeInLaw) {
+  const double alpha = 0.4, TB = 1.0, m = 1.0, K = 1.0, dt = 0.8;
+  const BackgroundState b = BackgroundState::make(K, 1.0, {0.3, 0.0, 0.0}, TB, alpha, m);
+  const std::size_t grains = 200'000;
+  struct Run {
+    std::vector<double> vx, vy, vz, hz, cand, coll;
+  };
+  auto run = [&](bool joined) {
+    Run r;
+    r.vx.assign(grains, 1.8);
+    r.vy.assign(grains, -0.4);
+    r.vz.assign(grains, 0.2);
+    r.hz.resize(grains);
+    r.cand.resize(grains);
+    r.coll.resize(grains);
+    for (std::size_t i = 0; i < grains; ++i) r.hz[i] = CounterRng(5, Stream::background_clock, i, 0).exponential();
+    for (std::size_t i = 0; i < grains; ++i) {  // one grain at a time, for its own counts
+      BackgroundCounters one;
+      for (int h = 0; h < (joined ? 1 : 2); ++h) {
+        const BathKey key{5, joined ? Stream::background_joined_halves
+                                    : (h ? Stream::background_second_half : Stream::background_first_half),
+                          0};
+        const std::uint64_t gid = i;
+        bath_evolve_batch(1, &gid, &r.vx[i], &r.vy[i], &r.vz[i], &r.hz[i], b, m, joined ? dt : 0.5 * dt, key, one);
+      }
+      r.cand[i] = static_cast<double>(one.candidates);
+      r.coll[i] = static_cast<double>(one.collisions);
+    }
+    return r;
+  };
+  const Run halves = run(false), whole = run(true);
+  auto mean_err = [&](auto f, const Run& r) {
+    double s = 0, s2 = 0;
+    for (std::size_t i = 0; i < grains; ++i) {
+      const double x = f(r, i);
+      s += x;
+      s2 += x * x;
+    }
+    const double n = static_cast<double>(grains), mu = s / n;
+    return std::pair{mu, std::sqrt((s2 / n - mu * mu) / (n - 1))};
+  };
+  auto sq = [](const Run& r, std::size_t i) { return r.vx[i] * r.vx[i] + r.vy[i] * r.vy[i] + r.vz[i] * r.vz[i]; };
+  const std::pair<const char*, std::function<double(const Run&, std::size_t)>> observables[] = {
+      {"vx", [](const Run& r, std::size_t i) { return r.vx[i]; }},
+      {"|v|^2", sq},
+      {"|v|^4", [&](const Run& r, std::size_t i) { return sq(r, i) * sq(r, i); }},
+      {"residual", [](const Run& r, std::size_t i) { return r.hz[i]; }},
+      {"candidates", [](const Run& r, std::size_t i) { return r.cand[i]; }},
+      {"collisions", [](const Run& r, std::size_t i) { return r.coll[i]; }}};
+  for (const auto& [name, f] : observables) {
+    const auto [a, ea] = mean_err(f, halves);
+    const auto [w, ew] = mean_err(f, whole);
+    std::printf("joined halves: %-10s two halves %.5f +- %.5f, one substep %.5f +- %.5f\n", name, a, ea, w, ew);
+    EXPECT_NEAR(a, w, 5 * std::hypot(ea, ew)) << name;
+  }
+  // the start is far from the bath: the comparison is not between two equilibria
+  EXPECT_LT(mean_err(observables[0].second, halves).first, 1.6);
+  EXPECT_GT(mean_err(observables[0].second, halves).first, 0.5);
+  EXPECT_GT(mean_err(observables[5].second, halves).first, 1.0);
 }
 
 // The batch kernel's instruction-set paths (operators/background_lanes.inc: two lanes in
