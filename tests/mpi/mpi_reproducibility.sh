@@ -98,14 +98,24 @@ print("ok   4 ranks: grains forwarded across %d ranks in one step" % h)
 PY
       ;;
     checkpoint)
-      # checkpoint/restart across rank counts: checkpoints at mid-run, kept; the 2-rank
-      # run with checkpoints is itself compared with the plain run
+      # checkpoint/restart across rank counts: checkpoints at mid-run plus one step, kept (a
+      # step after a sample: in a medium the second bath half is then still owed,
+      # State::bath_half_pending, and must travel in the checkpoint); the 2-rank run with
+      # checkpoints is itself compared with the plain run
       t_end=$(sed -n 's/^t_end *= *//p' "$case_dir/case.toml")
-      half=$(python3 -c "print($t_end / 2)")
+      dt=$(sed -n 's/^dt *= *//p' "$case_dir/case.toml")
+      half=$(python3 -c "print($t_end / 2 + $dt)")
       ck=(--set checkpoint.every=$half --set checkpoint.keep=true)
       mpi 2 run "$case_dir" --out "$work/ck2" -q "${ck[@]}" > /dev/null
       same "$work/plain" "$work/ck2" "2 ranks writing checkpoints"
       distributed "$work/ck2" "2 ranks writing checkpoints"
+      if grep -q '^\[background\]' "$case_dir/case.toml"; then
+        # the last of the checkpoint's integer scalars (src/dsmc/checkpoint.cpp, pack)
+        pending=$(h5dump -y -w 0 -d /scalars/integer "$work/ck2.checkpoints"/checkpoint-*.h5 \
+          | sed -n '/DATA {/,/}/p' | tr -d ' ' | grep -v 'DATA\|}' | awk -F, '{print $NF}')
+        [ "$pending" = 1 ] || { echo "FAIL the mid-run checkpoint does not owe a bath half (flag '$pending'): the test does not test it"; exit 1; }
+        echo "ok   the mid-run checkpoint owes the second bath half of its step"
+      fi
       checked_2ranks="$work/ck2"
       mkdir -p "$work/resume1.checkpoints"
       cp "$work/ck2.checkpoints"/* "$work/resume1.checkpoints/"
