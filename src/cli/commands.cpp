@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -165,6 +166,29 @@ int command_run(const RunArgs& a) {
   ctx.case_dir = a.case_dir;
   ctx.seed = lc->seed;
   ctx.threads = lc->threads;
+  // [run] threads = 0: the cores other processes leave free (core_use(), run_support.hpp);
+  // OMP_NUM_THREADS, where set, is the user's choice and OpenMP's default takes it. Not for
+  // a run split over MPI ranks: they start together, so none would see the others' load
+  // (docs/CASE_FILE.md: set threads there)
+  if (lc->solver == "dsmc" && !split && std::getenv("OMP_NUM_THREADS") == nullptr) {
+    const CoreUse use = core_use();
+    const int busy = busy_cores(use);
+    if (lc->threads == 0) {
+      ctx.threads = automatic_threads(use);
+      if (ctx.threads < use.cores && writer && !a.quiet)
+        std::fprintf(stderr,
+                     "note: %d of %d cores busy with other processes (%.2f cores' worth, %d other runnable): "
+                     "running on %d thread(s); [run] threads = %d forces all (results do not depend on it)\n",
+                     busy, use.cores, use.busy, use.other_runnable, ctx.threads, use.cores);
+    } else if (lc->threads > 1 && lc->threads + busy > use.cores && std::getenv("OMP_WAIT_POLICY") == nullptr &&
+               writer) {
+      std::fprintf(stderr,
+                   "warning: [run] threads = %d with %d of %d cores busy with other processes: OpenMP threads "
+                   "spin-waiting on a shared core can make the run many times slower; use threads = 0 (automatic), "
+                   "fewer threads, or OMP_WAIT_POLICY=PASSIVE\n",
+                   lc->threads, busy, use.cores);
+    }
+  }
   ctx.quiet = a.quiet;
   ctx.case_text = lc->reader.source_text();
   ctx.resolved = lc->reader.resolved();

@@ -1,6 +1,9 @@
 #include "core/run_support.hpp"
 
+#include <sched.h>
 #include <unistd.h>
+
+#include <algorithm>
 
 #include <cmath>
 #include <cstdio>
@@ -137,6 +140,60 @@ MeanError block_average(const std::vector<double>& series) {
   r.stderr_ = best;
   return r;
 }
+
+namespace {
+// the "cpu" line of /proc/stat: all CPUs' time in clock ticks, and the part spent idle or
+// waiting for I/O
+bool cpu_ticks(unsigned long long& total, unsigned long long& idle) {
+  std::FILE* f = std::fopen("/proc/stat", "r");
+  if (f == nullptr) return false;
+  unsigned long long v[8] = {};
+  const int n = std::fscanf(f, "cpu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2], &v[3], &v[4],
+                            &v[5], &v[6], &v[7]);
+  std::fclose(f);
+  if (n < 5) return false;
+  total = 0;
+  for (int k = 0; k < n; ++k) total += v[k];
+  idle = v[3] + v[4];
+  return true;
+}
+}  // namespace
+
+CoreUse core_use(double window_seconds) {
+  CoreUse u;
+  cpu_set_t set;  // the cores this process may run on (taskset, cgroup cpusets)
+  if (sched_getaffinity(0, sizeof set, &set) == 0)
+    u.cores = std::max(1, CPU_COUNT(&set));
+  else
+    u.cores = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  unsigned long long t0 = 0, i0 = 0, t1 = 0, i1 = 0;
+  if (cpu_ticks(t0, i0)) {
+    struct timespec pause {};
+    pause.tv_sec = static_cast<time_t>(window_seconds);
+    pause.tv_nsec = static_cast<long>((window_seconds - static_cast<double>(pause.tv_sec)) * 1e9);
+    nanosleep(&pause, nullptr);
+    if (cpu_ticks(t1, i1) && t1 > t0) {
+      // every CPU of the machine, as a count of CPUs busy (this process slept throughout)
+      const long cpus = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+      u.busy = static_cast<double>(cpus) * static_cast<double>((t1 - t0) - (i1 - i0)) / static_cast<double>(t1 - t0);
+    }
+  }
+  if (std::FILE* f = std::fopen("/proc/loadavg", "r")) {
+    double l1 = 0, l5 = 0, l15 = 0;
+    int running = 0, total = 0;
+    if (std::fscanf(f, "%lf %lf %lf %d/%d", &l1, &l5, &l15, &running, &total) == 5)
+      u.other_runnable = std::max(0, running - 1);  // this process is running while it reads
+    std::fclose(f);
+  }
+  return u;
+}
+
+int busy_cores(const CoreUse& u) {
+  const int from_time = static_cast<int>(std::lround(std::max(0.0, u.busy)));
+  return std::min(u.cores, std::max(from_time, u.other_runnable));
+}
+
+int automatic_threads(const CoreUse& u) { return std::max(1, u.cores - busy_cores(u)); }
 
 double wall_seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -57,6 +57,25 @@ MeanError block_average(const std::vector<double>& series);
 
 double wall_seconds_since(std::chrono::steady_clock::time_point start);
 
+// `[run] threads = 0` (automatic): the cores not taken by other processes. OpenMP threads
+// wait for each other at every barrier by spinning; with one of them on a core another job
+// is using, a 2-thread DSMC run was measured 10-30x slower than on one thread
+// (docs/performance/dsmc-cases.md; 13x for cases/density-mode on 2026-11-26), while one
+// thread too few costs at most the share of that core. Results do not depend on the count,
+// so it is chosen from the machine's state at start: the cores busy with other processes are
+// the larger of the CPU time the machine spent outside idle over a short window while this
+// process slept (/proc/stat, in cores, rounded) and the runnable tasks other than this one at
+// the end of it (/proc/loadavg). Not the load average: it lags by a minute, so a run started
+// right after a previous run would count that run as another job.
+struct CoreUse {
+  int cores = 1;              // cores this process may run on
+  double busy = 0.0;          // cores' worth of CPU time other processes used over the window
+  int other_runnable = 0;     // runnable tasks at its end, this one not counted
+};
+CoreUse core_use(double window_seconds = 0.1);  // this machine, now (Linux /proc; none seen elsewhere)
+int busy_cores(const CoreUse& u);
+int automatic_threads(const CoreUse& u);  // cores - busy, at least 1
+
 // Test hook for the non-finite monitors (issue #8, docs/RELIABILITY.md): when the
 // environment variable GRAINBATH_FAULT_NONFINITE_SAMPLE = K is set, the drivers replace the
 // temperature of their K-th sample (0 = the initial one) by NaN, so that tests can show the
