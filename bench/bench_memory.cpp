@@ -20,12 +20,13 @@
 //     prefetcht2 into L2; distance 0: no hint), while each step also makes <extra>
 //     independent random demand loads, as the EDMD event loop does around its chain.
 //     Reported: time per step (time_per_step).
-//   * BM_GatherLayout/<layout>/<side>: the gather of the DSMC fused step (src/dsmc/fused.cpp,
+//   * BM_GatherLayout/<layout>/<side>/<avx2>: the gather of the DSMC fused step (src/dsmc/fused.cpp,
 //     gather_slots) for three memory layouts of the particles, and a plain copy as the floor
 //     (docs/performance/dsmc1.md, 2026-11-26 night; see the comment above the benchmark).
 //     Reported: time per particle (time_per_particle).
 #include <benchmark/benchmark.h>
 
+#include <immintrin.h>
 #include <sys/mman.h>
 
 #include <algorithm>
@@ -424,8 +425,9 @@ BENCHMARK(BM_DiskNeighbourScan)->ArgsProduct({{0, 1, 2, 3}, {10000, 1000000}, {0
 // ahead, tiled order the rows two planes on) and the new arrays' lines kStoreAhead = 256
 // slots ahead (both prefetcht2: one line of each array, or 8 records, or one block). The
 // window always includes the ids here (the engine fetches them only in the tiled order, for
-// its ranking). Scalar loops for all layouts (the same expression, wrap_periodic), project
-// flags (no -march). Memory from aligned_alloc without madvise, as the engine's vectors.
+// its ranking). Third argument 0: scalar loops for all layouts (the same expression,
+// wrap_periodic); 1: AVX2 loops for layouts 0 and 1 (below), by target attributes (project
+// flags, no -march). Memory from aligned_alloc without madvise, as the engine's vectors.
 // Second argument: side (40 or 86). Reported: time per particle (time_per_particle, s with
 // SI prefix, e.g. 9.5n = 9.5 ns); the machine's memory speed drifts between minutes, so only
 // interleaved repetitions in one process compare:
@@ -745,9 +747,161 @@ void gather_blocks(const GatherBlock8* __restrict from, GatherBlock8* __restrict
   }
 }
 
+// The AVX2 gathers (third argument 1; where the CPU has AVX2, else skipped): layout 0 as
+// gather_slots_avx2, four slots at a time, each array's four old values loaded one by one
+// into a vector, x + v dt and the test 0 <= x < L in vectors, the new arrays stored four
+// slots at a time; layout 1 one record per vector operation, {x, y, z, vx} + {vx, vy, vz, 0}
+// dt with lane 3 taken back from the record, both halves stored as they come. The same
+// prefetches as the scalar loops, issued per group of four slots. Only correctly rounded
+// operations (no FMA: target avx2 does not enable it), so the scalar loops' values.
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256d gather_lanes(const double* __restrict a, std::uint32_t i0,
+                                                                        std::uint32_t i1, std::uint32_t i2, std::uint32_t i3) {
+  return _mm256_set_pd(a[i3], a[i2], a[i1], a[i0]);
+}
+// wrap_periodic of the lanes flagged in `outside` (fused.hpp, detail::wrap_periodic_avx2)
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256d gather_wrap(__m256d x, __m256d L, __m256d outside) {
+  const __m256d wrapped = _mm256_sub_pd(x, _mm256_mul_pd(L, _mm256_floor_pd(_mm256_div_pd(x, L))));
+  return _mm256_blendv_pd(x, _mm256_andnot_pd(_mm256_cmp_pd(wrapped, L, _CMP_GE_OQ), wrapped), outside);
+}
+
+[[gnu::target("avx2")]] void gather_soa_avx2(const GatherSoa& from, GatherSoa& to, const std::uint32_t* __restrict perm,
+                                             std::size_t j0, std::size_t j1, std::size_t n, const GatherWindow& window,
+                                             double L) {
+  const double* __restrict ox = from.a[0].get();
+  const double* __restrict oy = from.a[1].get();
+  const double* __restrict oz = from.a[2].get();
+  const double* __restrict ovx = from.a[3].get();
+  const double* __restrict ovy = from.a[4].get();
+  const double* __restrict ovz = from.a[5].get();
+  const std::uint64_t* __restrict oid = from.id.get();
+  double* __restrict x = to.a[0].get();
+  double* __restrict y = to.a[1].get();
+  double* __restrict z = to.a[2].get();
+  double* __restrict vx = to.a[3].get();
+  double* __restrict vy = to.a[4].get();
+  double* __restrict vz = to.a[5].get();
+  std::uint64_t* __restrict id = to.id.get();
+  const double* const from_pos[3] = {ox, oy, oz};
+  const double* const from_vel[3] = {ovx, ovy, ovz};
+  double* const to_pos[3] = {x, y, z};
+  double* const to_vel[3] = {vx, vy, vz};
+  const __m256d dt4 = _mm256_set1_pd(kGatherDt), zero = _mm256_setzero_pd(), L4 = _mm256_set1_pd(L);
+  std::size_t j = j0;
+  for (; j + 4 <= j1; j += 4) {
+    const std::size_t c8 = (j + 7) & ~std::size_t{7};
+    if (c8 < j + 4) {
+      for (int w = 0; w < window.count; ++w) {
+        std::size_t f = c8 + window.offset[w];
+        if (f >= n) f -= n;
+        __builtin_prefetch(ox + f, 0, 1);
+        __builtin_prefetch(oy + f, 0, 1);
+        __builtin_prefetch(oz + f, 0, 1);
+        __builtin_prefetch(ovx + f, 0, 1);
+        __builtin_prefetch(ovy + f, 0, 1);
+        __builtin_prefetch(ovz + f, 0, 1);
+        __builtin_prefetch(oid + f, 0, 1);
+      }
+      if (c8 + kGatherStoreAhead < n) {
+        const std::size_t d = c8 + kGatherStoreAhead;
+        __builtin_prefetch(x + d, 1, 1);
+        __builtin_prefetch(y + d, 1, 1);
+        __builtin_prefetch(z + d, 1, 1);
+        __builtin_prefetch(vx + d, 1, 1);
+        __builtin_prefetch(vy + d, 1, 1);
+        __builtin_prefetch(vz + d, 1, 1);
+        __builtin_prefetch(id + d, 1, 1);
+      }
+    }
+    for (std::size_t q = 0; q < 4 && j + q + kGatherAhead < j1; ++q) {
+      const std::uint32_t f = perm[j + q + kGatherAhead];
+      __builtin_prefetch(ox + f);
+      __builtin_prefetch(oy + f);
+      __builtin_prefetch(oz + f);
+      __builtin_prefetch(ovx + f);
+      __builtin_prefetch(ovy + f);
+      __builtin_prefetch(ovz + f);
+      __builtin_prefetch(oid + f);
+    }
+    const std::uint32_t i0 = perm[j], i1 = perm[j + 1], i2 = perm[j + 2], i3 = perm[j + 3];
+    for (int a = 0; a < 3; ++a) {
+      const __m256d v = gather_lanes(from_vel[a], i0, i1, i2, i3);
+      _mm256_storeu_pd(to_vel[a] + j, v);
+      const __m256d p = _mm256_add_pd(gather_lanes(from_pos[a], i0, i1, i2, i3), _mm256_mul_pd(v, dt4));
+      const __m256d outside = _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, L4, _CMP_GE_OQ));
+      if (_mm256_movemask_pd(outside) == 0) [[likely]]
+        _mm256_storeu_pd(to_pos[a] + j, p);
+      else
+        _mm256_storeu_pd(to_pos[a] + j, gather_wrap(p, L4, outside));
+    }
+    id[j] = oid[i0];
+    id[j + 1] = oid[i1];
+    id[j + 2] = oid[i2];
+    id[j + 3] = oid[i3];
+  }
+  for (; j < j1; ++j) {
+    const std::uint32_t i = perm[j];
+    x[j] = gather_stream(ox[i], ovx[i], L);
+    y[j] = gather_stream(oy[i], ovy[i], L);
+    z[j] = gather_stream(oz[i], ovz[i], L);
+    vx[j] = ovx[i];
+    vy[j] = ovy[i];
+    vz[j] = ovz[i];
+    id[j] = oid[i];
+  }
+}
+
+// one record: {x, y, z, vx} + {vx, vy, vz, 0} dt, lane 3 taken back (a lambda would not
+// inherit the target)
+[[gnu::target("avx2"), gnu::always_inline]] inline void gather_record_avx2(const GatherRecord* __restrict from,
+                                                                           GatherRecord* __restrict to, std::uint32_t i,
+                                                                           std::size_t j, __m256d dt4, __m256d L4) {
+  const double* r = &from[i].x;
+  double* o = &to[j].x;
+  const __m256d zero = _mm256_setzero_pd();
+  // v: vx vy vz 0 (the id's bits as a double are subnormal: multiplied, they cost a
+  // microcode assist, ~50 ns per record here)
+  const __m256d lo = _mm256_load_pd(r), hi = _mm256_load_pd(r + 4), v = _mm256_blend_pd(_mm256_loadu_pd(r + 3), zero, 0x8);
+  const __m256d p = _mm256_blend_pd(_mm256_add_pd(lo, _mm256_mul_pd(v, dt4)), lo, 0x8);     // x' y' z' vx
+  const __m256d outside = _mm256_or_pd(_mm256_cmp_pd(p, zero, _CMP_LT_OQ), _mm256_cmp_pd(p, L4, _CMP_GE_OQ));
+  if ((_mm256_movemask_pd(outside) & 7) == 0) [[likely]]
+    _mm256_store_pd(o, p);
+  else
+    _mm256_store_pd(o, gather_wrap(p, L4, _mm256_blend_pd(outside, zero, 0x8)));
+  _mm256_store_pd(o + 4, hi);
+}
+
+[[gnu::target("avx2")]] void gather_records_avx2(const GatherRecord* __restrict from, GatherRecord* __restrict to,
+                                                 const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
+                                                 std::size_t n, const GatherWindow& window, double L) {
+  const __m256d dt4 = _mm256_set1_pd(kGatherDt), L4 = _mm256_set1_pd(L);
+  std::size_t j = j0;
+  for (; j + 4 <= j1; j += 4) {
+    const std::size_t c8 = (j + 7) & ~std::size_t{7};
+    if (c8 < j + 4) {
+      for (int w = 0; w < window.count; ++w) {
+        std::size_t f = c8 + window.offset[w];
+        if (f >= n) f -= n;
+        const std::size_t f8 = f & ~std::size_t{7};
+        for (std::size_t q = 0; q < 8 && f8 + q < n; ++q) __builtin_prefetch(from + f8 + q, 0, 1);
+      }
+      if (c8 + kGatherStoreAhead + 8 <= n)
+        for (std::size_t q = 0; q < 8; ++q) __builtin_prefetch(to + c8 + kGatherStoreAhead + q, 1, 1);
+    }
+    for (std::size_t q = 0; q < 4 && j + q + kGatherAhead < j1; ++q) __builtin_prefetch(from + perm[j + q + kGatherAhead]);
+    for (std::size_t q = 0; q < 4; ++q) gather_record_avx2(from, to, perm[j + q], j + q, dt4, L4);
+  }
+  for (; j < j1; ++j) gather_record_avx2(from, to, perm[j], j, dt4, L4);
+}
+
+
 void BM_GatherLayout(benchmark::State& state) {
   const int layout = static_cast<int>(state.range(0));
   GatherCase& c = gather_case(static_cast<std::size_t>(state.range(1)));
+  const bool avx2 = state.range(2) != 0;
+  if (avx2 && !__builtin_cpu_supports("avx2")) {
+    state.SkipWithError("BM_GatherLayout: no AVX2 on this CPU");
+    return;
+  }
   const std::size_t n = c.n, n8 = (n + 7) / 8;
   GatherSoa to_soa(layout == 0 || layout == 3 ? n : 0);
   PlainArray<GatherRecord> to_records(layout == 1 ? n : 0);
@@ -762,8 +916,10 @@ void BM_GatherLayout(benchmark::State& state) {
     for (const std::uint32_t b : c.block_order) {
       const std::size_t k0 = std::size_t{b} * kGatherBlockCells, k1 = std::min(c.cells, k0 + kGatherBlockCells);
       const std::size_t j0 = c.start[k0], j1 = c.start[k1];
-      if (layout == 0) gather_soa(c.from, to_soa, perm, j0, j1, n, c.window[b], c.length);
-      if (layout == 1) gather_records(c.records.get(), to_records.get(), perm, j0, j1, n, c.window[b], c.length);
+      if (layout == 0 && avx2) gather_soa_avx2(c.from, to_soa, perm, j0, j1, n, c.window[b], c.length);
+      if (layout == 0 && !avx2) gather_soa(c.from, to_soa, perm, j0, j1, n, c.window[b], c.length);
+      if (layout == 1 && avx2) gather_records_avx2(c.records.get(), to_records.get(), perm, j0, j1, n, c.window[b], c.length);
+      if (layout == 1 && !avx2) gather_records(c.records.get(), to_records.get(), perm, j0, j1, n, c.window[b], c.length);
       if (layout == 2) gather_blocks(c.blocks.get(), to_blocks.get(), perm, j0, j1, n, c.window[b], c.length);
     }
   };
@@ -799,7 +955,7 @@ void BM_GatherLayout(benchmark::State& state) {
                                                            benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
   state.counters["particles"] = static_cast<double>(n);
 }
-BENCHMARK(BM_GatherLayout)->ArgsProduct({{0, 1, 2, 3}, {40, 86}})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GatherLayout)->ArgsProduct({{0, 1, 2, 3}, {40, 86}, {0}})->ArgsProduct({{0, 1}, {40, 86}, {1}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
