@@ -20,9 +20,10 @@
 //     prefetcht2 into L2; distance 0: no hint), while each step also makes <extra>
 //     independent random demand loads, as the EDMD event loop does around its chain.
 //     Reported: time per step (time_per_step).
-//   * BM_GatherLayout/<layout>/<side>/<avx2>: the gather of the DSMC fused step (src/dsmc/fused.cpp,
-//     gather_slots) for three memory layouts of the particles, and a plain copy as the floor
-//     (docs/performance/dsmc1.md, 2026-11-26 night; see the comment above the benchmark).
+//   * BM_GatherLayout/<layout>/<side>/<avx2>: the gather of the DSMC fused step
+//     (src/dsmc/fused.cpp, gather_slots) for three memory layouts of the particles, and a
+//     plain copy as the floor (docs/performance/dsmc1.md, 2026-11-26 night; see the comment
+//     above the benchmark).
 //     Reported: time per particle (time_per_particle).
 #include <benchmark/benchmark.h>
 
@@ -424,17 +425,19 @@ BENCHMARK(BM_DiskNeighbourScan)->ArgsProduct({{0, 1, 2, 3}, {10000, 1000000}, {0
 // lines for every layout: per slot the lines of the particle kAhead = 16 slots ahead
 // (prefetcht0); per 8 slots the engine's window (WindowFetch: plain order `lead` slots
 // ahead, tiled order the rows two planes on) and the new arrays' lines kStoreAhead = 256
-// slots ahead (both prefetcht2: one line of each array, or 8 records, or one block). The
+// slots ahead (both prefetcht2: one line of each array, or 8 records, or the seven used
+// lines of one block). The
 // window always includes the ids here (the engine fetches them only in the tiled order, for
 // its ranking). Third argument 0: scalar loops for all layouts (the same expression,
 // wrap_periodic); 1: AVX2 loops for layouts 0 and 1 (below), by target attributes (project
 // flags, no -march). Memory from aligned_alloc without madvise, as the engine's vectors.
-// Second argument: side, 40 (1e6) or 86 (1e7), or 8 (8,192 particles, ~1 MB in and out: the
-// whole gather in L2, what the loop costs without waiting for memory). Reported: time per particle (time_per_particle, s with
-// SI prefix, e.g. 9.5n = 9.5 ns); the machine's memory speed drifts between minutes, so only
-// interleaved repetitions in one process compare:
-//   build/bench/bench_memory --benchmark_filter=BM_GatherLayout --benchmark_repetitions=10
-//     --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true
+// Second argument: side, 40 (1e6) or 86 (1e7), or 8 (8,192 particles, ~1 MB in and out:
+// the whole gather in L2, what the loop costs without waiting for memory). Reported: time
+// per particle (time_per_particle, s with SI prefix, e.g. 9.5n = 9.5 ns); the machine's
+// memory speed drifts between minutes, so only interleaved repetitions in one process
+// compare (the whole set: ~4 minutes, ~3.5 GB of memory):
+//   build/bench/bench_memory --benchmark_filter=BM_GatherLayout --benchmark_repetitions=15
+//     --benchmark_enable_random_interleaving=true --benchmark_display_aggregates_only=true
 constexpr double kGatherCell = 0.25, kGatherDt = 0.08862;
 constexpr std::size_t kGatherAhead = 16, kGatherStoreAhead = 256, kGatherBlockCells = 64;
 
@@ -469,8 +472,14 @@ struct PlainArray {
 struct GatherSoa {
   PlainArray<double> a[6];
   PlainArray<std::uint64_t> id;
-  explicit GatherSoa(std::size_t n) : a{PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n)}, id(n) {}
+  explicit GatherSoa(std::size_t n)
+      : a{PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n), PlainArray<double>(n),
+          PlainArray<double>(n), PlainArray<double>(n)},
+        id(n) {}
 };
+
+// the positions streamed as the engine's gather does (gather_slots' expression)
+inline double gather_stream(double x, double v, double L) { return grainbath::dsmc::wrap_periodic(x + v * kGatherDt, L); }
 
 struct GatherWindow {
   std::size_t offset[3];
@@ -524,7 +533,7 @@ struct GatherCase {
     std::vector<std::size_t> fill(cells + 1, 0);
     for (std::size_t i = 0; i < n; ++i) {
       double q[3];
-      for (int a = 0; a < 3; ++a) q[a] = grainbath::dsmc::wrap_periodic(from.a[a].get()[i] + from.a[3 + a].get()[i] * kGatherDt, length);
+      for (int a = 0; a < 3; ++a) q[a] = gather_stream(from.a[a].get()[i], from.a[3 + a].get()[i], length);
       cell[i] = cell_of(q[0], q[1], q[2]);
       ++fill[cell[i] + 1];
     }
@@ -539,8 +548,7 @@ struct GatherCase {
     // the reference: the plain gather
     for (std::size_t j = 0; j < n; ++j) {
       const std::uint32_t i = perm[j];
-      for (int a = 0; a < 3; ++a)
-        expected.a[a].get()[j] = grainbath::dsmc::wrap_periodic(from.a[a].get()[i] + from.a[3 + a].get()[i] * kGatherDt, length);
+      for (int a = 0; a < 3; ++a) expected.a[a].get()[j] = gather_stream(from.a[a].get()[i], from.a[3 + a].get()[i], length);
       for (int a = 3; a < 6; ++a) expected.a[a].get()[j] = from.a[a].get()[i];
       expected.id.get()[j] = id[i];
     }
@@ -598,8 +606,6 @@ GatherCase& gather_case(std::size_t side) {
   return *c;
 }
 
-// the positions streamed as the engine's gather does (gather_slots' expression)
-inline double gather_stream(double x, double v, double L) { return grainbath::dsmc::wrap_periodic(x + v * kGatherDt, L); }
 
 // Layout 0: gather_slots_avx2's scheme in scalar code, the ids in the same loop.
 void gather_soa(const GatherSoa& from, GatherSoa& to, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
