@@ -25,6 +25,8 @@
 //     plain copy as the floor (docs/performance/dsmc1.md, 2026-11-26 night; see the comment
 //     above the benchmark).
 //     Reported: time per particle (time_per_particle).
+//   * BM_ScatterIds/<layout>/<side>: the fused step's scatter reading the ids from an id
+//     array (layout 0) or from 64-byte records (layout 1): what records cost that pass.
 #include <benchmark/benchmark.h>
 
 #include <immintrin.h>
@@ -420,7 +422,10 @@ BENCHMARK(BM_DiskNeighbourScan)->ArgsProduct({{0, 1, 2, 3}, {10000, 1000000}, {0
 //   2 "blocks of 8" (AoSoA): 512 B per 8 particles, 8 x, 8 y, ... 8 id, 8 spare (the spare
 //     line never touched), each old particle in seven lines of one 512-byte block;
 //   3 "copy": memcpy of the seven SoA arrays (56 B per particle), the floor of a pass that
-//     reads and writes these bytes.
+//     reads and writes these bytes;
+//   4 "records + ids": the records of layout 1 for x and v, the ids in an array of their own
+//     (gathered and prefetched as the SoA's id array): two lines per old particle. The
+//     design that keeps the scatter's id reads at 8 B (BM_ScatterIds below).
 // The prefetches are those of gather_slots_avx2 (the engine's path on this VM), the same
 // lines for every layout: per slot the lines of the particle kAhead = 16 slots ahead
 // (prefetcht0); per 8 slots the engine's window (WindowFetch: plain order `lead` slots
@@ -429,7 +434,7 @@ BENCHMARK(BM_DiskNeighbourScan)->ArgsProduct({{0, 1, 2, 3}, {10000, 1000000}, {0
 // lines of one block). The
 // window always includes the ids here (the engine fetches them only in the tiled order, for
 // its ranking). Third argument 0: scalar loops for all layouts (the same expression,
-// wrap_periodic); 1: AVX2 loops for layouts 0 and 1 (below), by target attributes (project
+// wrap_periodic); 1: AVX2 loops for layouts 0, 1 and 4 (below), by target attributes (project
 // flags, no -march). Memory from aligned_alloc without madvise, as the engine's vectors.
 // Second argument: side, 40 (1e6) or 86 (1e7), or 8 (8,192 particles, ~1 MB in and out:
 // the whole gather in L2, what the loop costs without waiting for memory). Reported: time
@@ -496,6 +501,8 @@ struct GatherCase {
   std::vector<std::size_t> start;  // the new cells' first slots
   std::vector<std::uint32_t> block_order;
   std::vector<GatherWindow> window;  // per block
+  std::vector<std::uint32_t> new_cell;  // per old index: its cell after the step (BM_ScatterIds)
+  std::size_t lead = 0;                 // fused_step's `lead`
   PlainArray<GatherRecord> records;
   PlainArray<GatherBlock8> blocks;
 
@@ -535,6 +542,7 @@ struct GatherCase {
       double q[3];
       for (int a = 0; a < 3; ++a) q[a] = gather_stream(from.a[a].get()[i], from.a[3 + a].get()[i], length);
       cell[i] = cell_of(q[0], q[1], q[2]);
+      new_cell.push_back(static_cast<std::uint32_t>(cell[i]));
       ++fill[cell[i] + 1];
     }
     std::partial_sum(fill.begin(), fill.end(), fill.begin());
@@ -579,7 +587,8 @@ struct GatherCase {
     }
     std::sort(keyed.begin(), keyed.end());
     for (const auto& kb : keyed) block_order.push_back(kb.second);
-    const std::size_t reach = 1 + nx * (1 + ny), lead = (reach * n + cells - 1) / cells + 64;
+    const std::size_t reach = 1 + nx * (1 + ny);
+    lead = (reach * n + cells - 1) / cells + 64;
     window.resize(blocks_n);
     for (std::size_t b = 0; b < blocks_n; ++b) {
       GatherWindow& w = window[b];
@@ -675,9 +684,12 @@ void gather_soa(const GatherSoa& from, GatherSoa& to, const std::uint32_t* __res
 }
 
 // Layout 1: the same loop over 64-byte records (one line per particle; the window and the
-// stores ahead: the 8 records of 8 slots).
+// stores ahead: the 8 records of 8 slots). Layout 4 (kIds): the ids also in an array of
+// their own, gathered from oid into id_out with the same prefetches as the SoA's id array.
+template <bool kIds>
 void gather_records(const GatherRecord* __restrict from, GatherRecord* __restrict to, const std::uint32_t* __restrict perm,
-                     std::size_t j0, std::size_t j1, std::size_t n, const GatherWindow& window, double L) {
+                    std::size_t j0, std::size_t j1, std::size_t n, const GatherWindow& window, double L,
+                    const std::uint64_t* __restrict oid, std::uint64_t* __restrict id_out) {
   auto copy = [=](std::size_t j, std::uint32_t i) __attribute__((always_inline)) {
     const GatherRecord& r = from[i];
     GatherRecord& o = to[j];
@@ -689,6 +701,7 @@ void gather_records(const GatherRecord* __restrict from, GatherRecord* __restric
     o.vz = r.vz;
     o.id = r.id;
     o.spare = r.spare;
+    if constexpr (kIds) id_out[j] = oid[i];
   };
   const std::size_t jp = j1 - j0 > kGatherAhead ? j1 - kGatherAhead : j0;
   for (std::size_t j = j0; j < j1;) {
@@ -699,12 +712,16 @@ void gather_records(const GatherRecord* __restrict from, GatherRecord* __restric
         if (f >= n) f -= n;
         const std::size_t f8 = f & ~std::size_t{7};  // the 8 records of the SoA lines at f
         for (std::size_t q = 0; q < 8 && f8 + q < n; ++q) __builtin_prefetch(from + f8 + q, 0, 1);
+        if constexpr (kIds) __builtin_prefetch(oid + f, 0, 1);
       }
-      if (j + kGatherStoreAhead + 8 <= n)
+      if (j + kGatherStoreAhead + 8 <= n) {
         for (std::size_t q = 0; q < 8; ++q) __builtin_prefetch(to + j + kGatherStoreAhead + q, 1, 1);
+        if constexpr (kIds) __builtin_prefetch(id_out + j + kGatherStoreAhead, 1, 1);
+      }
     }
     for (const std::size_t ep = std::min(e, jp); j < ep; ++j) {
       __builtin_prefetch(from + perm[j + kGatherAhead]);
+      if constexpr (kIds) __builtin_prefetch(oid + perm[j + kGatherAhead]);
       copy(j, perm[j]);
     }
     for (; j < e; ++j) copy(j, perm[j]);
@@ -878,9 +895,11 @@ void gather_blocks(const GatherBlock8* __restrict from, GatherBlock8* __restrict
   _mm256_store_pd(o + 4, hi);
 }
 
+template <bool kIds>
 [[gnu::target("avx2")]] void gather_records_avx2(const GatherRecord* __restrict from, GatherRecord* __restrict to,
                                                  const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
-                                                 std::size_t n, const GatherWindow& window, double L) {
+                                                 std::size_t n, const GatherWindow& window, double L,
+                                                 const std::uint64_t* __restrict oid, std::uint64_t* __restrict id_out) {
   const __m256d dt4 = _mm256_set1_pd(kGatherDt), L4 = _mm256_set1_pd(L);
   std::size_t j = j0;
   for (; j + 4 <= j1; j += 4) {
@@ -891,14 +910,26 @@ void gather_blocks(const GatherBlock8* __restrict from, GatherBlock8* __restrict
         if (f >= n) f -= n;
         const std::size_t f8 = f & ~std::size_t{7};
         for (std::size_t q = 0; q < 8 && f8 + q < n; ++q) __builtin_prefetch(from + f8 + q, 0, 1);
+        if constexpr (kIds) __builtin_prefetch(oid + f, 0, 1);
       }
-      if (c8 + kGatherStoreAhead + 8 <= n)
+      if (c8 + kGatherStoreAhead + 8 <= n) {
         for (std::size_t q = 0; q < 8; ++q) __builtin_prefetch(to + c8 + kGatherStoreAhead + q, 1, 1);
+        if constexpr (kIds) __builtin_prefetch(id_out + c8 + kGatherStoreAhead, 1, 1);
+      }
     }
-    for (std::size_t q = 0; q < 4 && j + q + kGatherAhead < j1; ++q) __builtin_prefetch(from + perm[j + q + kGatherAhead]);
-    for (std::size_t q = 0; q < 4; ++q) gather_record_avx2(from, to, perm[j + q], j + q, dt4, L4);
+    for (std::size_t q = 0; q < 4 && j + q + kGatherAhead < j1; ++q) {
+      __builtin_prefetch(from + perm[j + q + kGatherAhead]);
+      if constexpr (kIds) __builtin_prefetch(oid + perm[j + q + kGatherAhead]);
+    }
+    for (std::size_t q = 0; q < 4; ++q) {
+      gather_record_avx2(from, to, perm[j + q], j + q, dt4, L4);
+      if constexpr (kIds) id_out[j + q] = oid[perm[j + q]];
+    }
   }
-  for (; j < j1; ++j) gather_record_avx2(from, to, perm[j], j, dt4, L4);
+  for (; j < j1; ++j) {
+    gather_record_avx2(from, to, perm[j], j, dt4, L4);
+    if constexpr (kIds) id_out[j] = oid[perm[j]];
+  }
 }
 
 
@@ -912,7 +943,9 @@ void BM_GatherLayout(benchmark::State& state) {
   }
   const std::size_t n = c.n, n8 = (n + 7) / 8;
   GatherSoa to_soa(layout == 0 || layout == 3 ? n : 0);
-  PlainArray<GatherRecord> to_records(layout == 1 ? n : 0);
+  PlainArray<GatherRecord> to_records(layout == 1 || layout == 4 ? n : 0);
+  PlainArray<std::uint64_t> to_ids(layout == 4 ? n : 0);
+  const std::uint64_t* from_ids = c.from.id.get();
   PlainArray<GatherBlock8> to_blocks(layout == 2 ? n8 : 0);
   const std::uint32_t* perm = c.perm.data();
   auto sweep = [&]() {
@@ -926,8 +959,12 @@ void BM_GatherLayout(benchmark::State& state) {
       const std::size_t j0 = c.start[k0], j1 = c.start[k1];
       if (layout == 0 && avx2) gather_soa_avx2(c.from, to_soa, perm, j0, j1, n, c.window[b], c.length);
       if (layout == 0 && !avx2) gather_soa(c.from, to_soa, perm, j0, j1, n, c.window[b], c.length);
-      if (layout == 1 && avx2) gather_records_avx2(c.records.get(), to_records.get(), perm, j0, j1, n, c.window[b], c.length);
-      if (layout == 1 && !avx2) gather_records(c.records.get(), to_records.get(), perm, j0, j1, n, c.window[b], c.length);
+      const GatherWindow& w = c.window[b];
+      GatherRecord* const out = to_records.get();
+      if (layout == 1 && avx2) gather_records_avx2<false>(c.records.get(), out, perm, j0, j1, n, w, c.length, nullptr, nullptr);
+      if (layout == 1 && !avx2) gather_records<false>(c.records.get(), out, perm, j0, j1, n, w, c.length, nullptr, nullptr);
+      if (layout == 4 && avx2) gather_records_avx2<true>(c.records.get(), out, perm, j0, j1, n, w, c.length, from_ids, to_ids.get());
+      if (layout == 4 && !avx2) gather_records<true>(c.records.get(), out, perm, j0, j1, n, w, c.length, from_ids, to_ids.get());
       if (layout == 2) gather_blocks(c.blocks.get(), to_blocks.get(), perm, j0, j1, n, c.window[b], c.length);
     }
   };
@@ -940,9 +977,9 @@ void BM_GatherLayout(benchmark::State& state) {
     if (layout == 0) {
       for (int a = 0; a < 6; ++a) v[a] = to_soa.a[a].get()[j];
       id = to_soa.id.get()[j];
-    } else if (layout == 1) {
+    } else if (layout == 1 || layout == 4) {
       const GatherRecord& r = to_records.get()[j];
-      v[0] = r.x, v[1] = r.y, v[2] = r.z, v[3] = r.vx, v[4] = r.vy, v[5] = r.vz, id = r.id;
+      v[0] = r.x, v[1] = r.y, v[2] = r.z, v[3] = r.vx, v[4] = r.vy, v[5] = r.vz, id = layout == 1 ? r.id : to_ids.get()[j];
     } else {
       const GatherBlock8& r = to_blocks.get()[j / 8];
       const std::size_t q = j % 8;
@@ -964,9 +1001,70 @@ void BM_GatherLayout(benchmark::State& state) {
   state.counters["particles"] = static_cast<double>(n);
 }
 BENCHMARK(BM_GatherLayout)
-    ->ArgsProduct({{0, 1, 2, 3}, {8, 40, 86}, {0}})
-    ->ArgsProduct({{0, 1}, {8, 40, 86}, {1}})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {8, 40, 86}, {0}})
+    ->ArgsProduct({{0, 1, 4}, {8, 40, 86}, {1}})
     ->Unit(benchmark::kMillisecond);
+
+// What a record layout would cost the fused step's scatter (the pass before the gather,
+// src/dsmc/fused.cpp fused_step: per old index i in order, its slot in its new cell, the
+// index into `stable` and the id's low 32 bits into `key32`, the lines of both `lead` slots
+// ahead requested into L2 once per 16 slots). It reads the previous ids in old order: 8 B
+// per particle from the id array (layout 0), but a whole 64-byte record per particle if the
+// ids live in the records (layout 1). The new cells are known (the prediction of the
+// previous step, as in DSMC-1). The same set-up and second argument as BM_GatherLayout; both
+// layouts checked against the ids before timing. Reported: time per particle.
+template <int Layout>
+void scatter_ids(const GatherCase& c, std::uint32_t* __restrict stable, std::int32_t* __restrict key32,
+                 std::size_t* __restrict cnt, std::uint64_t& any) {
+  const std::uint32_t* __restrict cell = c.new_cell.data();
+  const std::uint64_t* __restrict id = c.from.id.get();
+  const GatherRecord* __restrict rec = c.records.get();
+  const std::size_t n = c.n;
+  std::copy(c.start.begin(), c.start.end() - 1, cnt);
+  std::uint64_t any_id = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if ((i & 15) == 0) {
+      const std::size_t f = (i + c.lead) % n;
+      __builtin_prefetch(stable + f, 1, 1);
+      __builtin_prefetch(key32 + f, 1, 1);
+    }
+    const std::size_t slot = cnt[cell[i]]++;
+    stable[slot] = static_cast<std::uint32_t>(i);
+    const std::uint64_t d = Layout == 0 ? id[i] : rec[i].id;
+    any_id |= d;
+    key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
+  }
+  any |= any_id;
+}
+
+void BM_ScatterIds(benchmark::State& state) {
+  const int layout = static_cast<int>(state.range(0));
+  const GatherCase& c = gather_case(static_cast<std::size_t>(state.range(1)));
+  PlainArray<std::uint32_t> stable(c.n);
+  PlainArray<std::int32_t> key32(c.n);
+  std::vector<std::size_t> cnt(c.cells);
+  std::uint64_t any = 0;
+  auto sweep = [&]() {
+    if (layout == 0) scatter_ids<0>(c, stable.get(), key32.get(), cnt.data(), any);
+    else scatter_ids<1>(c, stable.get(), key32.get(), cnt.data(), any);
+  };
+  sweep();
+  bool same = true;
+  for (std::size_t j = 0; j < c.n; ++j)
+    same = same && key32.get()[j] == static_cast<std::int32_t>(static_cast<std::uint32_t>(c.from.id.get()[stable.get()[j]]) ^ 0x80000000u);
+  if (!same) {
+    state.SkipWithError("BM_ScatterIds: the keys differ from the ids");
+    return;
+  }
+  for (auto _ : state) {
+    sweep();
+    benchmark::ClobberMemory();
+  }
+  benchmark::DoNotOptimize(any);
+  state.counters["time_per_particle"] = benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(c.n),
+                                                           benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ScatterIds)->ArgsProduct({{0, 1}, {8, 40, 86}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
