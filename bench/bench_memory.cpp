@@ -27,6 +27,8 @@
 //     Reported: time per particle (time_per_particle).
 //   * BM_ScatterIds/<layout>/<side>: the fused step's scatter reading the ids from an id
 //     array (layout 0) or from 64-byte records (layout 1): what records cost that pass.
+//   * BM_ScatterGather/<design>/<side>: the scatter and then the gather, for the SoA and two
+//     record designs.
 #include <benchmark/benchmark.h>
 
 #include <immintrin.h>
@@ -1065,6 +1067,71 @@ void BM_ScatterIds(benchmark::State& state) {
                                                            benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_ScatterIds)->ArgsProduct({{0, 1}, {8, 40, 86}})->Unit(benchmark::kMillisecond);
+
+// The scatter and then the gather, as the fused step runs them (the whole scatter first,
+// then the blocks), AVX2 gathers: what each design costs both passes together, including
+// whatever the scatter's reading of the records leaves in the caches for the gather.
+// Design (first argument) 0: SoA (ids from the id array; BM_GatherLayout layout 0);
+// 1: records with the ids in them (the scatter reads the records; layout 1); 4: records and
+// an id array (the scatter reads the id array; layout 4). Second argument: side. Outputs
+// checked as in the two benchmarks above (key32 against the ids; the gather's values
+// against the reference). Reported: time per particle for both passes.
+void BM_ScatterGather(benchmark::State& state) {
+  const int design = static_cast<int>(state.range(0));
+  GatherCase& c = gather_case(static_cast<std::size_t>(state.range(1)));
+  if (!__builtin_cpu_supports("avx2")) {
+    state.SkipWithError("BM_ScatterGather: no AVX2 on this CPU");
+    return;
+  }
+  const std::size_t n = c.n;
+  PlainArray<std::uint32_t> stable(n);
+  PlainArray<std::int32_t> key32(n);
+  std::vector<std::size_t> cnt(c.cells);
+  GatherSoa to_soa(design == 0 ? n : 0);
+  PlainArray<GatherRecord> to_records(design != 0 ? n : 0);
+  PlainArray<std::uint64_t> to_ids(design == 4 ? n : 0);
+  std::uint64_t any = 0;
+  const std::uint32_t* perm = c.perm.data();
+  auto sweep = [&]() {
+    if (design == 1) scatter_ids<1>(c, stable.get(), key32.get(), cnt.data(), any);
+    else scatter_ids<0>(c, stable.get(), key32.get(), cnt.data(), any);
+    for (const std::uint32_t b : c.block_order) {
+      const std::size_t k0 = std::size_t{b} * kGatherBlockCells, k1 = std::min(c.cells, k0 + kGatherBlockCells);
+      const std::size_t j0 = c.start[k0], j1 = c.start[k1];
+      const GatherWindow& w = c.window[b];
+      if (design == 0) gather_soa_avx2(c.from, to_soa, perm, j0, j1, n, w, c.length);
+      if (design == 1) gather_records_avx2<false>(c.records.get(), to_records.get(), perm, j0, j1, n, w, c.length, nullptr, nullptr);
+      if (design == 4)
+        gather_records_avx2<true>(c.records.get(), to_records.get(), perm, j0, j1, n, w, c.length, c.from.id.get(), to_ids.get());
+    }
+  };
+  sweep();
+  bool same = true;
+  for (std::size_t j = 0; j < n; ++j) {
+    same = same && key32.get()[j] == static_cast<std::int32_t>(static_cast<std::uint32_t>(c.from.id.get()[stable.get()[j]]) ^ 0x80000000u);
+    if (design == 0) {
+      for (int a = 0; a < 6; ++a) same = same && std::memcmp(&to_soa.a[a].get()[j], &c.expected.a[a].get()[j], sizeof(double)) == 0;
+      same = same && to_soa.id.get()[j] == c.expected.id.get()[j];
+    } else {
+      const GatherRecord& r = to_records.get()[j];
+      const double v[6] = {r.x, r.y, r.z, r.vx, r.vy, r.vz};
+      for (int a = 0; a < 6; ++a) same = same && std::memcmp(&v[a], &c.expected.a[a].get()[j], sizeof(double)) == 0;
+      same = same && (design == 1 ? r.id : to_ids.get()[j]) == c.expected.id.get()[j];
+    }
+  }
+  if (!same) {
+    state.SkipWithError("BM_ScatterGather: the output differs from the reference");
+    return;
+  }
+  for (auto _ : state) {
+    sweep();
+    benchmark::ClobberMemory();
+  }
+  benchmark::DoNotOptimize(any);
+  state.counters["time_per_particle"] = benchmark::Counter(static_cast<double>(state.iterations()) * static_cast<double>(n),
+                                                           benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ScatterGather)->ArgsProduct({{0, 1, 4}, {40, 86}})->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
