@@ -170,7 +170,7 @@ int command_run(const RunArgs& a) {
   // OMP_NUM_THREADS, where set, is the user's choice and OpenMP's default takes it. Not for
   // a run split over MPI ranks: they start together, so none would see the others' load
   // (docs/CASE_FILE.md: set threads there)
-  if (lc->solver == "dsmc" && !split && std::getenv("OMP_NUM_THREADS") == nullptr) {
+  if (lc->solver == "dsmc" && !split && lc->threads != 1 && std::getenv("OMP_NUM_THREADS") == nullptr) {
     const CoreUse use = core_use();
     const int busy = busy_cores(use);
     if (lc->threads == 0) {
