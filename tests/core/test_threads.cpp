@@ -16,7 +16,7 @@ TEST(AutomaticThreads, IdleMachineUsesEveryCore) {
 
 TEST(AutomaticThreads, LeavesTheCoresOtherJobsUse) {
   EXPECT_EQ(automatic_threads(CoreUse{2, 1.0, 1}), 1);  // one other job on a 2-core machine
-  EXPECT_EQ(automatic_threads(CoreUse{8, 2.6, 2}), 5);  // the average rounds to 3
+  EXPECT_EQ(automatic_threads(CoreUse{8, 2.6, 2}), 5);  // 2.6 cores' worth rounds to 3
   EXPECT_EQ(busy_cores(CoreUse{8, 2.6, 2}), 3);
 }
 
