@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdlib>
@@ -167,9 +168,15 @@ int command_run(const RunArgs& a) {
   ctx.seed = lc->seed;
   ctx.threads = lc->threads;
   // [run] threads = 0: the cores other processes leave free (core_use(), run_support.hpp);
-  // OMP_NUM_THREADS, where set, is the user's choice and OpenMP's default takes it. Not for
-  // a run split over MPI ranks: they start together, so none would see the others' load
-  // (docs/CASE_FILE.md: set threads there)
+  // OMP_NUM_THREADS, where set, is the user's choice and OpenMP's default takes it. A run
+  // split over MPI ranks shares the machine's cores among the ranks on it instead (they
+  // start together, so none would see the others' load): cores / ranks, at least 1.
+  // (node_ranks() is collective: every rank of a split run calls it, whatever its settings)
+  if (split) {
+    const int local_ranks = mpi::node_ranks();
+    if (lc->threads == 0 && std::getenv("OMP_NUM_THREADS") == nullptr)
+      ctx.threads = std::max(1, available_cores() / local_ranks);
+  }
   if (lc->solver == "dsmc" && !split && lc->threads != 1 && std::getenv("OMP_NUM_THREADS") == nullptr) {
     const CoreUse use = core_use();
     const int busy = busy_cores(use);

@@ -158,13 +158,15 @@ bool cpu_ticks(unsigned long long& total, unsigned long long& idle) {
 }
 }  // namespace
 
+int available_cores() {
+  cpu_set_t set;
+  if (sched_getaffinity(0, sizeof set, &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+}
+
 CoreUse core_use(double window_seconds) {
   CoreUse u;
-  cpu_set_t set;  // the cores this process may run on (taskset, cgroup cpusets)
-  if (sched_getaffinity(0, sizeof set, &set) == 0)
-    u.cores = std::max(1, CPU_COUNT(&set));
-  else
-    u.cores = static_cast<int>(std::max(1L, sysconf(_SC_NPROCESSORS_ONLN)));
+  u.cores = available_cores();
   unsigned long long t0 = 0, i0 = 0, t1 = 0, i1 = 0;
   if (cpu_ticks(t0, i0)) {
     struct timespec pause {};

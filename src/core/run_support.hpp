@@ -72,6 +72,7 @@ struct CoreUse {
   double busy = 0.0;          // cores' worth of CPU time other processes used over the window
   int other_runnable = 0;     // runnable tasks at its end, this one not counted
 };
+int available_cores();  // the cores this process may run on (affinity: taskset, cgroup cpusets)
 CoreUse core_use(double window_seconds = 0.1);  // this machine, now (Linux /proc; none seen elsewhere)
 int busy_cores(const CoreUse& u);
 int automatic_threads(const CoreUse& u);  // cores - busy, at least 1

@@ -84,6 +84,20 @@ long long sum(long long x) {
 #endif
   return x;
 }
+
+int node_ranks() {
+#ifdef GRAINBATH_MPI
+  if (g_active) {
+    MPI_Comm node;
+    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    int n = 1;
+    MPI_Comm_size(node, &n);
+    MPI_Comm_free(&node);
+    return n;
+  }
+#endif
+  return 1;
+}
 }  // namespace mpi_env
 
 namespace {

@@ -51,6 +51,7 @@ int world_size();
 [[noreturn]] void abort(int code);  // MPI_Abort when several ranks run, else std::_Exit
 void barrier();
 long long sum(long long x);    // over MPI_COMM_WORLD (a barrier too)
+int node_ranks();              // ranks on this machine (sharing its memory), this one included
 }  // namespace mpi_env
 
 class Decomposition {
