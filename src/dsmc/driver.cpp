@@ -340,7 +340,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       f.cells = c.domain.cell_count();
       f.batches = c.field_batches;
       for (std::int64_t st = 0; st <= c.steps; ++st)
-        if ((st % c.sample_every_steps == 0 || st == c.steps) && st * c.dt >= c.steady_from - 1e-12) ++f.window_samples;
+        if (c.sampled_after(st) && st * c.dt >= c.steady_from - 1e-12) ++f.window_samples;
       f.batches = static_cast<int>(std::min<std::int64_t>(f.batches, std::max<std::int64_t>(1, f.window_samples)));
       f.sums.assign(static_cast<std::size_t>(f.batches) * f.cells * FieldAccumulator::kSums, 0.0);
       f.batch_samples.assign(f.batches, 0);
@@ -420,8 +420,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (bath_on) {
       // the second half now only before a sample and at the end; otherwise it is joined to the
       // next step's first half (see the top of this file)
-      const std::int64_t next = s.step + 1;
-      if (next % c.sample_every_steps == 0 || next == c.steps)
+      if (c.sampled_after(s.step + 1))
         bath_substep(s, c, uniform_bath, 0.5 * c.dt, ctx.seed, Stream::background_second_half, dec, bounds, local_bath);
       else
         s.bath_half_pending = true;
@@ -432,7 +431,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       local_bath.step = -1;  // grains may change rank and order
       if (dec.rebalance(s, c)) rebuild_cells();
     }
-    if (s.step % c.sample_every_steps == 0 || s.step == c.steps) {
+    if (c.sampled_after(s.step)) {
       try {
         sample(s, c, static_cast<double>(s.step) * c.dt, dec, bounds);
       } catch (const std::runtime_error& e) {

@@ -76,6 +76,9 @@ struct Config {
   std::int64_t steps = 0;           // resolved: ceil(t_end / dt)
   double sample_every = 0.1;
   std::int64_t sample_every_steps = 0;  // resolved
+  // the state after `step` steps is sampled: every sample_every_steps and at the end (the
+  // driver's samples, the field window, and where the bath halves must not be joined)
+  bool sampled_after(std::int64_t step) const { return step % sample_every_steps == 0 || step == steps; }
   double steady_from = 0.0;         // start of the averaging window
   int histogram_bins = 100;
   double histogram_range = 6.0;     // |c| / sqrt(T/m) range of the f(v) histogram

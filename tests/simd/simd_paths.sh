@@ -3,7 +3,8 @@
 # numbers"; docs/PERFORMANCE.md). The hot DSMC kernels pick AVX2 at run time where the CPU
 # has it (Philox4x32 words of the bath tests and of the cell collisions, the fused step's
 # cell index and gather) and SSE2 otherwise, and AVX-512 where it has AVX-512F (the bath's
-# Philox words, the fused step's ranking and next-cell prediction, with VL the collision bound); GRAINBATH_SIMD=sse2 forces the baseline, GRAINBATH_SIMD=avx2 rules out AVX-512.
+# Philox words, the fused step's ranking and next-cell prediction, with VL the collision
+# bound); GRAINBATH_SIMD=sse2 forces the baseline, GRAINBATH_SIMD=avx2 rules out AVX-512.
 # Each case is run the three ways and results.h5 (every dataset and attribute except /provenance) and
 # summary.json (performance.* left out; it holds state.hash, the fingerprint of every bit of
 # the final particle state, src/core/state_hash.hpp) must be identical. On a CPU without AVX2 both runs
