@@ -48,6 +48,8 @@ enum class Stream : std::uint64_t {
   initial_angular_velocities = 12,  // rough grains (EDMD [edmd] / DSMC [grains] rotational_temperature)
   background_joined_halves = 13,    // the second bath half of step k - 1 and the first of step k as one
                                     // substep over dt (keyed on k; src/dsmc/driver.cpp)
+  collision_groups = 14,            // homogeneous DSMC: the step's deal of tiles into collision groups
+                                    // (keyed on the step; src/dsmc/collision_groups.hpp)
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

@@ -216,6 +216,58 @@ using CellCollisionRng = Philox4x32Words;
 template <class Law>
 inline constexpr bool uses_normal_speed = !std::is_same_v<Law, ElasticRestitution> && !std::is_same_v<Law, ConstantRestitution>;
 
+// The NTC candidate loop shared by a cell (collide_cell) and a collision group of a homogeneous
+// run (collide_group, src/dsmc/collision_groups.hpp): `candidates` ordered pairs of distinct
+// slots drawn uniformly from [0, n32), each accepted with |g| / g_max; `slot` maps a drawn slot
+// to the index of its grain in vx, vy, vz (the identity for a cell's contiguous range).
+template <class Law, class Draws, class Slot>
+[[gnu::always_inline]] inline void collide_candidates(double* vx, double* vy,
+                                                      double* vz, Slot slot, std::uint32_t n32,
+                                                      std::uint64_t candidates, double g_max, double mass,
+                                                      const Law& law, Draws& draws, GrainCounters& counters) {
+  for (std::uint64_t k = 0; k < candidates; ++k) {
+    const std::uint64_t word = draws.bits64();
+    const std::uint32_t si = below_from(static_cast<std::uint32_t>(word), n32, draws);
+    std::uint32_t sj = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, draws);
+    if (sj >= si) ++sj;
+    const std::size_t i = slot(si), j = slot(sj);
+    Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
+    const Vec3 g = v - w;
+    const double g2 = norm2(g);
+    ++counters.candidates;
+    if (g2 > g_max * g_max) {  // bound exceeded: accept, and raise the bound for the rest of the step
+      ++counters.bound_exceeded;
+      g_max = std::sqrt(g2);
+    } else {
+      // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
+      // the rejected candidates
+      const double u = draws.uniform() * g_max;
+      if (u * u >= g2) continue;
+    }
+    // The apse n = (g_hat - r) / |g_hat - r| with r uniform on the sphere has the hard-sphere
+    // density |g.n| / (2 pi |g|) (apse_direction, operators/binary_collision.hpp); its
+    // normal relative velocity is (g.n) n = (g - |g| r) / 2, so the collision (Bisi-Spiga
+    // eq. 6: dv = (1 + e)/2 (g.n) n) needs neither n nor its normalisation: one square root
+    // per collision instead of three, no division. Elastic: g' = |g| r, isotropic.
+    const Vec3 r = draws.unit_vector();
+    const Vec3 normal_g = 0.5 * (g - std::sqrt(g2) * r);  // (g.n) n
+    const double gn2 = norm2(normal_g);                   // (g.n)^2
+    const RestitutionOutcome out = restitution(law, uses_normal_speed<Law> ? std::sqrt(gn2) : 0.0);
+    counters.clamped += out.clamped;
+    const Vec3 dv = (0.5 * (1.0 + out.e)) * normal_g;
+    v -= dv;
+    w += dv;
+    counters.energy_loss += 0.25 * mass * (1.0 - out.e * out.e) * gn2;  // (m/4)(1 - e^2)(g.n)^2
+    vx[i] = v.x;
+    vy[i] = v.y;
+    vz[i] = v.z;
+    vx[j] = w.x;
+    vy[j] = w.y;
+    vz[j] = w.z;
+    ++counters.collisions;
+  }
+}
+
 // Grain-grain collisions among the particles [begin, end) of one cell over a time dt
 // (Bird's no-time-counter scheme). Each grain meets the others at rate n |g| (Issue #2
 // scaled units): with N simulated grains standing for density n, a pair collides at rate
@@ -253,46 +305,8 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
       return (rng);
   };
   decltype(auto) draws = words();
-  for (std::uint64_t k = 0; k < candidates; ++k) {
-    const std::uint64_t word = draws.bits64();
-    const std::uint32_t i = below_from(static_cast<std::uint32_t>(word), n32, draws);
-    std::uint32_t j = below_from(static_cast<std::uint32_t>(word >> 32), n32 - 1, draws);
-    if (j >= i) ++j;
-    Vec3 v{vx[i], vy[i], vz[i]}, w{vx[j], vy[j], vz[j]};
-    const Vec3 g = v - w;
-    const double g2 = norm2(g);
-    ++counters.candidates;
-    if (g2 > g_max * g_max) {  // bound exceeded: accept, and raise the bound for the rest of the step
-      ++counters.bound_exceeded;
-      g_max = std::sqrt(g2);
-    } else {
-      // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
-      // the rejected candidates
-      const double u = draws.uniform() * g_max;
-      if (u * u >= g2) continue;
-    }
-    // The apse n = (g_hat - r) / |g_hat - r| with r uniform on the sphere has the hard-sphere
-    // density |g.n| / (2 pi |g|) (apse_direction, operators/binary_collision.hpp); its
-    // normal relative velocity is (g.n) n = (g - |g| r) / 2, so the collision (Bisi-Spiga
-    // eq. 6: dv = (1 + e)/2 (g.n) n) needs neither n nor its normalisation: one square root
-    // per collision instead of three, no division. Elastic: g' = |g| r, isotropic.
-    const Vec3 r = draws.unit_vector();
-    const Vec3 normal_g = 0.5 * (g - std::sqrt(g2) * r);  // (g.n) n
-    const double gn2 = norm2(normal_g);                   // (g.n)^2
-    const RestitutionOutcome out = restitution(law, uses_normal_speed<Law> ? std::sqrt(gn2) : 0.0);
-    counters.clamped += out.clamped;
-    const Vec3 dv = (0.5 * (1.0 + out.e)) * normal_g;
-    v -= dv;
-    w += dv;
-    counters.energy_loss += 0.25 * mass * (1.0 - out.e * out.e) * gn2;  // (m/4)(1 - e^2)(g.n)^2
-    vx[i] = v.x;
-    vy[i] = v.y;
-    vz[i] = v.z;
-    vx[j] = w.x;
-    vy[j] = w.y;
-    vz[j] = w.z;
-    ++counters.collisions;
-  }
+  collide_candidates(vx, vy, vz, [](std::uint32_t slot) { return static_cast<std::size_t>(slot); }, n32, candidates,
+                     g_max, mass, law, draws, counters);
 }
 
 }  // namespace grainbath::dsmc

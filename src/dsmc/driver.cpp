@@ -29,6 +29,7 @@
 #include "core/run_support.hpp"
 #include "dsmc/checkpoint.hpp"
 #include "dsmc/collide.hpp"
+#include "dsmc/collision_groups.hpp"
 #include "dsmc/decomposition.hpp"
 #include "dsmc/dsmc.hpp"
 #include "dsmc/fused.hpp"
@@ -174,13 +175,21 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
   }
 }
 
+// Homogeneous runs with enough grains: the step's collision groups (src/dsmc/collision_groups.hpp)
+// in parallel, each with its own generator (seed, Stream::grain_collisions; group, step) and
+// counters, summed in group order: the same bits at any thread count.
+struct GroupedCollisions {
+  CollisionGroups groups;
+  std::vector<GrainCounters> per_group;
+};
+
 // Grain-grain collisions in every cell; each cell has its own random stream (cell id, step)
 // and its own counters, summed in cell order afterwards.
 // Counters are summed per fixed block of cells (then blocks in order): the floating-point
 // sum of the inelastic loss is the same at any thread count. MPI: each rank does its own
 // blocks; the partials are combined in block order on every rank.
 void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                Decomposition& dec) {
+                Decomposition& dec, GroupedCollisions& grouped) {
   const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
   if (c.rough) return rough_grain_step(s, c, seed);  // homogeneous rough grains (src/dsmc/rough.hpp; one cell, rank 0)
   const std::size_t cells = s.cell_start.size() - 1;
@@ -189,8 +198,27 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
   const double weight = c.grains.density * (c.spatial() ? c.domain.volume() : 1.0) / static_cast<double>(c.particles);
   const double cell_volume = c.spatial() ? c.domain.cell_volume() : 1.0;
   const auto step = static_cast<std::uint64_t>(s.step);
-  std::visit(
-      [&](const auto& law) {
+  const std::size_t grains = s.particles.size();
+  if (!c.spatial() && CollisionGroups::apply(grains, c.collision_group)) {
+    if (blocks > 0) {  // the rank that holds the one cell (rank 0)
+      grouped.groups.deal(grains, c.collision_group, seed, step);
+      const std::size_t groups = grouped.groups.count();
+      grouped.per_group.assign(groups, GrainCounters{});
+      std::visit(
+          [&](const auto& law) {
+#pragma omp parallel for schedule(static)
+            for (std::size_t g = 0; g < groups; ++g) {
+              CellCollisionRng rng(seed, Stream::grain_collisions, g, step);
+              collide_group(s.particles, grouped.groups.tiles(g), grouped.groups.tile_count(g), grouped.groups.grains(g),
+                            c.grains.density, c.dt, c.grains.mass, law, rng, grouped.per_group[g]);
+            }
+          },
+          c.restitution);
+      for (const auto& g : grouped.per_group) per_block[0].add(g);
+    }
+  } else {
+    std::visit(
+        [&](const auto& law) {
 #pragma omp parallel for schedule(static)
         for (std::size_t blk = 0; blk < blocks; ++blk) {
           GrainCounters cnt;
@@ -206,6 +234,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
         }
       },
       c.restitution);
+  }
   dec.combine_in_order(per_block, true);
   dec.add_work(per_block);  // load-balance weights
   for (const auto& g : per_block) s.counters.grain.add(g);
@@ -372,6 +401,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   s.collisions_before_run = s.counters.bath_collisions + s.counters.grain.collisions;
 
   std::vector<GrainCounters> per_cell;
+  GroupedCollisions grouped;  // homogeneous runs: the step's collision groups
   // stream, sort and collide in one pass over the grains (MPI ranks too: the migration sits
   // between its streaming pass and its scatter, src/dsmc/fused.cpp)
   const bool fused = fused_step_applies(c);
@@ -415,7 +445,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
         dec.migrate(s, c, removed);  // MPI: particles that left this rank's cells
         sort_by_cell(s, c, removed);
       }
-      grain_step(s, c, ctx.seed, per_cell, dec);
+      grain_step(s, c, ctx.seed, per_cell, dec, grouped);
     }
     if (bath_on) {
       // the second half now only before a sample and at the end; otherwise it is joined to the

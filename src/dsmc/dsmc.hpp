@@ -87,6 +87,9 @@ struct Config {
   int field_batches = 16;           // batches for the per-cell standard errors
   double mode_fit_from = 0.0;       // density-mode decay fit window start
   double mode_fit_to = 0.0;         // ... and end (0: t_end)
+  // homogeneous runs: grains per collision group, dealt afresh every step (0: all grains in
+  // one cell; src/dsmc/collision_groups.hpp, docs/dsmc.md "Collision groups")
+  std::int64_t collision_group = 4096;
   std::int64_t rebalance_every = 50;  // MPI: steps between load balances of the cell ranges (0: never)
   bool spatial() const { return domain.dimensions > 0; }
   double wavenumber() const;        // k of the grain mode (2 pi index / Lx)

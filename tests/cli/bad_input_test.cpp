@@ -281,6 +281,8 @@ TEST_F(BadInput, DsmcOutOfRangeEveryParameter) {
       {"dsmc", "dt", "1e-12", "more than 2e9 steps"},
       {"dsmc", "t_end", "0.0", "> 0.0"},
       {"dsmc", "t_end", "-1.0", "> 0.0"},
+      {"dsmc", "collision_group", "10", "expected 0 (all grains in one collision cell) or at least 64 grains (one tile), found 10"},
+      {"dsmc", "collision_group", "-1", "expected an integer in [0, 1000000000], found -1"},
       {"sampling", "every", "0.0", "> 0.0"},
       {"sampling", "steady_from", "-1.0", ">= 0.0"},
       {"sampling", "steady_from", "0.2", "expected a time before t_end"},
