@@ -7,7 +7,8 @@
 # built with -DGRAINBATH_MPI=ON, for the 1-process vs 2-rank figure of the DSMC-1 case.
 # Writes OUT_DIR/machine.txt (CPU model, caches, git commit), OUT_DIR/dsmc.txt (medians, bench/dsmc_medians.py), OUT_DIR/edmd/*.json
 # (scripts/bench-edmd.sh; table: scripts/bench-edmd-table.py OUT_DIR/edmd), OUT_DIR/edmd-case.txt
-# (10^6 disks as a case: engine and whole-run rates) and OUT_DIR/mpi.txt.
+# (10^6 disks as a case: engine and whole-run rates), OUT_DIR/free-cooling.txt (10^6 grains, one
+# cell against collision groups) and OUT_DIR/mpi.txt.
 set -eu
 build=$1
 out=$2
@@ -32,6 +33,22 @@ echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
   'DSMC2_HomogeneousBath/1/' 'DSMC2_HomogeneousBath/2/' 'StreamTriad' | tee -a "$out/dsmc.txt"
 "$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" 1 'DSMC1_SpartaBox_1e7/1/' 'DSMC1_SpartaBox_1e7/2/' \
   | tee -a "$out/dsmc.txt"
+
+echo "== DSMC free cooling as a case ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/free-cooling.txt"
+# bench/dsmc-free-cooling1e6: 10^6 grains, no medium, 300 steps; one cell (collision_group = 0)
+# against the collision groups (the default), 1 and 2 threads: step-loop ns per grain-step
+r=1
+while [ "$r" -le "$reps" ]; do
+  for cfg in "1 0" "1 4096" "2 0" "2 4096"; do
+    set -- $cfg
+    dir="$out/free-cooling-r$r"
+    load=$(cut -d' ' -f1 /proc/loadavg)
+    "$build/grainbath" run "$here/bench/dsmc-free-cooling1e6" --out "$dir" --set run.threads="$1" \
+      --set dsmc.collision_group="$2" -q > /dev/null
+    "$py" -c "import json,sys; d=json.load(open(sys.argv[1])); p=d['performance']; print('rep $r load=$load threads=$1 collision_group=$2 wall_seconds=%.3f loop_seconds=%.3f loop_ns_per_grain_step=%.2f grain_candidates=%d' % (p['wall_seconds'], p['loop_seconds'], 1e9 / p['loop_particle_steps_per_second'], d['counters']['grain_candidates']))" "$dir/summary.json" | tee -a "$out/free-cooling.txt"
+  done
+  r=$((r + 1))
+done
 
 echo "== memory latency ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/memory.txt"
 # pointer chase (bench/bench_memory.cpp): ns per dependent load, 1 and 8 chains, 4 KiB and
