@@ -344,7 +344,8 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   const bool bath_on = medium_present(c);
   Decomposition dec(c, ctx.decompose);  // MPI: this rank's share of the cells
   if (dec.size() > 1 && !c.spatial() && dec.root())
-    std::fprintf(stderr, "note: a homogeneous run is one cell: rank 0 runs it and the other %d rank(s) idle; "
+    std::fprintf(stderr, "note: a homogeneous run is not split over ranks (its collision groups mix all grains "
+                         "every step): rank 0 runs it and the other %d rank(s) idle; "
                          "replicas go on ranks with `mpirun grainbath sweep CASE --set run.seed=1,2,...`\n",
                  dec.size() - 1);
   State s;
