@@ -167,17 +167,33 @@ void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, co
   if (h.read_attribute("/", "seed") != std::to_string(ctx.seed))
     throw std::invalid_argument(path.string() + ": the checkpoint was written with seed " +
                                 h.read_attribute("/", "seed") + ", the case now has " + std::to_string(ctx.seed));
+  // Keys added after checkpoints of their solver existed, with the value that continues an
+  // older checkpoint exactly (the behaviour before the key): an absent key stands for it.
+  struct AddedKey {
+    const char* key;
+    const char* value;
+  };
+  static constexpr AddedKey kAddedLater[] = {
+      {"dsmc.collision_group", "0"},  // homogeneous DSMC collision groups (2026-11-26); 0 = one cell as before
+  };
   for (const auto& [key, value] : ctx.resolved) {
     if (may_change(key)) continue;
     std::string old;
+    std::string hint;
     try {
       old = h.read_attribute("/parameters", key);
     } catch (const std::runtime_error&) {
       old = "(absent)";
+      for (const AddedKey& a : kAddedLater)
+        if (key == a.key) {
+          old = a.value;
+          hint = "; the checkpoint predates this key: --set " + key + "=" + a.value + " continues it exactly";
+        }
     }
     if (old != value)
       throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
-                                  ", now " + value + " (only " + may_change_text + " may change on --resume)");
+                                  ", now " + value + " (only " + may_change_text + " may change on --resume" + hint +
+                                  ")");
   }
   // ... and a key the checkpoint's case had that the case has no more (a section removed)
   for (const std::string& key : h.attribute_names("/parameters")) {

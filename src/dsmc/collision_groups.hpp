@@ -6,14 +6,14 @@
 // reads two grains at random from 24 MB of velocities, two cache misses per candidate
 // (free cooling, 10^6 grains: ~590 ns per accepted collision), and the one cell cannot be
 // shared between threads. Here the grains are instead dealt into groups of about G grains
-// (`[dsmc] collision_group`, default 4096) afresh every step, and NTC runs in each group
-// with the case density, as DSMC runs in the cells of a uniform gas: each grain still meets
+// (`[dsmc] collision_group`, default 4096, at least kMinCollisionGroup) afresh every step,
+// and NTC runs in each group with the case density, as DSMC runs in the cells of a uniform gas: each grain still meets
 // partners at the rate n <|g|>, only from its group of the step. A group is a set of tiles
 // of 64 consecutive grains (512 bytes per velocity component) chosen by a random permutation
 // of the tiles, keyed (seed, Stream::collision_groups; step): no grain is moved, the group's
 // bound pass brings its velocities into cache for its candidates, the groups run in
-// parallel, and the partition depends on the seed and step alone (the same at any thread
-// count, and after a restart).
+// parallel, and the partition depends on N, G, the seed and the step alone (the same at any
+// thread count, and after a restart).
 //
 // What it changes: two grains can only collide in a step in which they share a group.
 // Energy and momentum still flow through the whole population, since every step deals the
@@ -21,10 +21,13 @@
 // grain's group every step, so 63 / (G - 1) of its collisions (1.5 % at G = 4096) are with
 // them, against 63 / (N - 1) in one cell. That is a weak recollision correlation, far below
 // the one of spatial DSMC (a grain's ~15 cell mates are its partners every step). The tests
-// compare the grouped and the one-cell scheme on free cooling and on the relaxation between
-// two halves started at different temperatures (tests/dsmc/test_dsmc_collision_groups.cpp).
+// (tests/dsmc/test_dsmc_collision_groups.cpp) check the deal, the bound and the rounding, the
+// relaxation of two temperatures against the Boltzmann rate and one cell, and the tile-mate
+// effect where it is largest; scripts/collision-groups-hcs.sh compares the cooling state
+// with one cell.
 #include <cstddef>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "dsmc/collide.hpp"
@@ -33,24 +36,39 @@
 namespace grainbath::dsmc {
 
 inline constexpr std::size_t kGroupTile = 64;  // grains per tile
+// The smallest `collision_group` a case may ask for (16 tiles): a grain's 63 tile mates are
+// in its group every step, a share 63 / (G - 1) of its partners (6 % here, 1.5 % at the
+// default 4096); with one tile per group the groups would be the same 64 grains forever.
+inline constexpr std::size_t kMinCollisionGroup = 16 * kGroupTile;
 
 // The step's partition of N grains into groups of whole tiles.
 class CollisionGroups {
  public:
+  // Tiles per group for a requested group size (whole tiles, at least one) and the number of
+  // groups N grains make: tiles / per_group, so a group holds per_group to 2 per_group - 1 tiles.
+  static std::size_t tiles_per_group(std::size_t group_grains) {
+    return std::max<std::size_t>(1, (group_grains + kGroupTile / 2) / kGroupTile);
+  }
+  static std::size_t group_count(std::size_t grains, std::size_t group_grains) {
+    return ((grains + kGroupTile - 1) / kGroupTile) / tiles_per_group(group_grains);
+  }
   // Whether N grains are dealt into groups of about `group_grains` (0: never, one cell): only
-  // if there are at least two groups.
+  // if that makes at least two groups.
   static bool apply(std::size_t grains, std::size_t group_grains) {
-    return group_grains > 0 && grains >= 2 * group_grains;
+    return group_grains > 0 && group_count(grains, group_grains) >= 2;
   }
 
   // Deal the tiles of `grains` grains into groups of round(group_grains / 64) tiles (the
   // last tile may be short; it is put last in its group so that every other tile of a group
   // is full). Reuses its storage: no allocation after the first step.
   void deal(std::size_t grains, std::size_t group_grains, std::uint64_t seed, std::uint64_t step) {
+    if (grains == 0) throw std::invalid_argument("CollisionGroups::deal: no grains");
     grains_ = grains;
     const std::size_t tiles = (grains + kGroupTile - 1) / kGroupTile;
-    const std::size_t per_group = std::max<std::size_t>(1, (group_grains + kGroupTile / 2) / kGroupTile);
-    const std::size_t groups = std::max<std::size_t>(1, tiles / per_group);
+    const std::size_t groups = std::max<std::size_t>(1, group_count(grains, group_grains));
+    // the largest group, 2 per_group - 1 tiles, must fit the 32-bit slots of collide_candidates
+    if ((2 * tiles_per_group(group_grains) - 1) * kGroupTile > 0xffffffffu)
+      throw std::length_error("CollisionGroups::deal: groups of more than 2^32 - 1 grains");
     order_.resize(tiles);
     for (std::size_t t = 0; t < tiles; ++t) order_[t] = static_cast<std::uint32_t>(t);
     // Fisher-Yates with exact bounded integers (below_from, src/dsmc/collide.hpp)

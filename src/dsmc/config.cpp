@@ -185,10 +185,10 @@ Config read_config(CaseReader& r) {
   c.rebalance_every = r.integer("dsmc", "rebalance_every", 50, 0, 1'000'000'000);
   if (!c.spatial() && !c.rough) {
     c.collision_group = r.integer("dsmc", "collision_group", 4096, 0, 1'000'000'000);
-    if (c.collision_group > 0 && c.collision_group < static_cast<std::int64_t>(kGroupTile))
+    if (c.collision_group > 0 && c.collision_group < static_cast<std::int64_t>(kMinCollisionGroup))
       r.problem("dsmc", "collision_group",
-                "expected 0 (all grains in one collision cell) or at least " + std::to_string(kGroupTile) +
-                    " grains (one tile), found " + std::to_string(c.collision_group));
+                "expected 0 (all grains in one collision cell) or at least " + std::to_string(kMinCollisionGroup) +
+                    " grains (16 tiles of 64), found " + std::to_string(c.collision_group));
   }
   c.sample_every = r.real("sampling", "every", c.dt * 10, Bounds::positive(), "time");
   c.steady_from = r.real("sampling", "steady_from", 0.5 * c.t_end, Bounds::non_negative(), "time");

@@ -209,8 +209,10 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
 #pragma omp parallel for schedule(static)
             for (std::size_t g = 0; g < groups; ++g) {
               CellCollisionRng rng(seed, Stream::grain_collisions, g, step);
+              GrainCounters cnt;  // local: neighbouring groups' counters share cache lines
               collide_group(s.particles, grouped.groups.tiles(g), grouped.groups.tile_count(g), grouped.groups.grains(g),
-                            c.grains.density, c.dt, c.grains.mass, law, rng, grouped.per_group[g]);
+                            c.grains.density, c.dt, c.grains.mass, law, rng, cnt);
+              grouped.per_group[g] = cnt;
             }
           },
           c.restitution);

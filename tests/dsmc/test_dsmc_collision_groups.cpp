@@ -73,8 +73,11 @@ TEST(CollisionGroups, DealIsAPartitionWithTheShortTileLast) {
     }
   EXPECT_TRUE(same);
   EXPECT_TRUE(other);
-  EXPECT_FALSE(CollisionGroups::apply(8191, 4096));
-  EXPECT_TRUE(CollisionGroups::apply(8192, 4096));
+  // two groups need two groups' worth of tiles: 128 tiles of 64 (the last may be short)
+  EXPECT_FALSE(CollisionGroups::apply(127 * 64, 4096));
+  EXPECT_TRUE(CollisionGroups::apply(127 * 64 + 1, 4096));
+  EXPECT_FALSE(CollisionGroups::apply(129 * 64, 4128));  // 65 tiles per group: 129 / 65 = 1 group
+  EXPECT_EQ(CollisionGroups::group_count(100000, 4096), 24u);
   EXPECT_FALSE(CollisionGroups::apply(1000000, 0));
 }
 
@@ -106,10 +109,18 @@ TEST(CollisionGroups, EveryPairOfTilesSharesAGroupEquallyOften) {
 // The bound of each group is at least the largest |v_i - v_j| over its pairs (by brute force),
 // and at most 10 % above it.
 TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
-  const std::size_t n = 4 * 4096 + 100;
-  const Particles p = maxwellian(n, 3, [](std::size_t) { return 1.0; }, Vec3{0.7, -0.4, 0.2});
+  const std::size_t n = 4 * 4096 + 101;  // a short tile of 37 grains: the scalar tail of the bound
+  Particles p = maxwellian(n, 3, [](std::size_t) { return 1.0; }, Vec3{0.7, -0.4, 0.2});
   CollisionGroups deal;
   deal.deal(n, 4096, 9, 0);
+  // the two fastest grains of the group with the short tile: its last grain (the scalar
+  // tail) and a grain in the second SIMD lane of another tile, moving head-on
+  std::size_t with_short = 0;
+  for (std::size_t g = 0; g < deal.count(); ++g)
+    if (deal.grains(g) % kGroupTile != 0) with_short = g;
+  ASSERT_NE(deal.grains(with_short) % 2, 0u);
+  p.set_velocity(slot_index(deal, with_short, deal.grains(with_short) - 1), Vec3{9.0, 0.0, 0.0});
+  p.set_velocity(slot_index(deal, with_short, 1), Vec3{-8.0, 0.5, 0.0});
   for (std::size_t g = 0; g < deal.count(); ++g) {
     const double bound =
         group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), deal.tiles(g), deal.tile_count(g), deal.grains(g));
@@ -135,12 +146,16 @@ TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
 // (derived here; the species stay close to Maxwellian over the 0.1 time units compared).
 // The grouped scheme is compared with that rate and with one cell, over 6 seeds each.
 namespace {
-double relaxed_fraction(bool grouped, std::uint64_t seed, std::size_t steps, double dt, double& lambda_t) {
+// species a: even ids (interleaved) or the first half of the arrays (contiguous: whole tiles)
+double relaxed_fraction(std::size_t group, bool contiguous, std::uint64_t seed, std::size_t steps, double dt,
+                        double& lambda_t) {
+  const bool grouped = group > 0;
   const std::size_t n = 1 << 18;
-  Particles p = maxwellian(n, seed, [](std::size_t i) { return i % 2 == 0 ? 2.0 : 0.5; });
+  auto hot = [&](std::size_t i) { return contiguous ? i < n / 2 : i % 2 == 0; };
+  Particles p = maxwellian(n, seed, [&](std::size_t i) { return hot(i) ? 2.0 : 0.5; });
   auto temperatures = [&](double& ta, double& tb) {
     double sa = 0, sb = 0;
-    for (std::size_t i = 0; i < n; ++i) (i % 2 == 0 ? sa : sb) += norm2(p.velocity(i));
+    for (std::size_t i = 0; i < n; ++i) (hot(i) ? sa : sb) += norm2(p.velocity(i));
     ta = sa / (3.0 * (n / 2));
     tb = sb / (3.0 * (n / 2));
   };
@@ -152,7 +167,7 @@ double relaxed_fraction(bool grouped, std::uint64_t seed, std::size_t steps, dou
   double remainder = 0;
   for (std::size_t step = 0; step < steps; ++step) {
     if (grouped) {
-      deal.deal(n, 4096, seed, step);
+      deal.deal(n, group, seed, step);
       for (std::size_t g = 0; g < deal.count(); ++g) {
         CellCollisionRng rng(seed, Stream::grain_collisions, g, step);
         collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters);
@@ -174,15 +189,66 @@ TEST(CollisionGroups, TwoTemperaturesRelaxAtTheBoltzmannRateAsInOneCell) {
   double mean[2] = {0, 0}, sq[2] = {0, 0}, lambda_t = 0;
   for (int grouped = 0; grouped < 2; ++grouped)
     for (int k = 0; k < seeds; ++k) {
-      const double f = relaxed_fraction(grouped == 1, 100 + k, 10, 0.01, lambda_t);
+      const double f = relaxed_fraction(grouped == 1 ? 4096 : 0, false, 100 + k, 10, 0.01, lambda_t);
       mean[grouped] += f / seeds;
       sq[grouped] += f * f / seeds;
     }
   double se[2];
-  for (int g = 0; g < 2; ++g) se[g] = std::sqrt((sq[g] - mean[g] * mean[g]) / (seeds - 1));
+  for (int g = 0; g < 2; ++g) se[g] = std::sqrt((sq[g] - mean[g] * mean[g]) * seeds / (seeds - 1) / seeds);
   const double theory = std::exp(-lambda_t);
   std::printf("D(0.1)/D(0): one cell %.5f +- %.5f, groups %.5f +- %.5f, Boltzmann (two Maxwellians) %.5f\n", mean[0],
               se[0], mean[1], se[1], theory);
   EXPECT_NEAR(mean[1], mean[0], 4 * std::hypot(se[0], se[1]));
-  for (int g = 0; g < 2; ++g) EXPECT_NEAR(mean[g], theory, 4 * se[g] + 0.002);
+  for (int g = 0; g < 2; ++g) EXPECT_NEAR(mean[g], theory, 4 * se[g]);
+}
+
+// The trace the grouping leaves, measured: with the hot species in the first half of the
+// arrays (whole tiles), a grain's 63 tile mates are always of its own species and in its
+// group, so of its G - 1 partners only (G - 64)/2 are of the other species instead of half:
+// the relaxation rate is (G - 64)/(G - 1) of one cell's (0.877 at G = 512, small so that the
+// effect is large). The ratio of the decay rates ln(D/D0) is compared with that.
+TEST(CollisionGroups, TileMatesSlowTheRelaxationOfContiguousHalvesAsPredicted) {
+  const int seeds = 4;
+  const std::size_t group = 512;
+  double rate[2] = {0, 0}, sq[2] = {0, 0}, lambda_t = 0;
+  for (int grouped = 0; grouped < 2; ++grouped)
+    for (int k = 0; k < seeds; ++k) {
+      const double r = -std::log(relaxed_fraction(grouped == 1 ? group : 0, true, 200 + k, 10, 0.01, lambda_t));
+      rate[grouped] += r / seeds;
+      sq[grouped] += r * r / seeds;
+    }
+  double se[2];
+  for (int g = 0; g < 2; ++g) se[g] = std::sqrt((sq[g] - rate[g] * rate[g]) * seeds / (seeds - 1) / seeds);
+  const double ratio = rate[1] / rate[0], ratio_se = ratio * std::hypot(se[0] / rate[0], se[1] / rate[1]);
+  const double predicted = static_cast<double>(group - 64) / static_cast<double>(group - 1);
+  std::printf("contiguous halves, G = %zu: decay rate ratio groups / one cell %.4f +- %.4f, predicted %.4f\n", group,
+              ratio, ratio_se, predicted);
+  EXPECT_NEAR(ratio, predicted, 4 * ratio_se);
+  EXPECT_LT(ratio, 0.95);  // the effect is there (a deal that ignored tiles would give 1)
+}
+
+// Stochastic rounding of the candidates: with dt so small that a group expects ~0.4
+// candidates per step, truncation would give none; the collision count of an elastic gas at
+// T = 1 must be N n <|g|> t / 2, <|g|> = 4 sqrt(T/(pi m)), within its Poisson error.
+TEST(CollisionGroups, FractionalCandidatesAreRoundedWithoutBias) {
+  const std::size_t n = 8192, steps = 40000;
+  const double dt = 3e-5;
+  Particles p = maxwellian(n, 5, [](std::size_t) { return 1.0; });
+  CollisionGroups deal;
+  GrainCounters counters;
+  const ElasticRestitution law{};
+  for (std::size_t step = 0; step < steps; ++step) {
+    deal.deal(n, 4096, 5, step);
+    ASSERT_EQ(deal.count(), 2u);
+    for (std::size_t g = 0; g < deal.count(); ++g) {
+      CellCollisionRng rng(5, Stream::grain_collisions, g, step);
+      collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters);
+    }
+  }
+  const double expected = 0.5 * n * 4.0 / std::sqrt(std::numbers::pi) * dt * steps;
+  const double per_group_step = static_cast<double>(counters.candidates) / (2.0 * steps);
+  std::printf("candidates per group and step %.3f; collisions %llu, expected %.1f +- %.1f\n", per_group_step,
+              static_cast<unsigned long long>(counters.collisions), expected, std::sqrt(expected));
+  EXPECT_LT(per_group_step, 1.0);
+  EXPECT_NEAR(static_cast<double>(counters.collisions), expected, 4 * std::sqrt(expected));
 }

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <iterator>
 
+#include <hdf5.h>
+
 #include "support.hpp"
 
 using grainbath::testing::run_dsmc;
@@ -230,5 +232,38 @@ TEST(DsmcRestart, ChangedCaseIsRefused) {
   std::string other = kHomogeneous;
   other.replace(other.find("beta = 0.15"), 11, "beta = 0.25");
   EXPECT_THROW(run_dsmc(other, 5, 0, "changed-resumed", ck, true), std::invalid_argument);
+  fs::remove_all(ck);
+}
+
+// A checkpoint written before `[dsmc] collision_group` existed has no such parameter: it was
+// one cell, so the key's absence stands for 0. Resumed with collision_group = 0 it continues
+// bitwise; with the default (4096) it is refused with a message that names the fix.
+TEST(DsmcRestart, CheckpointWithoutCollisionGroupKeyResumesAsOneCell) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-oldkey-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  std::string one_cell = kHomogeneous;
+  one_cell.replace(one_cell.find("[dsmc]\n"), 7, "[dsmc]\ncollision_group = 0\n");
+  const auto full = run_dsmc(one_cell, 5, 0, "oldkey-full", ck);
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_EQ(files.size(), 2u);
+  fs::remove(files.back());
+  {  // make it an old checkpoint: no dsmc.collision_group among its parameters
+    const hid_t f = H5Fopen(files.front().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    ASSERT_GE(H5Adelete_by_name(f, "/parameters", "dsmc.collision_group", H5P_DEFAULT), 0);
+    H5Fclose(f);
+  }
+  try {
+    run_dsmc(kHomogeneous, 5, 0, "oldkey-default", ck, true);
+    ADD_FAILURE() << "the default collision_group resumed a one-cell checkpoint";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dsmc.collision_group was 0, now 4096"), std::string::npos) << what;
+    EXPECT_NE(what.find("--set dsmc.collision_group=0 continues it exactly"), std::string::npos) << what;
+  }
+  const auto resumed = run_dsmc(one_cell, 5, 0, "oldkey-resumed", ck, true);
+  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
   fs::remove_all(ck);
 }

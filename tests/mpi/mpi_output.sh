@@ -152,8 +152,9 @@ else
   tail -5 "$work/corrupt-none.log"; fail=1
 fi
 
-# 4: the homogeneous case (every grain on rank 0, none on rank 1)
-hk=(--set checkpoint.every=1.0 --set checkpoint.keep=true)
+# 4: the homogeneous case (every grain on rank 0, none on rank 1), with 20000 grains so that
+# they collide in collision groups (4 of ~5000; docs/dsmc.md "Collision groups")
+hk=(--set checkpoint.every=1.0 --set checkpoint.keep=true --set dsmc.particles=20000)
 "$exe" run "$homogeneous" --out "$work/hplain" -q "${hk[@]}" > /dev/null
 mpi 2 run "$homogeneous" --out "$work/hnp2" -q "${hk[@]}" > /dev/null 2>&1
 hfirst=$(cd "$work/hplain.checkpoints" && ls checkpoint-*.h5 | head -1)
