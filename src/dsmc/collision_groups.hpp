@@ -109,8 +109,11 @@ class CollisionGroups {
 // any point a, so the two largest |v - a| bound every pair (as pair_speed_bound does for a
 // cell with a = the cell's mean). Here a is the mean of the group's first tile: a second
 // pass for the group's own mean would read the velocities twice, and the first tile's mean
-// lies within ~sigma/8 of it, which loosens the bound by ~1.5 % at 4096 grains. The next
+// lies within ~sigma/8 of it, which loosens the bound by 0.6 % on average at 4096 grains. The next
 // tile is prefetched (its 3 x 8 lines), since the tiles are scattered over the arrays.
+// (Ahead, Hint: the prefetch distance in tiles and its _MM_HINT level, 0 = none; measured by
+// BM_GroupBound in bench/bench_dsmc.cpp.)
+template <int Ahead = 1, int Hint = _MM_HINT_T0>
 inline double group_pair_speed_bound(const double* vx, const double* vy, const double* vz, const std::uint32_t* tiles,
                                      std::size_t tile_count, std::size_t grains) {
   auto tile_size = [&](std::size_t t) { return t + 1 < tile_count ? kGroupTile : grains - (tile_count - 1) * kGroupTile; };
@@ -134,12 +137,12 @@ inline double group_pair_speed_bound(const double* vx, const double* vy, const d
     first = std::max(first, c2);
   };
   for (std::size_t t = 0; t < tile_count; ++t) {
-    if (t + 1 < tile_count) {
-      const std::size_t next = static_cast<std::size_t>(tiles[t + 1]) * kGroupTile;
+    if (Ahead > 0 && t + Ahead < tile_count) {
+      const std::size_t next = static_cast<std::size_t>(tiles[t + Ahead]) * kGroupTile;
       for (std::size_t line = 0; line < kGroupTile; line += 8) {
-        _mm_prefetch(reinterpret_cast<const char*>(vx + next + line), _MM_HINT_T0);
-        _mm_prefetch(reinterpret_cast<const char*>(vy + next + line), _MM_HINT_T0);
-        _mm_prefetch(reinterpret_cast<const char*>(vz + next + line), _MM_HINT_T0);
+        _mm_prefetch(reinterpret_cast<const char*>(vx + next + line), static_cast<_mm_hint>(Hint));
+        _mm_prefetch(reinterpret_cast<const char*>(vy + next + line), static_cast<_mm_hint>(Hint));
+        _mm_prefetch(reinterpret_cast<const char*>(vz + next + line), static_cast<_mm_hint>(Hint));
       }
     }
     const std::size_t base = static_cast<std::size_t>(tiles[t]) * kGroupTile, n = tile_size(t);
