@@ -222,20 +222,20 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
     std::visit(
         [&](const auto& law) {
 #pragma omp parallel for schedule(static)
-        for (std::size_t blk = 0; blk < blocks; ++blk) {
-          GrainCounters cnt;
-          for (std::size_t k = (first + blk) * kCellBlock; k < std::min(cells, (first + blk + 1) * kCellBlock); ++k) {
-            const std::size_t b = s.cell_start[k], e = s.cell_start[k + 1];
-            if (e - b < 2) continue;
-            // homogeneous: the case density; spatial: the cell's simulated density
-            const double density = c.spatial() ? static_cast<double>(e - b) * weight / cell_volume : c.grains.density;
-            CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
-            collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], cnt);
+          for (std::size_t blk = 0; blk < blocks; ++blk) {
+            GrainCounters cnt;
+            for (std::size_t k = (first + blk) * kCellBlock; k < std::min(cells, (first + blk + 1) * kCellBlock); ++k) {
+              const std::size_t b = s.cell_start[k], e = s.cell_start[k + 1];
+              if (e - b < 2) continue;
+              // homogeneous: the case density; spatial: the cell's simulated density
+              const double density = c.spatial() ? static_cast<double>(e - b) * weight / cell_volume : c.grains.density;
+              CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
+              collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], cnt);
+            }
+            per_block[blk] = cnt;
           }
-          per_block[blk] = cnt;
-        }
-      },
-      c.restitution);
+        },
+        c.restitution);
   }
   dec.combine_in_order(per_block, true);
   dec.add_work(per_block);  // load-balance weights
