@@ -10,6 +10,7 @@
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
 #include "core/state_hash.hpp"
+#include "dsmc/collision_groups.hpp"
 #include "dsmc/decomposition.hpp"
 #include "dsmc/moments.hpp"
 #include "dsmc/rough.hpp"
@@ -405,6 +406,11 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   summary.set("counters.majorant_exceeded", static_cast<std::int64_t>(rc.grain.bound_exceeded));
   summary.set("counters.particles_final", static_cast<std::int64_t>(n));
   summary.set("counters.particles_removed", static_cast<std::int64_t>(rc.removed));
+  if (!c.spatial() && !c.rough) {  // homogeneous: the collision groups of every step (0: one cell)
+    const auto grains = static_cast<std::size_t>(c.particles), group = static_cast<std::size_t>(c.collision_group);
+    summary.set("counters.collision_groups",
+                static_cast<std::int64_t>(CollisionGroups::apply(grains, group) ? CollisionGroups::group_count(grains, group) : 0));
+  }
   summary.set("state.hash", grains.hash);
   const double per = 1.0 / static_cast<double>(c.particles);
   summary.set("energy.bath_input_per_grain", rc.bath_energy * per);

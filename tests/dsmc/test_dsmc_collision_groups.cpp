@@ -252,3 +252,25 @@ TEST(CollisionGroups, FractionalCandidatesAreRoundedWithoutBias) {
   EXPECT_LT(per_group_step, 1.0);
   EXPECT_NEAR(static_cast<double>(counters.collisions), expected, 4 * std::sqrt(expected));
 }
+
+// summary.json says how the grains collided: 20,000 grains make 313 tiles, 4 groups of 4096
+// (78 tiles each and one of 79); collision_group = 0 is one cell.
+TEST(CollisionGroups, SummaryCountsTheGroups) {
+  const std::string head = R"(
+[grains]
+temperature = 1.0
+[background]
+density = 0.0
+[restitution]
+law = "constant"
+e = 0.9
+[dsmc]
+particles = 20000
+dt = 0.01
+t_end = 0.05
+)";
+  const auto grouped = grainbath::testing::run_dsmc(head, 3, 1, "groups-summary");
+  EXPECT_EQ(grouped.summary.number("counters.collision_groups"), 4.0);
+  const auto one_cell = grainbath::testing::run_dsmc(head + "collision_group = 0\n", 3, 1, "groups-summary-0");
+  EXPECT_EQ(one_cell.summary.number("counters.collision_groups"), 0.0);
+}
