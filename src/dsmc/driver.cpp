@@ -191,7 +191,8 @@ struct GroupedCollisions {
 void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
                 Decomposition& dec, GroupedCollisions& grouped) {
   const std::size_t kCellBlock = dec.block_cells();  // this rank's blocks of cells
-  if (c.rough) return rough_grain_step(s, c, seed);  // homogeneous rough grains (src/dsmc/rough.hpp; one cell, rank 0)
+  if (c.rough)  // homogeneous rough grains (src/dsmc/rough.hpp; collision groups or one cell, rank 0)
+    return rough_grain_step(s, c, seed, grouped.groups, grouped.per_group);
   const std::size_t cells = s.cell_start.size() - 1;
   const std::size_t first = dec.first_block(), blocks = dec.end_block() - first;
   per_block.assign(blocks, GrainCounters{});

@@ -406,7 +406,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   summary.set("counters.majorant_exceeded", static_cast<std::int64_t>(rc.grain.bound_exceeded));
   summary.set("counters.particles_final", static_cast<std::int64_t>(n));
   summary.set("counters.particles_removed", static_cast<std::int64_t>(rc.removed));
-  if (!c.spatial() && !c.rough) {  // homogeneous: the collision groups of every step (0: one cell)
+  if (!c.spatial()) {  // homogeneous: the collision groups of every step (0: one cell)
     const auto grains = static_cast<std::size_t>(c.particles), group = static_cast<std::size_t>(c.collision_group);
     summary.set("counters.collision_groups",
                 static_cast<std::int64_t>(CollisionGroups::apply(grains, group) ? CollisionGroups::group_count(grains, group) : 0));

@@ -7,6 +7,7 @@
 #include "closures/closures.hpp"
 #include "closures/rough.hpp"
 #include "dsmc/collide.hpp"
+#include "dsmc/collision_groups.hpp"
 #include "operators/walton.hpp"
 
 namespace grainbath::dsmc {
@@ -42,25 +43,20 @@ double rotational_temperature(const State& s, const Config& c) {
   return 2.0 * rotational_energy(s, c) / (3.0 * static_cast<double>(s.wx.size()));
 }
 
-void rough_grain_step(State& s, const Config& c, std::uint64_t seed) {
+namespace {
+// The NTC candidate loop of rough grains: `candidates` ordered pairs of distinct slots of
+// [0, n32), accepted with |g| / g_max, Walton's rule at each accepted pair; `slot` maps a drawn
+// slot to its grain (the identity for the one cell, the tiles for a collision group).
+template <class Slot>
+void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, std::uint64_t candidates, double g_max,
+                      CounterRng& rng, GrainCounters& counters) {
   Particles& p = s.particles;
-  const std::size_t count = p.size();
-  const double density = c.grains.density;
-  if (count < 2 || density <= 0.0) return;
-  CounterRng rng(seed, Stream::grain_collisions, 0, static_cast<std::uint64_t>(s.step));
-  GrainCounters& counters = s.counters.grain;
-  double g_max = relative_speed_bound(p, 0, count);
-  if (g_max <= 0.0) return;
-  // NTC as in collide_cell (collide.hpp): candidates N n g_max dt / 2 + carried fraction
-  const double expected = 0.5 * static_cast<double>(count) * density * g_max * c.dt + s.remainder[0];
-  const auto candidates = static_cast<std::uint64_t>(expected);
-  s.remainder[0] = expected - static_cast<double>(candidates);
-  const auto n32 = static_cast<std::uint32_t>(count);
   const RoughParameters& r = *c.rough;
   for (std::uint64_t k = 0; k < candidates; ++k) {
-    const std::uint32_t i = rng.below(n32);
-    std::uint32_t j = rng.below(n32 - 1);
-    if (j >= i) ++j;
+    const std::uint32_t si = rng.below(n32);
+    std::uint32_t sj = rng.below(n32 - 1);
+    if (sj >= si) ++sj;
+    const std::size_t i = slot(si), j = slot(sj);
     Vec3 v = p.velocity(i), w = p.velocity(j);
     const double gmod = norm(v - w);
     ++counters.candidates;
@@ -72,14 +68,61 @@ void rough_grain_step(State& s, const Config& c, std::uint64_t seed) {
     }
     // n from i to j with g.n >= 0 (Walton's convention, docs/rough.md W1)
     const Vec3 n = apse_direction((1.0 / gmod) * (v - w), rng.unit_vector());
-    Vec3 si{s.wx[i], s.wy[i], s.wz[i]}, sj{s.wx[j], s.wy[j], s.wz[j]};
-    counters.energy_loss += walton_collision(v, w, si, sj, n, 1.0, r.q, r.law, c.grains.mass).energy_lost;
+    Vec3 si_spin{s.wx[i], s.wy[i], s.wz[i]}, sj_spin{s.wx[j], s.wy[j], s.wz[j]};
+    counters.energy_loss += walton_collision(v, w, si_spin, sj_spin, n, 1.0, r.q, r.law, c.grains.mass).energy_lost;
     p.set_velocity(i, v);
     p.set_velocity(j, w);
-    s.wx[i] = si.x, s.wy[i] = si.y, s.wz[i] = si.z;
-    s.wx[j] = sj.x, s.wy[j] = sj.y, s.wz[j] = sj.z;
+    s.wx[i] = si_spin.x, s.wy[i] = si_spin.y, s.wz[i] = si_spin.z;
+    s.wx[j] = sj_spin.x, s.wy[j] = sj_spin.y, s.wz[j] = sj_spin.z;
     ++counters.collisions;
   }
+}
+}  // namespace
+
+void rough_grain_step(State& s, const Config& c, std::uint64_t seed, CollisionGroups& groups,
+                      std::vector<GrainCounters>& per_group) {
+  Particles& p = s.particles;
+  const std::size_t count = p.size();
+  const double density = c.grains.density;
+  if (count < 2 || density <= 0.0) return;
+  const auto step = static_cast<std::uint64_t>(s.step);
+  if (CollisionGroups::apply(count, static_cast<std::size_t>(c.collision_group))) {
+    // collision groups (src/dsmc/collision_groups.hpp), as for smooth grains: each group's
+    // own generator (seed, Stream::grain_collisions; group, step) and counters, summed in group
+    // order; candidates rounded up with the probability of their fraction
+    groups.deal(count, static_cast<std::size_t>(c.collision_group), seed, step);
+    const std::size_t n_groups = groups.count();
+    per_group.assign(n_groups, GrainCounters{});
+#pragma omp parallel for schedule(static)
+    for (std::size_t g = 0; g < n_groups; ++g) {
+      const std::uint32_t* tiles = groups.tiles(g);
+      const std::size_t grains = groups.grains(g);
+      const double g_max =
+          group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), tiles, groups.tile_count(g), grains);
+      if (g_max <= 0.0) continue;
+      CounterRng rng(seed, Stream::grain_collisions, g, step);
+      const double expected = 0.5 * static_cast<double>(grains) * density * g_max * c.dt + rng.uniform();
+      auto slot = [tiles](std::uint32_t sl) {
+        return static_cast<std::size_t>(tiles[sl / kGroupTile]) * kGroupTile + sl % kGroupTile;
+      };
+      GrainCounters cnt;
+      rough_candidates(s, c, slot, static_cast<std::uint32_t>(grains), static_cast<std::uint64_t>(expected), g_max,
+                       rng, cnt);
+      per_group[g] = cnt;
+    }
+    for (const auto& g : per_group) s.counters.grain.add(g);
+    return;
+  }
+  // one cell (collision_group = 0 or too few grains): the scheme before collision groups, draw for draw
+  CounterRng rng(seed, Stream::grain_collisions, 0, step);
+  double g_max = relative_speed_bound(p, 0, count);
+  if (g_max <= 0.0) return;
+  // NTC as in collide_cell (collide.hpp): candidates N n g_max dt / 2 + carried fraction
+  const double expected = 0.5 * static_cast<double>(count) * density * g_max * c.dt + s.remainder[0];
+  const auto candidates = static_cast<std::uint64_t>(expected);
+  s.remainder[0] = expected - static_cast<double>(candidates);
+  rough_candidates(s, c, [](std::uint32_t sl) { return static_cast<std::size_t>(sl); }, static_cast<std::uint32_t>(count),
+                   candidates, g_max, rng, s.counters.grain);
 }
 
 closures::rough::Parameters rough_parameters(const Config& c) {

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "closures/rough.hpp"
+#include "dsmc/collision_groups.hpp"
 #include "dsmc/dsmc.hpp"
 #include "dsmc/state.hpp"
 
@@ -22,12 +23,14 @@ namespace grainbath::dsmc {
 // initial Trot; adds their energy to s.initial_kinetic_energy (the budget counts rotation).
 void initialise_spins(State& s, const Config& c, std::uint64_t seed);
 
-// Grain-grain collisions of the single homogeneous cell over c.dt: Bird's no-time-counter
-// candidates at rate (N n g_max dt / 2), accepted with |g|/g_max, apse direction n with
-// density ~ (g.n)_+ (so the pair rate is ~ (g.n)_+, which the spin does not change: Walton's
-// g_n involves v only), then walton_collision on (v, s). Same random stream and counters as
-// the smooth kernel (collide.hpp).
-void rough_grain_step(State& s, const Config& c, std::uint64_t seed);
+// Grain-grain collisions of a homogeneous run over c.dt: Bird's no-time-counter candidates
+// at rate (N n g_max dt / 2), accepted with |g|/g_max, apse direction n with density
+// ~ (g.n)_+ (so the pair rate is ~ (g.n)_+, which the spin does not change: Walton's g_n
+// involves v only), then walton_collision on (v, s). In the collision groups of the step
+// (`[dsmc] collision_group`, src/dsmc/collision_groups.hpp; `groups` and `per_group` are the
+// caller's scratch), in parallel, or with collision_group = 0 in one cell as before.
+void rough_grain_step(State& s, const Config& c, std::uint64_t seed, CollisionGroups& groups,
+                      std::vector<GrainCounters>& per_group);
 
 double rotational_energy(const State& s, const Config& c);
 double rotational_temperature(const State& s, const Config& c);
