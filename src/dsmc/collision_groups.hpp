@@ -41,6 +41,22 @@ inline constexpr std::size_t kGroupTile = 64;  // grains per tile
 // default 4096); with one tile per group the groups would be the same 64 grains forever.
 inline constexpr std::size_t kMinCollisionGroup = 16 * kGroupTile;
 
+// The grain of slot s of a group made of `tiles` (every tile full but the last): the map
+// collide_candidates draws its pairs through.
+struct TileSlots {
+  const std::uint32_t* tiles;
+  std::size_t operator()(std::uint32_t s) const {
+    return static_cast<std::size_t>(tiles[s / kGroupTile]) * kGroupTile + s % kGroupTile;
+  }
+};
+
+// NTC candidates of a group over dt, N_g n g_max dt / 2, rounded up with the probability of
+// their fraction (u uniform on (0, 1)): no remainder can be carried by groups that change
+// every step, and the expectation is exact.
+inline std::uint64_t group_candidates(std::size_t grains, double density, double g_max, double dt, double u) {
+  return static_cast<std::uint64_t>(0.5 * static_cast<double>(grains) * density * g_max * dt + u);
+}
+
 // The step's partition of N grains into groups of whole tiles.
 class CollisionGroups {
  public:
@@ -92,6 +108,7 @@ class CollisionGroups {
   std::size_t count() const { return first_.size() - 1; }
   // the tiles of group g and its grain count
   const std::uint32_t* tiles(std::size_t g) const { return order_.data() + first_[g]; }
+  TileSlots slots(std::size_t g) const { return TileSlots{tiles(g)}; }
   std::size_t tile_count(std::size_t g) const { return first_[g + 1] - first_[g]; }
   std::size_t grains(std::size_t g) const {
     const std::size_t last = order_[first_[g + 1] - 1];
@@ -182,13 +199,9 @@ inline void collide_group(Particles& p, const std::uint32_t* tiles, std::size_t 
   const double g_max = group_pair_speed_bound(vx, vy, vz, tiles, tile_count, grains);
   if (g_max <= 0.0) return;
   CellCollisionRng::Cursor draws(rng);
-  const double expected = 0.5 * static_cast<double>(grains) * density * g_max * dt + draws.uniform();
-  const auto candidates = static_cast<std::uint64_t>(expected);
-  auto slot = [tiles](std::uint32_t s) {
-    return static_cast<std::size_t>(tiles[s / kGroupTile]) * kGroupTile + s % kGroupTile;
-  };
-  collide_candidates(vx, vy, vz, slot, static_cast<std::uint32_t>(grains), candidates, g_max, mass, law, draws,
-                     counters);
+  const std::uint64_t candidates = group_candidates(grains, density, g_max, dt, draws.uniform());
+  collide_candidates(vx, vy, vz, TileSlots{tiles}, static_cast<std::uint32_t>(grains), candidates, g_max, mass, law,
+                     draws, counters);
 }
 
 }  // namespace grainbath::dsmc

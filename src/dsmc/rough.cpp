@@ -101,13 +101,9 @@ void rough_grain_step(State& s, const Config& c, std::uint64_t seed, CollisionGr
           group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), tiles, groups.tile_count(g), grains);
       if (g_max <= 0.0) continue;
       CounterRng rng(seed, Stream::grain_collisions, g, step);
-      const double expected = 0.5 * static_cast<double>(grains) * density * g_max * c.dt + rng.uniform();
-      auto slot = [tiles](std::uint32_t sl) {
-        return static_cast<std::size_t>(tiles[sl / kGroupTile]) * kGroupTile + sl % kGroupTile;
-      };
+      const std::uint64_t candidates = group_candidates(grains, density, g_max, c.dt, rng.uniform());
       GrainCounters cnt;
-      rough_candidates(s, c, slot, static_cast<std::uint32_t>(grains), static_cast<std::uint64_t>(expected), g_max,
-                       rng, cnt);
+      rough_candidates(s, c, TileSlots{tiles}, static_cast<std::uint32_t>(grains), candidates, g_max, rng, cnt);
       per_group[g] = cnt;
     }
     for (const auto& g : per_group) s.counters.grain.add(g);

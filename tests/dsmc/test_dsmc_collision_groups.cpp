@@ -19,7 +19,7 @@ using namespace grainbath::dsmc;
 namespace {
 
 std::size_t slot_index(const CollisionGroups& deal, std::size_t g, std::size_t s) {
-  return static_cast<std::size_t>(deal.tiles(g)[s / kGroupTile]) * kGroupTile + s % kGroupTile;
+  return deal.slots(g)(static_cast<std::uint32_t>(s));
 }
 
 // N grains, grain i Maxwellian at temperature temperature(i) (mass 1) about `drift`
