@@ -154,7 +154,10 @@ int command_run(const RunArgs& a) {
   }
   std::unique_ptr<OutputDirectory> dir;
   try {
-    if (writer) dir = std::make_unique<OutputDirectory>(out);
+    // the case directory must survive the move-aside of a previous output
+    const fs::path case_path(a.case_dir);
+    const fs::path keep = fs::is_regular_file(case_path) ? case_path.parent_path() : case_path;
+    if (writer) dir = std::make_unique<OutputDirectory>(out, std::vector<fs::path>{keep});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     if (split) mpi::abort(2);
@@ -258,10 +261,19 @@ int command_list_models() {
     e.kind = "EDMD " + e.kind;
     models.push_back(e);
   }
+  // one heading per kind: the models of a kind together, kinds in order of first appearance
+  std::vector<std::string> kinds;
+  for (const auto& m : models)
+    if (std::find(kinds.begin(), kinds.end(), m.kind) == kinds.end()) kinds.push_back(m.kind);
+  std::stable_sort(models.begin(), models.end(), [&](const ModelDescription& x, const ModelDescription& y) {
+    return std::find(kinds.begin(), kinds.end(), x.kind) < std::find(kinds.begin(), kinds.end(), y.kind);
+  });
   for (const auto& m : models) {
     if (m.kind != kind) {
       kind = m.kind;
-      const std::string plural = kind.back() == 'y' ? kind.substr(0, kind.size() - 1) + "ies" : kind + "s";
+      const std::string plural = kind.back() == 's'   ? kind
+                                 : kind.back() == 'y' ? kind.substr(0, kind.size() - 1) + "ies"
+                                                      : kind + "s";
       std::printf("\n%c%s:\n", std::toupper(static_cast<unsigned char>(plural[0])), plural.substr(1).c_str());
     }
     std::printf("  %-14s %s\n", m.name.c_str(), m.summary.c_str());

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -149,6 +150,17 @@ int command_sweep(const SweepArgs& a) {
     }
     axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));
   }
+  // A key given one value is a setting of every run, not an axis: it is passed to each run
+  // but names no directory and no table column, and it does not stop a sweep over run.seed
+  // alone from being an ensemble.
+  std::vector<std::string> fixed;
+  for (auto it = axes.begin(); it != axes.end();)
+    if (it->second.size() == 1) {
+      fixed.push_back(it->first + "=" + it->second[0]);
+      it = axes.erase(it);
+    } else {
+      ++it;
+    }
   std::vector<std::vector<std::string>> variants{{}};
   for (const auto& [key, values] : axes) {
     std::vector<std::vector<std::string>> next;
@@ -160,20 +172,53 @@ int command_sweep(const SweepArgs& a) {
       }
     variants.swap(next);
   }
+  // every run's overrides: the fixed settings, then its values of the axes
+  auto overrides_of = [&](std::size_t k) {
+    std::vector<std::string> o = fixed;
+    o.insert(o.end(), variants[k].begin(), variants[k].end());
+    return o;
+  };
   // validate every variant before running any
   int bad = 0;
-  for (const auto& v : variants) {
+  for (std::size_t k = 0; k < variants.size(); ++k) {
     RunArgs ra;
     ra.case_dir = a.case_dir;
-    ra.overrides = v;
+    ra.overrides = overrides_of(k);
     if (command_check_quiet(ra) != 0) ++bad;
   }
   if (bad) {
     std::fprintf(stderr, "%d of %zu variants are invalid; nothing was run.\n", bad, variants.size());
     return 2;
   }
-  const fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "sweep" : fs::path(a.out_dir);
+  fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "sweep" : fs::path(a.out_dir);
+  if (!out.has_filename() && out.has_parent_path()) out = out.parent_path();  // "out/": out.previous beside it
+  namespace mpi = dsmc::mpi_env;
+  // A sweep writes into `out` as its runs finish, so an earlier sweep there is moved aside
+  // to out.previous first (the runs of two sweeps must not mix in one table); as for a run,
+  // only a directory grainbath wrote is moved aside (check_output_path).
+  try {
+    const fs::path case_path(a.case_dir);
+    check_output_path(out, {fs::is_regular_file(case_path) ? case_path.parent_path() : case_path});
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
   std::error_code ec;
+  if (mpi::world_rank() == 0 && fs::exists(out, ec) && !fs::is_empty(out, ec)) {
+    fs::path previous = out;
+    previous += ".previous";
+    fs::remove_all(previous, ec);
+    if (!ec) fs::rename(out, previous, ec);
+    if (ec) {
+      std::fprintf(stderr, "error: %s: cannot move the previous sweep aside to %s (%s)\n", out.string().c_str(),
+                   previous.string().c_str(), ec.message().c_str());
+      if (mpi::active()) mpi::abort(2);
+      return 2;
+    }
+    std::fprintf(stderr, "sweep: the previous sweep in %s was moved to %s\n", out.string().c_str(),
+                 previous.string().c_str());
+  }
+  if (mpi::active()) mpi::barrier();  // the other ranks write into `out` only after the move
   fs::create_directories(out, ec);
   if (ec) {
     std::fprintf(stderr, "error: %s: cannot create the sweep directory\n", out.string().c_str());
@@ -187,7 +232,6 @@ int command_sweep(const SweepArgs& a) {
     for (const auto& kv : variants[k]) name += "_" + sanitize(kv.substr(kv.find('.') + 1));
     dirs.push_back(out / name);
   }
-  namespace mpi = dsmc::mpi_env;
   if (mpi::world_rank() == 0)
     std::fprintf(stderr, "sweep: %zu variants, %d at a time, into %s\n", variants.size(),
                  mpi::active() ? mpi::world_size() : jobs, out.string().c_str());
@@ -201,7 +245,7 @@ int command_sweep(const SweepArgs& a) {
     for (std::size_t k = rank; k < variants.size(); k += size) {
       RunArgs ra;
       ra.case_dir = a.case_dir;
-      ra.overrides = variants[k];
+      ra.overrides = overrides_of(k);
       if (size > 1) ra.overrides.push_back("run.threads=1");  // the ranks share the cores
       ra.out_dir = dirs[k].string();
       ra.quiet = true;
@@ -233,7 +277,7 @@ int command_sweep(const SweepArgs& a) {
   while (done < variants.size()) {
     while (running < jobs && next < variants.size()) {
       std::vector<std::string> args = {self, "run", a.case_dir, "--out", dirs[next].string(), "-q"};
-      for (const auto& kv : variants[next]) {
+      for (const auto& kv : overrides_of(next)) {
         args.push_back("--set");
         args.push_back(kv);
       }
@@ -352,7 +396,10 @@ int command_sweep(const SweepArgs& a) {
       m /= v.size();
       double var = 0;
       for (double x : v) var += (x - m) * (x - m);
-      const double se = std::sqrt(var / (v.size() - 1) / v.size());
+      double se = std::sqrt(var / (v.size() - 1) / v.size());
+      // the same number in every replica (theory, settings): that number, with no error
+      // (the sums above would leave rounding noise of ~1e-17 in both)
+      if (std::all_of(v.begin(), v.end(), [&](double x) { return x == v[0]; })) m = v[0], se = 0.0;
       merged.set(c + ".ensemble_mean", m);
       merged.set(c + ".ensemble_stderr", se);
       merged.set(c + ".replicas", static_cast<std::int64_t>(v.size()));

@@ -9,13 +9,106 @@
 #include <cstdlib>
 #include <ctime>
 #include <fstream>
+#include <iterator>
 #include <stdexcept>
 
 namespace grainbath {
 
 namespace fs = std::filesystem;
 
-OutputDirectory::OutputDirectory(fs::path final_path) : final_(std::move(final_path)) {
+namespace {
+
+// a is b or lies below it (both absolute and normalised: weakly_canonical)
+bool is_within(const fs::path& a, const fs::path& b) {
+  auto ia = a.begin(), ib = b.begin();
+  for (; ib != b.end(); ++ia, ++ib) {
+    if (ib->empty() && std::next(ib) == b.end()) break;  // b's trailing separator
+    if (ia == a.end() || *ia != *ib) return false;
+  }
+  return true;
+}
+
+// p absolute, its directories resolved (symbolic links, . and ..), its last component kept
+// as given, so that a link named as the output is seen as a link (check_replaceable)
+fs::path normalised(const fs::path& p) {
+  fs::path q = fs::absolute(p).lexically_normal();
+  if (!q.has_filename() && q.has_parent_path() && q != q.root_path()) q = q.parent_path();
+  if (!q.has_parent_path() || q == q.root_path()) return q;
+  std::error_code ec;
+  const fs::path parent = fs::weakly_canonical(q.parent_path(), ec);
+  return ec ? q : parent / q.filename();
+}
+
+// p with every symbolic link resolved (for containment)
+fs::path resolved(const fs::path& p) {
+  std::error_code ec;
+  const fs::path q = fs::weakly_canonical(fs::absolute(p), ec);
+  return ec ? normalised(p) : normalised(q);
+}
+
+bool empty_directory(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_directory(p, ec) && fs::is_empty(p, ec) && !ec;
+}
+
+// `what` (OUT or OUT.previous) would be moved aside or deleted: only grainbath's own output
+void check_replaceable(const fs::path& p, const std::string& shown, const std::string& fate) {
+  std::error_code ec;
+  const auto st = fs::symlink_status(p, ec);
+  if (ec || !fs::exists(st)) return;
+  // moving a link aside would write the results beside it, not where it points
+  if (fs::is_symlink(st))
+    throw std::runtime_error(shown + ": is a symbolic link; grainbath " + fate +
+                             " at the end of a run, which would move the link, not write where it points: give the "
+                             "directory it points to (" + fs::read_symlink(p, ec).string() + "), or another path");
+  if (!fs::is_directory(st))
+    throw std::runtime_error(shown + ": exists and is not a directory (grainbath writes a directory there and " + fate +
+                             "): choose another --out, or move the file away");
+  if (!empty_directory(p) && !holds_grainbath_output(p))
+    throw std::runtime_error(shown + ": exists and does not hold grainbath output (no summary.json, results.h5, "
+                             "sweep.md or variant-* in it); grainbath " + fate +
+                             ", so it only takes a directory it wrote: choose another --out, or empty or remove " +
+                             shown + " yourself");
+}
+
+}  // namespace
+
+bool holds_grainbath_output(const fs::path& dir) {
+  std::error_code ec;
+  for (const char* f : {"summary.json", "results.h5", "sweep.md", "sweep.tsv"})
+    if (fs::exists(dir / f, ec)) return true;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+    if (it->path().filename().string().rfind("variant-", 0) == 0) return true;
+  return false;
+}
+
+void check_output_path(const fs::path& out, const std::vector<fs::path>& keep) {
+  const std::string shown = out.string();
+  const fs::path full = normalised(out), target = resolved(out);
+  std::error_code ec;
+  const fs::path cwd = resolved(fs::current_path(ec));
+  if (!ec && is_within(cwd, target))
+    throw std::runtime_error(shown + ": is the current directory or contains it; the output directory is replaced as a "
+                             "whole at the end of a run: choose an --out that does not contain the directory you "
+                             "run from");
+  for (const auto& k : keep)
+    if (!k.empty() && is_within(resolved(k), target))
+      throw std::runtime_error(shown + ": would hold " + k.string() +
+                               " (the case directory); the output directory is replaced as a whole at the end of a "
+                               "run: choose an --out outside the case, e.g. " + (fs::path(k) / "output").string());
+  check_replaceable(full, shown, "moves the previous output aside to " + shown + ".previous");
+  // out.previous is deleted only when there is an output to move there
+  if (!fs::exists(fs::symlink_status(full, ec))) return;
+  fs::path previous = full;
+  previous += ".previous";
+  check_replaceable(previous, shown + ".previous", "deletes the output kept there when a newer one is moved aside");
+}
+
+OutputDirectory::OutputDirectory(fs::path final_path, const std::vector<fs::path>& keep)
+    : final_(std::move(final_path)) {
+  // "out/" names the directory out: the temporary and previous siblings go beside it
+  if (!final_.has_filename() && final_.has_parent_path()) final_ = final_.parent_path();
+  check_output_path(final_, keep);
   std::error_code ec;
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   if (!fs::exists(parent, ec)) fs::create_directories(parent, ec);
@@ -29,7 +122,7 @@ OutputDirectory::OutputDirectory(fs::path final_path) : final_(std::move(final_p
 }
 
 OutputDirectory::~OutputDirectory() {
-  if (!committed_) {
+  if (!committed_ && !keep_tmp_) {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
   }
@@ -40,12 +133,28 @@ void OutputDirectory::commit() {
   if (fs::exists(final_, ec)) {
     fs::path previous = final_;
     previous += ".previous";
+    // the same checks as at start-up: something may have been put there during the run
+    try {
+      check_replaceable(previous, previous.string(), "deletes the output kept there when a newer one is moved aside");
+      check_replaceable(final_, final_.string(), "moves the previous output aside");
+    } catch (const std::exception& e) {
+      keep_tmp_ = true;
+      throw std::runtime_error(std::string(e.what()) + "; the results of this run are kept in " + tmp_.string());
+    }
     fs::remove_all(previous, ec);
     fs::rename(final_, previous, ec);
-    if (ec) throw std::runtime_error(final_.string() + ": cannot move the previous output aside: " + ec.message());
+    if (ec) {
+      keep_tmp_ = true;
+      throw std::runtime_error(final_.string() + ": cannot move the previous output aside (" + ec.message() +
+                               "); the results of this run are kept in " + tmp_.string());
+    }
   }
   fs::rename(tmp_, final_, ec);
-  if (ec) throw std::runtime_error(final_.string() + ": cannot move the new output into place: " + ec.message());
+  if (ec) {
+    keep_tmp_ = true;
+    throw std::runtime_error(final_.string() + ": cannot move the new output into place (" + ec.message() +
+                             "); the results of this run are kept in " + tmp_.string());
+  }
   committed_ = true;
 }
 

@@ -11,10 +11,17 @@ namespace grainbath {
 
 // Results are written into a temporary sibling directory and moved into place only when
 // the run succeeded, so an existing output directory is never clobbered half-way. The
-// previous output, if any, is kept as OUT.previous.
+// previous output, if any, is kept as OUT.previous (and the one before it deleted).
+// Because of that deletion only grainbath's own output is ever moved aside: the
+// constructor (at start-up, before any work) refuses an OUT that is a file, a non-empty
+// directory grainbath did not write (holds_grainbath_output), the current directory or
+// one of its ancestors, or a directory holding one of `keep` (the case directory), and an
+// OUT.previous that is not grainbath output either. If the final move fails, the
+// temporary directory with the finished results is kept and named in the error.
 class OutputDirectory {
  public:
-  explicit OutputDirectory(std::filesystem::path final_path);  // throws std::runtime_error
+  // throws std::runtime_error
+  explicit OutputDirectory(std::filesystem::path final_path, const std::vector<std::filesystem::path>& keep = {});
   ~OutputDirectory();
   OutputDirectory(const OutputDirectory&) = delete;
   OutputDirectory& operator=(const OutputDirectory&) = delete;
@@ -24,8 +31,18 @@ class OutputDirectory {
 
  private:
   std::filesystem::path final_, tmp_;
-  bool committed_ = false;
+  bool committed_ = false, keep_tmp_ = false;
 };
+
+// Whether `dir` holds what grainbath writes: a run's summary.json or results.h5, a sweep's
+// sweep.md, sweep.tsv or variant-* runs. Only such a directory (or an empty one) is moved
+// aside or deleted by a run or a sweep.
+bool holds_grainbath_output(const std::filesystem::path& dir);
+
+// The checks of OutputDirectory's constructor for `out` (and out.previous), for callers that
+// write into `out` directly (a sweep): throws std::runtime_error naming the path, what was
+// found and what to do.
+void check_output_path(const std::filesystem::path& out, const std::vector<std::filesystem::path>& keep = {});
 
 // Writes text to `path` via a temporary file and rename (atomic on POSIX).
 void write_file_atomic(const std::filesystem::path& path, const std::string& text);
