@@ -417,6 +417,12 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
   const auto loop_start = std::chrono::steady_clock::now();
   const double setup_seconds = wall_seconds_since(wall_start);
+  // dt and the cells are checked against the collisions of this run's first sample interval
+  // (Resolution, src/dsmc/output.hpp), so that a long run warns early; the whole run's
+  // figures go to summary.json
+  const std::int64_t first_step = s.step;
+  const std::uint64_t first_grain_collisions = s.counters.grain.collisions;
+  bool resolution_checked = false;
   // Anything added to this loop that moves grains or reorders the arrays between two steps
   // must also set local_bath.step = -1 (LocalBathCache). Anything that changes x or v between
   // two fused steps must also set s.sort.next_cell_step = -1: without a medium the fused step reuses the cells it computed
@@ -474,6 +480,13 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
         if (!ctx.checkpoint_dir.empty()) checkpoint();
         throw std::runtime_error(std::string(e.what()) + "; the state was checkpointed to " +
                                  ctx.checkpoint_dir.string());
+      }
+      if (!resolution_checked && s.step > first_step) {
+        resolution_checked = true;
+        const Resolution res = resolution(c, s.counters.grain.collisions - first_grain_collisions, s.step - first_step,
+                                          static_cast<double>(c.particles), s.series.T.back());
+        if (dec.root())
+          for (const auto& w : res.warnings) std::fprintf(stderr, "%swarning: %s\n", ctx.quiet ? "" : "\n", w.c_str());
       }
       // conservation monitors: particle count, momentum per grain, kinetic energy per grain,
       // and the cumulative bath input and inelastic loss per grain

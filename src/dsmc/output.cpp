@@ -433,6 +433,21 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   }
   summary.set("performance.threads", static_cast<std::int64_t>(omp_get_max_threads()));
 
+  // dt and the cells against the collisions and the mean free path the run itself measured
+  double mean_T = 0.0;
+  for (double T : s.series.T) mean_T += T;
+  if (!s.series.T.empty()) mean_T /= static_cast<double>(s.series.T.size());
+  const Resolution res = resolution(c, rc.grain.collisions, c.steps, static_cast<double>(c.particles), mean_T);
+  summary.set("resolution.grain_collisions_per_grain_step", res.collisions_per_grain_step);
+  if (res.mean_free_path > 0.0) summary.set("resolution.mean_free_path", res.mean_free_path);
+  if (c.spatial()) {
+    summary.set("resolution.cell_size", res.cell_size);
+    summary.set("resolution.travel_per_step_in_cells", res.travel_per_step);
+  }
+  // (printed by the driver at the first sample, src/dsmc/driver.cpp)
+  for (std::size_t k = 0; k < res.warnings.size(); ++k)
+    summary.set("resolution.warning_" + std::to_string(k + 1), res.warnings[k]);
+
   f.close();  // a failed write (disk full) surfaces here, before the output is committed
 
   if (rc.grain.collisions > 0 && rc.grain.clamped > 1e-4 * rc.grain.collisions)
@@ -444,6 +459,50 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   if (std::abs(budget_residual / budget_scale) > 1e-8)
     std::fprintf(stderr, "warning: the energy budget does not close: relative residual %.3g\n",
                  budget_residual / budget_scale);
+}
+
+Resolution resolution(const Config& c, std::uint64_t grain_collisions, std::int64_t steps, double grains,
+                      double temperature) {
+  Resolution r;
+  if (steps <= 0 || grains <= 0.0) return r;
+  // a collision involves two grains
+  r.collisions_per_grain_step = 2.0 * static_cast<double>(grain_collisions) / (grains * static_cast<double>(steps));
+  r.mean_speed = temperature > 0.0 ? std::sqrt(8.0 * temperature / (std::numbers::pi * c.grains.mass)) : 0.0;
+  const double rate = r.collisions_per_grain_step / c.dt;  // per grain and unit time
+  if (rate > 0.0) r.mean_free_path = r.mean_speed / rate;
+  char b[400];
+  // NTC's candidates follow each other within a step; at more than about one collision per
+  // grain per step the splitting with streaming and the medium (Strang) is no longer resolved
+  constexpr double kMaxCollisions = 0.5;
+  if (r.collisions_per_grain_step > kMaxCollisions) {
+    std::snprintf(b, sizeof b,
+                  "dsmc.dt = %.4g: each grain took part in %.3g grain-grain collisions per step (more than %.1g); the "
+                  "time step does not resolve them and results depend on dt: use dt <= %.3g (0.2 collisions per step)",
+                  c.dt, r.collisions_per_grain_step, kMaxCollisions, c.dt * 0.2 / r.collisions_per_grain_step);
+    r.warnings.push_back(b);
+  }
+  if (c.spatial()) {
+    for (int a = 0; a < c.domain.dimensions; ++a) r.cell_size = std::max(r.cell_size, c.domain.cell_size(a));
+    r.travel_per_step = r.mean_speed * c.dt / r.cell_size;
+    // collision partners are drawn in a cell: it must be smaller than the distance between
+    // collisions, and a grain should not cross it in one step
+    if (r.mean_free_path > 0.0 && r.cell_size > r.mean_free_path) {
+      std::snprintf(b, sizeof b,
+                    "domain.cells: the largest cell side, %.4g, exceeds the grains' mean free path, %.4g (mean speed "
+                    "%.4g over the measured collision rate); collision partners are drawn from too far apart: use "
+                    "cells smaller than the mean free path",
+                    r.cell_size, r.mean_free_path, r.mean_speed);
+      r.warnings.push_back(b);
+    }
+    if (r.travel_per_step > 1.0) {
+      std::snprintf(b, sizeof b,
+                    "dsmc.dt = %.4g: a grain at the mean speed %.4g crosses %.3g cells per step; use dt <= %.3g (half a "
+                    "cell per step)",
+                    c.dt, r.mean_speed, r.travel_per_step, 0.5 * r.cell_size / r.mean_speed);
+      r.warnings.push_back(b);
+    }
+  }
+  return r;
 }
 
 }  // namespace grainbath::dsmc

@@ -1,4 +1,7 @@
 #pragma once
+#include <string>
+#include <vector>
+
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
 #include "dsmc/dsmc.hpp"
@@ -32,6 +35,22 @@ struct RunTimes {
   double setup = 0.0;  // initialisation or checkpoint read, distribution, first sort, first sample
   double loop = 0.0;   // the steps
 };
+
+// Whether dt and the cells resolve what they must (docs/dsmc.md "Time step"; Bird 1994,
+// Sec. 11.1): the bath substeps are exact in distribution, so dt need only resolve the
+// grain-grain collisions and the streaming, and a cell should be smaller than the grains'
+// mean free path. Measured from the run itself: `grain_collisions` over `steps` steps of
+// `grains` grains at mean temperature `temperature`.
+struct Resolution {
+  double collisions_per_grain_step = 0.0;  // grain-grain collisions each grain takes part in per step
+  double mean_speed = 0.0;                 // sqrt(8 T / (pi m)): the mean speed of a Maxwellian
+  double mean_free_path = 0.0;             // mean_speed / collision rate per grain (0: no collision)
+  double cell_size = 0.0;                  // the largest cell side (0: homogeneous)
+  double travel_per_step = 0.0;            // mean_speed dt, in cell sides (0: homogeneous)
+  std::vector<std::string> warnings;       // one sentence each, with the figures and a remedy
+};
+Resolution resolution(const Config& c, std::uint64_t grain_collisions, std::int64_t steps, double grains,
+                      double temperature);
 
 // Statistics over the steady window, histograms, per-cell fields (+ XDMF), density-mode
 // and profile fits, theory; writes OUT/results.h5 and fills the summary (docs/OUTPUT.md).
