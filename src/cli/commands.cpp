@@ -77,10 +77,25 @@ void print_table(const Summary& s) {
       std::printf("  %-34s %14.8g +- %.3g\n", label, m, e);
   };
   std::printf("\n  %-34s %14s\n", "quantity", "value");
-  row("temperature (steady window)", "temperature.mean", "temperature.stderr");
+  // each case's headline result beside its theory (means over the averaging window, which
+  // in free cooling is a mean over a decaying state, hence "window", not "steady")
+  row("temperature (window mean)", "temperature.mean", "temperature.stderr");
   row("temperature (final)", "temperature.final", "");
-  row("a2 (steady window)", "a2.mean", "a2.stderr");
+  row("a2 (window mean)", "a2.mean", "a2.stderr");
+  // the hydrodynamic predictions beside the measurement they predict
+  if (!std::isnan(s.number("mode.decay_rate"))) {
+    row("density-mode decay rate", "mode.decay_rate", "mode.decay_rate_stderr");
+    row("theory: D k^2 (hydro, paper)", "theory.hydro.decay_rate", "");
+    row("theory: D k^2 (hydro, kinetic)", "theory.hydro.decay_rate_kinetic", "");
+  }
+  if (!std::isnan(s.number("profile.exponent"))) {
+    row("density profile exponent", "profile.exponent", "profile.exponent_stderr");
+    row("theory: exponent (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic", "");
+  }
   row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
+  row("theory: Z (equation of state)", "theory.Z", "");
+  row("theory: medium steady T", "theory.medium_steady_temperature", "");
+  row("theory: wall-balance T", "theory.wall_balance_temperature", "");
   row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "");
   row("theory: T# Grad", "theory.equilibrium.grad.T", "");
   row("theory: T# Sonine", "theory.equilibrium.sonine.T", "");
