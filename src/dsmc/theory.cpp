@@ -77,6 +77,19 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     try {
       const auto hv = hydro::hydro_theory_values(h);
       out.insert(out.end(), hv.begin(), hv.end());
+      // say so when the kinetic coefficients' Sonine series stopped unconverged (alpha near
+      // 1: hydro/theory.cpp), instead of leaving it to a 0 in summary.json
+      auto value = [&](const char* key) {
+        for (const auto& [k, v] : hv)
+          if (k == key) return v;
+        return std::nan("");
+      };
+      if (value("hydro.kinetic_sonine_converged") == 0.0)
+        std::fprintf(stderr,
+                     "note: the Sonine series of the kinetic diffusion coefficients did not converge (order %.0f, last "
+                     "relative change %.2g; mass ratio alpha = %.3g): theory.hydro.*_kinetic are uncertain, the "
+                     "closures' and the paper's values are not affected\n",
+                     value("hydro.kinetic_sonine_order"), value("hydro.kinetic_sonine_change"), h.alpha);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "note: no hydrodynamic theory for these parameters: %s\n", e.what());
     }
