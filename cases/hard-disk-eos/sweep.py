@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """Runs this case over a range of packing fractions and tabulates Z against the references.
 
-    GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick] [--reuse]
+    GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick] [--reuse] [--out DIR]
 
-Writes output-sweep/<packing>/summary.json, eos.csv and eos.png beside this script.
+Writes output-sweep/<packing>/summary.json, eos.csv and eos.png into DIR: by default beside
+this script (the shipped eos.csv and eos.png), with --quick into output-quick/ beside it, so
+that a quick look never replaces the stored results.
 cases/hard-sphere-eos/sweep.py is a link to this file: it reads the dimension from the
 case.toml beside the path it was called by."""
 import csv
@@ -17,6 +19,14 @@ here = os.path.dirname(os.path.abspath(__file__))
 exe = os.environ.get("GRAINBATH", "build/grainbath")
 quick = "--quick" in sys.argv
 reuse = "--reuse" in sys.argv  # only tabulate / plot existing outputs
+base = os.path.join(here, "output-quick") if quick else here
+if "--out" in sys.argv:
+    k = sys.argv.index("--out")
+    if k + 1 >= len(sys.argv):
+        sys.exit("sweep.py: --out needs a directory")
+    base = os.path.abspath(sys.argv[k + 1])
+os.makedirs(base, exist_ok=True)
+print(f"sweep.py: outputs, eos.csv and eos.png in {base}", flush=True)
 dims = 2 if "dimensions = 2" in open(os.path.join(here, "case.toml")).read() else 3
 points = [0.1, 0.2, 0.3, 0.4, 0.5, 0.55, 0.6, 0.65] if dims == 2 else [0.1, 0.2, 0.3, 0.35, 0.4, 0.45]
 
@@ -39,7 +49,7 @@ def z_cs(phi):
 
 rows = []
 for p in points:
-    out = os.path.join(here, "output-sweep", f"{p:.2f}")
+    out = os.path.join(base, "output-sweep", f"{p:.2f}")
     cmd = [exe, "run", here, "--set", f"edmd.packing_fraction={p}", "--out", out, "-q"]
     if quick:
         cmd += ["--set", "edmd.collisions=200", "--set", "edmd.equilibrate=50"]
@@ -59,7 +69,7 @@ for p in points:
     rows.append(row)
     print(" ".join(f"{k}={v:.5g}" for k, v in row.items()), flush=True)
 
-with open(os.path.join(here, "eos.csv"), "w", newline="") as f:
+with open(os.path.join(base, "eos.csv"), "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
     w.writeheader()
     w.writerows(rows)
@@ -89,4 +99,4 @@ b.legend()
 b.axhline(0, color="k", lw=0.5), b.axhspan(-0.5, 0.5, color="0.9")
 b.set_xlabel("packing fraction"), b.set_ylabel("Z / Z_ref - 1  [%]")
 fig.tight_layout()
-fig.savefig(os.path.join(here, "eos.png"), dpi=120)
+fig.savefig(os.path.join(base, "eos.png"), dpi=120)
