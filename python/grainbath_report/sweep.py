@@ -110,6 +110,41 @@ def swept_parameters(runs):
     return out, numeric
 
 
+def ensemble_section(runs, quantities, paths):
+    """Replicas (the runs differ only in seed): each quantity's mean over the R runs with the
+    error from their scatter, std/sqrt(R), which holds whatever the correlations inside a run
+    (the numbers of `grainbath sweep`'s ensemble.md), beside the runs' own errors combined,
+    mean(stderr)/sqrt(R), and each theory value's distance from the mean in units of the
+    scatter error."""
+    R = len(runs)
+    s = Section(f"Ensemble of {R} replicas", "ensemble")
+    rows = []
+    for key, err_key, label, unit, theories in quantities:
+        v = np.array([r.num(key) for r in runs if r.num(key) is not None], dtype=float)
+        v = v[np.isfinite(v)]
+        if len(v) < 2:
+            continue
+        mean, scatter = float(np.mean(v)), float(np.std(v, ddof=1) / np.sqrt(len(v)))
+        own = [r.num(err_key) for r in runs if err_key and r.num(err_key) is not None]
+        own_err = float(np.mean(own) / np.sqrt(len(own))) if own else None
+        th = []
+        for tkey, _style, tlabel in theories:
+            tv = [r.num(tkey) for r in runs if r.num(tkey) is not None]
+            if tv:
+                t = float(np.mean(tv))
+                th.append(f"{tlabel} {fmt(t)}" + (f" ({(t - mean) / scatter:+.1f}σ)" if scatter > 0 else ""))
+        rows.append([f"{label} [{unit}]", fmt_pm(mean, scatter), fmt(own_err) if own_err is not None else "—",
+                     "; ".join(th) or "—"])
+    s.text(f"The {R} runs differ only in their seed: they are independent replicas. The mean of each quantity "
+           "over them, with the standard error from their scatter (std/√R, honest whatever the correlations "
+           "inside a run), beside the runs' own block-averaged errors combined (mean/√R): where the scatter "
+           "error is the larger, the single-run errors understate the uncertainty.")
+    s.table(["quantity", f"mean over {R} ± scatter error", "runs' own errors combined", "theory (distance)"], rows,
+            caption="Replica statistics (the same numbers as the sweep's ensemble.md, where `grainbath sweep` "
+                    "wrote one).")
+    return s
+
+
 def build(paths, ctx):
     """Sections of a sweep report over the runs in `paths`."""
     runs = [RunData(p) for p in paths]
@@ -139,6 +174,8 @@ def build(paths, ctx):
            (f" (already made for {len(have_reports)} of the runs: RUN_DIR/report/report.html)." if have_reports
             else "."))
     sections.append(s)
+    if not varied and len(runs) >= 2:
+        sections.append(ensemble_section(runs, quantities, paths))
     if x_key is None:
         for r in runs:
             r.close()

@@ -218,6 +218,28 @@ def main():
     else:
         check(False, "sweep report.md missing")
 
+    # replicas: a seed sweep (run.threads given once: a setting, not an axis) -> ensemble.json
+    # and, in the folder's report, the replica statistics with the scatter error
+    ens = os.path.join(a.work, "ensemble")
+    r = subprocess.run([a.grainbath, "sweep", os.path.join(a.cases, "equilibrium"), "--out", ens, "-j", "1",
+                        "--set", "run.seed=1,2,3", "--set", "run.threads=1", "--set", "dsmc.particles=2000",
+                        "--set", "dsmc.t_end=2", "--set", "dsmc.dt=0.02", "--set", "sampling.steady_from=0.5"],
+                       capture_output=True, text=True)
+    check(r.returncode == 0 and os.path.isfile(os.path.join(ens, "ensemble.json")),
+          f"seed sweep without ensemble.json ({r.returncode}): {r.stderr.strip()[-500:]}")
+    r = subprocess.run([a.grainbath, "report", ens], capture_output=True, text=True, env=env)
+    md_path = os.path.join(ens, "report", "report.md")
+    if r.returncode == 0 and os.path.isfile(md_path):
+        md = open(md_path).read()
+        ts = [json.load(open(os.path.join(ens, d, "summary.json")))["temperature"]["mean"]
+              for d in sorted(os.listdir(ens)) if d.startswith("variant-") and not d.endswith(".log")]
+        mean = sum(ts) / len(ts)
+        check("## Ensemble of 3 replicas" in md and fmt(mean) in md,
+              f"ensemble report lacks the replica mean T# = {fmt(mean)}")
+        print("ok: ensemble report")
+    else:
+        check(False, f"ensemble report failed ({r.returncode}): {r.stderr.strip()[-1000:]}")
+
     # a directory without results: non-zero exit, one clear line on stderr
     empty = os.path.join(a.work, "empty")
     os.makedirs(empty)
