@@ -93,7 +93,7 @@ void print_table(const Summary& s) {
     row("theory: exponent (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic", "");
   }
   row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
-  row("theory: Z (equation of state)", "theory.Z", "");
+  row("theory: Z (elastic EOS)", "theory.Z", "");
   row("theory: medium steady T", "theory.medium_steady_temperature", "");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
   row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "");
