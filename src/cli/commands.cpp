@@ -240,6 +240,7 @@ int command_run(const RunArgs& a) {
                    split ? (", " + std::to_string(mpi::world_size()) + " MPI ranks").c_str() : "", out.string().c_str());
     std::visit([&](const auto& cfg) { solver_run(cfg, ctx, summary); }, lc->config);
     if (!writer) return 0;
+    summary.set("solver", lc->solver);  // every solver's summary names it (docs/OUTPUT.md)
     summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
     summary.set("run.version", std::string(GRAINBATH_VERSION));
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());

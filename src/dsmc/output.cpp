@@ -276,6 +276,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
         ls.push_back(noise / ts.mode_amplitude[k]);
       }
     const LineFit lf = fit_line(tx, ly, ls, true);
+    // a rate that applies but could not be measured is null in summary.json: say why
+    if (!std::isfinite(lf.slope))
+      std::fprintf(stderr,
+                   "warning: no density-mode decay rate: %zu sample(s) in the fit window [%.4g, %.4g] with the "
+                   "amplitude above 5 times its noise (%.3g), at least 3 needed: widen sampling.mode_fit_from / "
+                   "mode_fit_to, sample more often (sampling.every) or use more grains\n",
+                   tx.size(), c.mode_fit_from, c.mode_fit_to, 5 * noise);
     summary.set("mode.decay_rate", -lf.slope);
     summary.set("mode.decay_rate_stderr", lf.slope_stderr);
     summary.set("mode.fit_points", static_cast<std::int64_t>(lf.points));
@@ -393,6 +400,9 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
           ls.push_back(nerr[k] / nmean[k]);
         }
       const LineFit lf = fit_line(lx, ly, ls, false);
+      if (!std::isfinite(lf.slope))
+        std::fprintf(stderr, "warning: no density-profile exponent: %zu cell(s) with a density and its error, at "
+                             "least 3 needed\n", lx.size());
       summary.set("profile.exponent", -lf.slope);
       summary.set("profile.exponent_stderr", lf.slope_stderr);
     }
