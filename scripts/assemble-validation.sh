@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Rebuilds docs/VALIDATION.md from the per-module tables in docs/validation/*.md, so that
 # each module's owner edits one file and the living table stays in one place.
+# usage: scripts/assemble-validation.sh [OUT]   (default docs/VALIDATION.md; the test
+# validation_doc_assembled writes to a temporary file and compares it with docs/VALIDATION.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+out=${1:-docs/VALIDATION.md}
 {
   cat <<'HEAD'
 # Validation
@@ -22,5 +25,5 @@ HEAD
     # demote the part's top-level heading so the document keeps one title
     sed -e 's/^# /## /' "$f"
   done
-} > docs/VALIDATION.md
-echo "docs/VALIDATION.md: $(wc -l < docs/VALIDATION.md) lines"
+} > "$out"
+echo "$out: $(wc -l < "$out") lines"
