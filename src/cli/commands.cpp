@@ -61,8 +61,9 @@ LoadedCase load_case(const RunArgs& a) {
 
 int report_case_error(const CaseError& e) {
   for (const auto& p : e.problems()) std::fprintf(stderr, "error: %s\n", p.to_string().c_str());
-  std::fprintf(stderr, "%zu problem(s); nothing was run. `grainbath list-models` lists the valid names.\n",
-               e.problems().size());
+  // the pointer to list-models only where a model name was wrong
+  std::fprintf(stderr, "%zu problem(s); nothing was run.%s\n", e.problems().size(),
+               e.about_names() ? " `grainbath list-models` lists the valid names." : "");
   return 2;
 }
 

@@ -55,8 +55,6 @@ inline void grainbath_toml_assert_failed(const char* expr, const char* file, int
 
 namespace grainbath {
 
-namespace {
-
 std::string format_real(double x) {
   char buf[64];
   for (int digits = 15; digits <= 17; ++digits) {  // the shortest form that reads back exactly
@@ -67,6 +65,8 @@ std::string format_real(double x) {
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
   return s;
 }
+
+namespace {
 
 std::string describe_node(const toml::node& n) {
   std::ostringstream os;
@@ -151,8 +151,8 @@ static std::string join_problems(const std::vector<CaseProblem>& problems) {
   return s;
 }
 
-CaseError::CaseError(std::vector<CaseProblem> problems)
-    : std::runtime_error(join_problems(problems)), problems_(std::move(problems)) {}
+CaseError::CaseError(std::vector<CaseProblem> problems, bool about_names)
+    : std::runtime_error(join_problems(problems)), problems_(std::move(problems)), about_names_(about_names) {}
 
 bool Bounds::contains(double x) const {
   if (!std::isfinite(x)) return false;
@@ -404,6 +404,30 @@ PreparedText prepare_case_text(std::string_view text, const std::string& file) {
   return p;
 }
 
+// toml++ says "could not determine value type" for law = constant: TOML strings need quotes,
+// which users coming from INI or shell files forget. The hint for a value that is one bare word.
+std::string bare_word_hint(std::string_view text, int line) {
+  std::size_t a = 0;
+  for (int l = 1; l < line && a != std::string_view::npos; ++l) {
+    a = text.find('\n', a);
+    if (a != std::string_view::npos) ++a;
+  }
+  if (a == std::string_view::npos) return "";
+  std::string_view l = text.substr(a, text.find('\n', a) == std::string_view::npos ? std::string_view::npos
+                                                                                  : text.find('\n', a) - a);
+  const auto eq = l.find('=');
+  if (eq == std::string_view::npos) return "";
+  std::string_view key = trim(l.substr(0, eq)), value = trim(l.substr(eq + 1, l.find('#') == std::string_view::npos
+                                                                                   ? std::string_view::npos
+                                                                                   : l.find('#') - eq - 1));
+  const auto word_char = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; };
+  if (value.empty() || !std::isalpha(static_cast<unsigned char>(value[0])) ||
+      !std::all_of(value.begin(), value.end(), word_char) || value == "true" || value == "false" || value == "inf" ||
+      value == "nan")
+    return "";
+  return " (a string needs quotes: " + std::string(key) + " = \"" + std::string(value) + "\")";
+}
+
 constexpr std::size_t kMaxCaseBytes = 1 << 20;
 
 constexpr int kMaxKeyDotsPerLine = 128, kMaxKeyDots = 1000;
@@ -479,6 +503,9 @@ struct CaseReader::Impl {
   std::set<std::string> used;                   // "section.key" asked for by a getter
   std::map<std::string, std::set<std::string>> known;  // section -> keys asked for
   std::set<std::string> overridden;             // "section.key" set by --set
+  std::map<std::string, std::string> file_strings;  // "section.key" -> the file's string a --set replaced
+  std::map<std::string, std::string> elsewhere;     // "section.key" ("section." for a section) -> message
+  std::map<std::string, std::string> ignored;       // "section.key" -> note
   std::string file;
 
   const toml::table* section(std::string_view s) const {
@@ -505,7 +532,8 @@ CaseReader::CaseReader(std::string text, std::string file)
     impl_->root = toml::parse(std::string_view(prepared.ascii), std::string_view(file_));
   } catch (const toml::parse_error& e) {
     const int line = static_cast<int>(e.source().begin.line);
-    throw CaseError({{file_, line, key_near_line(text_, line), "TOML syntax error: " + std::string(e.description())}});
+    throw CaseError({{file_, line, key_near_line(text_, line),
+                      "TOML syntax error: " + std::string(e.description()) + bare_word_hint(text_, line)}});
   }
 }
 
@@ -544,9 +572,12 @@ void CaseReader::apply_override(const std::string& assignment) {
   const auto dot = assignment.rfind('.', eq);
   if (eq == std::string::npos || dot == std::string::npos || dot == 0 || dot + 1 >= eq)
     throw CaseError({{"--set", 0, assignment, "expected section.key=value, e.g. --set background.knudsen=0.02"}});
-  const std::string section = assignment.substr(0, dot);
-  const std::string key = assignment.substr(dot + 1, eq - dot - 1);
-  const std::string value = assignment.substr(eq + 1);
+  // Spaces around the parts are the shell quoting's, not the key's: 'dsmc.dt = 0.02'.
+  const std::string section(trim(std::string_view(assignment).substr(0, dot)));
+  const std::string key(trim(std::string_view(assignment).substr(dot + 1, eq - dot - 1)));
+  const std::string value(trim(std::string_view(assignment).substr(eq + 1)));
+  if (section.empty() || key.empty())
+    throw CaseError({{"--set", 0, assignment, "expected section.key=value, e.g. --set background.knudsen=0.02"}});
   const std::string dotted = section + "." + key;
   for (const char ch : assignment) {
     const unsigned char c = static_cast<unsigned char>(ch);
@@ -581,6 +612,8 @@ void CaseReader::apply_override(const std::string& assignment) {
     impl_->root.insert(section, toml::table{});
     sec = impl_->root.get_as<toml::table>(section);
   }
+  if (!impl_->overridden.count(dotted))
+    if (const auto* old = sec->get_as<std::string>(key)) impl_->file_strings[dotted] = old->get();
   sec->insert_or_assign(key, *parsed->get("v"));
   impl_->overridden.insert(dotted);
 }
@@ -602,6 +635,48 @@ void CaseReader::problem(std::string_view section, std::string_view key, std::st
   const toml::node* n = impl_->find(section, key);
   const bool from_set = impl_->overridden.count(dotted) > 0;
   problems_.push_back({from_set ? "--set" : file_, from_set ? 0 : impl_->line_of(n), dotted, std::move(message)});
+}
+
+void CaseReader::problem(std::string_view section, std::string_view key, std::string message,
+                         std::string_view other_section, std::string_view other_key) {
+  if (!overridden(section, key) && overridden(other_section, other_key))
+    problem(other_section, other_key, std::move(message));
+  else
+    problem(section, key, std::move(message));
+}
+
+void CaseReader::accept_section(std::string_view section) { impl_->known[std::string(section)]; }
+
+void CaseReader::used_elsewhere(std::string_view section, std::string_view key, std::string message) {
+  impl_->elsewhere[std::string(section) + "." + std::string(key)] = std::move(message);
+}
+
+void CaseReader::ignore(std::string_view section, std::string_view key, std::string note) {
+  const std::string dotted = std::string(section) + "." + std::string(key);
+  impl_->used.insert(dotted);
+  const bool from_set = overridden(section, key);
+  impl_->ignored[dotted] =
+      CaseProblem{from_set ? "--set" : file_, from_set ? 0 : impl_->line_of(impl_->find(section, key)), dotted,
+                  std::move(note)}
+          .to_string();
+}
+
+bool CaseReader::overridden(std::string_view section, std::string_view key) const {
+  return impl_->overridden.count(std::string(section) + "." + std::string(key)) > 0;
+}
+
+std::string CaseReader::file_string(std::string_view section, std::string_view key) const {
+  const std::string dotted = std::string(section) + "." + std::string(key);
+  if (auto it = impl_->file_strings.find(dotted); it != impl_->file_strings.end()) return it->second;
+  if (overridden(section, key)) return "";
+  const toml::node* n = impl_->find(section, key);
+  return n && n->is_string() ? *n->value<std::string>() : "";
+}
+
+std::string CaseReader::origin(std::string_view section, std::string_view key) const {
+  if (overridden(section, key)) return "--set";
+  const toml::node* n = impl_->find(section, key);
+  return n ? std::filesystem::path(file_).filename().string() + ":" + std::to_string(impl_->line_of(n)) : "default";
 }
 
 double CaseReader::real(std::string_view section, std::string_view key, double fallback, Bounds bounds,
@@ -720,6 +795,7 @@ std::string CaseReader::choice(std::string_view section, std::string_view key, s
     std::string hint = suggestion(v, s);
     problem(section, key, "unknown value \"" + v + "\"" + (hint.empty() ? "" : " (did you mean \"" + hint + "\"?)") +
                               "; valid values are: " + join(s));
+    about_names_ = true;
     return std::string(fallback);
   }
   return v;
@@ -807,8 +883,13 @@ std::vector<std::string> CaseReader::texts(std::string_view section, std::string
 bool CaseReader::ok() const { return problems_.empty(); }
 
 void CaseReader::finish() {
+  for (const auto& [_, note] : impl_->ignored) std::fprintf(stderr, "note: %s\n", note.c_str());
   std::set<std::string> known_sections;
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);
+  // The sections are the solver's: a section of the other solver is not a typo.
+  const auto solver = resolved_.find("run.solver");
+  const std::string valid_sections =
+      solver == resolved_.end() ? "valid sections: " : "valid sections for solver = " + solver->second + ": ";
   for (const auto& [k, node] : impl_->root) {
     const std::string section(k.str());
     if (node.is_array_of_tables()) {
@@ -824,25 +905,44 @@ void CaseReader::finish() {
     }
     auto it = impl_->known.find(section);
     if (it == impl_->known.end()) {
+      // a section only --set created is the override's doing, not a line of the file
+      bool from_set = !node.as_table()->empty();
+      for (const auto& [kk, _] : *node.as_table())
+        from_set = from_set && impl_->overridden.count(section + "." + std::string(kk.str())) > 0;
+      const auto other = impl_->elsewhere.find(section + ".");
       std::string hint = suggestion(section, known_sections);
-      problems_.push_back({file_, static_cast<int>(node.source().begin.line), "[" + section + "]",
-                           "unknown section" + (hint.empty() ? "" : " (did you mean [" + hint + "]?)") +
-                               "; sections this case uses: " + join(known_sections)});
+      std::string why = other != impl_->elsewhere.end() ? " (" + other->second + ")"
+                        : hint.empty()                  ? ""
+                                                        : " (did you mean [" + hint + "]?)";
+      problems_.push_back({from_set ? "--set" : file_, from_set ? 0 : static_cast<int>(node.source().begin.line),
+                           "[" + section + "]",
+                           "unknown section" + why + "; " + valid_sections + join(known_sections)});
       continue;
     }
     for (const auto& [kk, sub] : *node.as_table()) {
       const std::string key(kk.str());
-      if (it->second.count(key)) continue;
       const std::string dotted = section + "." + key;
-      std::string hint = suggestion(key, it->second);
+      if (it->second.count(key) || impl_->ignored.count(dotted)) continue;
       const bool overridden = impl_->overridden.count(dotted) > 0;
-      problems_.push_back({overridden ? "--set" : file_, overridden ? 0 : static_cast<int>(sub.source().begin.line),
-                           dotted,
-                           "unknown key" + (hint.empty() ? "" : " (did you mean '" + hint + "'?)") +
-                               "; valid keys in [" + section + "]: " + join(it->second)});
+      const std::string where = overridden ? "--set" : file_;
+      const int line = overridden ? 0 : static_cast<int>(sub.source().begin.line);
+      if (auto other = impl_->elsewhere.find(dotted); other != impl_->elsewhere.end()) {
+        problems_.push_back({where, line, dotted, other->second});
+        continue;
+      }
+      // the right key in the wrong table: name the table(s) of this case that hold it
+      std::set<std::string> holders;
+      for (const auto& [s2, keys] : impl_->known)
+        if (s2 != section && keys.count(key)) holders.insert("[" + s2 + "]");
+      std::string hint = suggestion(key, it->second);
+      std::string why = !holders.empty() ? " (" + key + " is a key of " + join(holders) + ")"
+                        : hint.empty()    ? ""
+                                          : " (did you mean '" + hint + "'?)";
+      problems_.push_back({where, line, dotted, "unknown key" + why + "; valid keys in [" + section + "]: " +
+                                                    (it->second.empty() ? "none" : join(it->second))});
     }
   }
-  if (!problems_.empty()) throw CaseError(problems_);
+  if (!problems_.empty()) throw CaseError(problems_, about_names_);
 }
 
 }  // namespace grainbath

@@ -30,11 +30,15 @@ struct CaseProblem {
 
 class CaseError : public std::runtime_error {
  public:
-  explicit CaseError(std::vector<CaseProblem> problems);
+  explicit CaseError(std::vector<CaseProblem> problems, bool about_names = false);
   const std::vector<CaseProblem>& problems() const { return problems_; }
+  // true if a problem is an unknown name (a law, model, profile...): then, and only then,
+  // is `grainbath list-models` worth pointing at.
+  bool about_names() const { return about_names_; }
 
  private:
   std::vector<CaseProblem> problems_;
+  bool about_names_ = false;
 };
 
 // An allowed interval for a real parameter; open or closed at each end.
@@ -95,8 +99,25 @@ class CaseReader {
 
   // Records a problem about a key (e.g. a consistency check between keys).
   void problem(std::string_view section, std::string_view key, std::string message);
+  // A problem between two keys: blamed on section.key, or on other_section.other_key when
+  // only that one came from --set (the user changed it, not the file's line).
+  void problem(std::string_view section, std::string_view key, std::string message,
+               std::string_view other_section, std::string_view other_key);
   // Marks a key as known without reading it (e.g. a key only one solver uses).
   void accept(std::string_view section, std::string_view key);
+  // Declares a section valid for this case even when absent (e.g. [domain]), for messages.
+  void accept_section(std::string_view section);
+  // A key (key "": a whole section) this case does not read but another setting would:
+  // finish() reports it, if present, with `message` instead of "unknown key/section".
+  void used_elsewhere(std::string_view section, std::string_view key, std::string message);
+  // Marks a present key as deliberately not read; finish() prints `note` for it.
+  void ignore(std::string_view section, std::string_view key, std::string note);
+
+  bool overridden(std::string_view section, std::string_view key) const;
+  // The file's own string value of section.key, before any --set ("" if none or no string).
+  std::string file_string(std::string_view section, std::string_view key) const;
+  // Where section.key's value comes from, for messages: "--set", "case.toml:N" or "default".
+  std::string origin(std::string_view section, std::string_view key) const;
 
   // Reports unknown sections/keys, then throws CaseError if any problem was recorded.
   void finish();
@@ -114,7 +135,11 @@ class CaseReader {
   std::string file_;
   std::map<std::string, std::string> resolved_;
   std::vector<CaseProblem> problems_;
+  bool about_names_ = false;  // an unknown value of a choice() was reported
 };
+
+// The shortest decimal form of x that reads back exactly ("0.01", "1.0"), as messages show numbers.
+std::string format_real(double x);
 
 // Rejects bytes toml++ 3.3 mishandles: control characters other than tab/CR/LF anywhere,
 // and non-ASCII bytes outside strings and comments. Returns problems (empty if clean).

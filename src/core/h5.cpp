@@ -1,5 +1,6 @@
 #include "core/h5.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace grainbath {
@@ -222,6 +223,37 @@ void H5File::attribute(const std::string& object, const std::string& name, doubl
   if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
   Handle a{H5Acreate2(obj.id, name.c_str(), H5T_NATIVE_DOUBLE, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
   if (a.id < 0 || H5Awrite(a.id, H5T_NATIVE_DOUBLE, &value) < 0) fail("cannot write attribute " + name);
+}
+
+void H5File::attribute(const std::string& object, const std::string& name, std::int64_t value) {
+  Handle obj{ensure_group(object), H5Oclose};
+  Handle space{H5Screate(H5S_SCALAR), H5Sclose};
+  if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
+  Handle a{H5Acreate2(obj.id, name.c_str(), H5T_STD_I64LE, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+  if (a.id < 0 || H5Awrite(a.id, H5T_NATIVE_INT64, &value) < 0) fail("cannot write attribute " + name);
+}
+
+void H5File::attribute(const std::string& object, const std::string& name, const std::vector<std::int64_t>& values) {
+  Handle obj{ensure_group(object), H5Oclose};
+  const hsize_t n = values.size();
+  Handle space{H5Screate_simple(1, &n, nullptr), H5Sclose};
+  if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
+  Handle a{H5Acreate2(obj.id, name.c_str(), H5T_STD_I64LE, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+  if (a.id < 0 || H5Awrite(a.id, H5T_NATIVE_INT64, values.data()) < 0) fail("cannot write attribute " + name);
+}
+
+void H5File::attribute(const std::string& object, const std::string& name, const std::vector<std::string>& values) {
+  Handle obj{ensure_group(object), H5Oclose};
+  std::size_t width = 1;
+  for (const auto& v : values) width = std::max(width, v.size());
+  std::string buf(width * values.size(), '\0');  // fixed-length, null-padded
+  for (std::size_t k = 0; k < values.size(); ++k) buf.replace(k * width, values[k].size(), values[k]);
+  Handle type{string_type(width), H5Tclose};
+  const hsize_t n = values.size();
+  Handle space{H5Screate_simple(1, &n, nullptr), H5Sclose};
+  if (H5Aexists(obj.id, name.c_str()) > 0) H5Adelete(obj.id, name.c_str());
+  Handle a{H5Acreate2(obj.id, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT), H5Aclose};
+  if (a.id < 0 || H5Awrite(a.id, type.id, buf.data()) < 0) fail("cannot write attribute " + name);
 }
 
 template <class T>

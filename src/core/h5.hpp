@@ -37,6 +37,11 @@ class H5File {
   // group if missing.
   void attribute(const std::string& object, const std::string& name, const std::string& value);
   void attribute(const std::string& object, const std::string& name, double value);
+  // integer attributes: a scalar, or an array (H5MD's version = [1, 1])
+  void attribute(const std::string& object, const std::string& name, std::int64_t value);
+  void attribute(const std::string& object, const std::string& name, const std::vector<std::int64_t>& values);
+  // an array of fixed-length strings (H5MD's box boundary, one per dimension)
+  void attribute(const std::string& object, const std::string& name, const std::vector<std::string>& values);
 
   bool exists(const std::string& name) const;
   std::vector<double> read_doubles(const std::string& name, std::vector<hsize_t>* dims = nullptr) const;

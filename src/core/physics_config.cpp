@@ -1,5 +1,6 @@
 #include "core/physics_config.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace grainbath {
@@ -24,10 +25,71 @@ const std::vector<ModelDescription>& restitution_models() {
   return models;
 }
 
-RestitutionLaw read_restitution(CaseReader& r) {
+namespace {
+
+// The key names of a law: the first word of each of its descriptions ("mu (inf, >= 0): ...").
+std::vector<std::string> law_keys(std::string_view law) {
+  std::vector<std::string> keys;
+  for (const auto& m : restitution_models())
+    if (m.name == law)
+      for (const auto& k : m.keys) keys.push_back(k.substr(0, k.find(' ')));
+  return keys;
+}
+
+bool contains(const std::vector<std::string>& v, std::string_view x) {
+  return std::find(v.begin(), v.end(), x) != v.end();
+}
+
+std::string quoted_list(const std::vector<std::string>& v, const std::string& sep) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : sep) + x;
+  return s.empty() ? "none" : s;
+}
+
+// A key of another law is not "unknown": say whose key it is. The one exception: when --set
+// switched the law, the file's keys of the law it replaced are ignored with a note, so
+// `--set restitution.law=...` (and sweeps over laws) work without editing the file. Only exact
+// keys of the file's own law are dropped, so a misspelt key is still an error.
+void reject_other_law_keys(CaseReader& r, const std::string& law, std::string_view trot_section) {
+  const std::string file_law = r.overridden("restitution", "law") ? r.file_string("restitution", "law") : "";
+  const bool switched = !file_law.empty() && file_law != law;
+  const std::vector<std::string> mine = law_keys(law);
+  auto drop_or_reject = [&](std::string_view section, const std::string& key, const std::string& owner_law,
+                            std::string message) {
+    if (switched && owner_law == file_law && !r.overridden(section, key))
+      r.ignore(section, key,
+               "ignored: a key of the file's law = \"" + file_law + "\", which --set restitution.law = \"" + law +
+                   "\" replaces");
+    else
+      r.used_elsewhere(section, key, std::move(message));
+  };
+  for (const auto& m : restitution_models()) {
+    if (m.name == law) continue;
+    for (const auto& key : law_keys(m.name)) {
+      if (contains(mine, key) || !r.has("restitution", key)) continue;
+      std::vector<std::string> owners;
+      for (const auto& o : restitution_models())
+        if (contains(law_keys(o.name), key)) owners.push_back("\"" + o.name + "\"");
+      drop_or_reject("restitution", key, contains(law_keys(file_law), key) ? file_law : m.name,
+                     "not used by law = \"" + law + "\" (it is a key of law = " + quoted_list(owners, " or ") +
+                         "; keys of law = \"" + law + "\": " + quoted_list(mine, ", ") + ")");
+    }
+  }
+  if (law != "walton" && !trot_section.empty() && r.has(trot_section, "rotational_temperature"))
+    drop_or_reject(trot_section, "rotational_temperature", "walton",
+                   "only rough grains spin: used only with [restitution] law = \"walton\", found law = \"" + law +
+                       "\"");
+}
+
+}  // namespace
+
+RestitutionLaw read_restitution(CaseReader& r, std::string_view trot_section) {
   std::vector<std::string> names;
   for (const auto& m : restitution_models()) names.push_back(m.name);
   const std::string law = r.choice("restitution", "law", "elastic", names);
+  // a law that is no law (already reported) says nothing about which keys are right
+  const auto named = r.resolved().find("restitution.law");
+  if (named != r.resolved().end() && named->second == "\"" + law + "\"") reject_other_law_keys(r, law, trot_section);
   if (law == "constant") {
     return ConstantRestitution{r.real_required("restitution", "e", Bounds::half_open(0.0, 1.0))};
   }
@@ -58,11 +120,42 @@ RoughParameters read_rough(CaseReader& r, double default_q, std::string_view tro
   RoughParameters g;
   g.law.e = r.real_required("restitution", "e", Bounds::closed(0.0, 1.0), "normal restitution");
   g.law.beta0 = r.real_required("restitution", "beta0", Bounds::closed(-1.0, 1.0), "tangential restitution");
+  r.accept("restitution", "mu");  // a valid key even when absent: listed in messages, suggested for "muu"
   g.law.mu = r.has("restitution", "mu") ? r.real("restitution", "mu", 0.0, Bounds::non_negative(), "Coulomb friction")
                                         : std::numeric_limits<double>::infinity();
   g.q = r.real("restitution", "q", default_q, Bounds::positive(), "I / (m a^2)");
   g.rotational_temperature = r.real(trot_section, "rotational_temperature", 0.0, Bounds::non_negative(), "energy");
+  reject_other_law_keys(r, "walton", trot_section);
   return g;
+}
+
+void name_other_solver_keys(CaseReader& r, std::string_view solver) {
+  // The sections and [sampling] keys only one solver reads (the shared ones, [run],
+  // [background], [restitution], [checkpoint], are read by both). Keep in step with the
+  // readers (dsmc/config.cpp, edmd/driver.cpp); tests/cli/bad_input_test.cpp checks a few.
+  struct Own { std::string_view solver; std::vector<std::string_view> sections, sampling; };
+  static const Own owns[] = {
+      {"dsmc", {"grains", "dsmc", "domain"},
+       {"every", "steady_from", "histogram_bins", "histogram_range", "relaxation_theory", "fields", "field_batches",
+        "mode_fit_from", "mode_fit_to"}},
+      {"edmd", {"edmd", "heating", "walls", "profiles", "transport"},
+       {"interval", "gr_max", "gr_bin", "corr_max", "corr_bin", "trajectory_interval", "free_cooling"}},
+  };
+  for (const Own& o : owns) {
+    if (o.solver == solver) {
+      for (const auto sec : o.sections) r.accept_section(sec);  // valid even when absent
+      continue;
+    }
+    const std::string owner = "solver = \"" + std::string(o.solver) + "\"";
+    const std::string mine = "solver = \"" + std::string(solver) + "\"";
+    for (const auto sec : o.sections) {
+      std::string m = "[";
+      m.append(sec).append("] is a section of ").append(owner).append(", this case has ").append(mine);
+      r.used_elsewhere(sec, "", std::move(m));
+    }
+    for (const auto key : o.sampling)
+      r.used_elsewhere("sampling", key, "not used by " + mine + " (a [sampling] key of " + owner + ")");
+  }
 }
 
 BackgroundParameters read_background(CaseReader& r) {

@@ -22,8 +22,10 @@ struct ModelDescription {
 const std::vector<ModelDescription>& restitution_models();
 
 // [restitution] law = "elastic" | "constant" | "power" | "bizon"; only the chosen law's keys
-// are valid (a key of another law is reported as unknown).
-RestitutionLaw read_restitution(CaseReader& reader);
+// are valid (a key of another law is reported as one, and so is [`trot_section`]
+// rotational_temperature, walton's; when --set changed the law, the file's keys of the law
+// it replaced are ignored with a note).
+RestitutionLaw read_restitution(CaseReader& reader, std::string_view trot_section = "");
 
 // [restitution] law = "walton": rough grains with spin (docs/rough.md; the solvers that carry
 // spins read it instead of read_restitution, which rejects the law).
@@ -37,6 +39,10 @@ bool names_walton(CaseReader& reader);
 // e, beta0 (required), mu (default: never sliding), q (default `default_q`) from
 // [restitution], and the initial Trot from [`trot_section`] rotational_temperature (default 0).
 RoughParameters read_rough(CaseReader& reader, double default_q, std::string_view trot_section);
+
+// Tells `reader` the sections and [sampling] keys that belong to the other solver than
+// `solver` ("dsmc" or "edmd"), so finish() says so instead of "unknown".
+void name_other_solver_keys(CaseReader& reader, std::string_view solver);
 
 struct BackgroundParameters {
   double mass_ratio = 0.5;   // alpha = mB / (m + mB), in (0, 1)

@@ -51,6 +51,12 @@ const std::vector<ModelDescription>& dsmc_models() {
 
 namespace {
 
+std::string join_names(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "\"" : ", \"") + x + "\"";
+  return s;
+}
+
 Boundary parse_boundary(const std::string& s) {
   if (s == "specular") return Boundary::specular;
   if (s == "diffuse") return Boundary::diffuse;
@@ -98,6 +104,20 @@ void read_domain(CaseReader& r, Config& c) {
       r.problem("domain", "boundaries", "axis " + std::string(1, "xyz"[a]) +
                                             ": a periodic face needs a periodic opposite face");
   d.wall_temperature = r.real("domain", "wall_temperature", c.background.temperature, Bounds::positive(), "energy");
+  // As for any key the run would not use: no silent acceptance (a forgotten "diffuse"?). When
+  // --set changed the boundaries, the file's wall_temperature is dropped with a note instead,
+  // as the keys of a law --set replaced (physics_config.cpp), so boundaries can be scanned.
+  if (r.has("domain", "wall_temperature") &&
+      std::none_of(d.faces.begin(), d.faces.begin() + static_cast<std::ptrdiff_t>(nfaces),
+                   [](Boundary b) { return b == Boundary::diffuse; })) {
+    if (r.overridden("domain", "boundaries") && !r.overridden("domain", "wall_temperature"))
+      r.ignore("domain", "wall_temperature",
+               "ignored: no face is \"diffuse\" with --set domain.boundaries = [" + join_names(names) + "]");
+    else
+      r.problem("domain", "wall_temperature",
+                "not used: no face is \"diffuse\" (wall_temperature is the temperature of diffuse walls; "
+                "[domain] boundaries here: " + join_names(names) + ")");
+  }
 }
 
 void read_background_field(CaseReader& r, Config& c, const std::string& case_dir) {
@@ -158,6 +178,7 @@ Config read_config(CaseReader& r) {
     const auto slash = f.rfind('/');
     return slash == std::string::npos ? std::string(".") : f.substr(0, slash);
   }();
+  name_other_solver_keys(r, "dsmc");
   c.grains.density = r.real("grains", "density", 1.0, Bounds::positive(), "grains per volume");
   c.grains.mass = r.real("grains", "mass", 1.0, Bounds::positive(), "mass");
   c.grains.temperature = r.real("grains", "temperature", 1.0, Bounds::positive(), "energy");
@@ -177,7 +198,7 @@ Config read_config(CaseReader& r) {
     if (c.spatial())
       r.problem("restitution", "law", "law \"walton\" (rough grains) is implemented for homogeneous runs only (no [domain])");
   } else {
-    c.restitution = read_restitution(r);
+    c.restitution = read_restitution(r, "grains");
   }
   c.particles = r.integer("dsmc", "particles", 100000, 2, 2'000'000'000);
   c.dt = r.real("dsmc", "dt", 0.01, Bounds::positive(), "time");
@@ -209,12 +230,34 @@ Config read_config(CaseReader& r) {
                                          std::to_string(per_cell));
   }
   c.checkpoint = read_checkpoint_settings(r, "time");
-  if (c.dt > c.t_end) r.problem("dsmc", "dt", "expected dt <= t_end");
+  // Checks between two keys name both values and where each came from (a line or --set).
+  auto value = [&](std::string_view sec, std::string_view key, double x) {
+    return std::string(key) + " = " + format_real(x) + " (" + r.origin(sec, key) + ")";
+  };
+  if (c.dt > c.t_end)
+    r.problem("dsmc", "dt", "expected dt <= t_end, found " + value("dsmc", "dt", c.dt) + " > " +
+                                value("dsmc", "t_end", c.t_end), "dsmc", "t_end");
   c.steps = static_cast<std::int64_t>(std::ceil(c.t_end / c.dt - 1e-9));
   c.sample_every_steps = std::max<std::int64_t>(1, std::llround(c.sample_every / c.dt));
-  if (c.steady_from >= c.t_end)
-    r.problem("sampling", "steady_from", "expected a time before t_end, so the averaging window is not empty");
-  if (c.steps > 2'000'000'000) r.problem("dsmc", "dt", "t_end / dt is more than 2e9 steps");
+  if (c.steady_from >= c.t_end) {
+    r.problem("sampling", "steady_from",
+              "expected steady_from < t_end, so the averaging window is not empty, found " +
+                  value("sampling", "steady_from", c.steady_from) + " >= " + value("dsmc", "t_end", c.t_end),
+              "dsmc", "t_end");
+  } else if (r.has("sampling", "every") && c.sample_every > c.t_end - c.steady_from) {
+    // the steady window [steady_from, t_end] would hold one sample at most: no error bar (the
+    // default, 10 dt, is left alone: short test runs take it without asking for a window)
+    r.problem("sampling", "every",
+              "expected every <= t_end - steady_from (the averaging window), found " +
+                  value("sampling", "every", c.sample_every) + " > " + value("dsmc", "t_end", c.t_end) + " - " +
+                  value("sampling", "steady_from", c.steady_from),
+              "dsmc", "t_end");
+  }
+  if (c.steps > 2'000'000'000)
+    r.problem("dsmc", "dt",
+              "t_end / dt is more than 2e9 steps, found " + value("dsmc", "t_end", c.t_end) + " / " +
+                  value("dsmc", "dt", c.dt),
+              "dsmc", "t_end");
   return c;
 }
 

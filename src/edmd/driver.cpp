@@ -111,6 +111,7 @@ const std::vector<ModelDescription>& edmd_models() {
 
 Config read_config(CaseReader& r) {
   Config c;
+  name_other_solver_keys(r, "edmd");
   c.dims = static_cast<int>(r.integer("edmd", "dimensions", 3, 2, 3));
   c.particles = r.integer("edmd", "particles", 1000, 2, std::int64_t{1} << 31);
   c.packing_fraction = r.real_required("edmd", "packing_fraction", Bounds::open(0.0, 1.0), "nu (2D) or phi (3D)");
@@ -125,9 +126,7 @@ Config read_config(CaseReader& r) {
   if (names_walton(r)) {
     c.rough = read_rough(r, c.dims == 2 ? 0.5 : 0.4, "edmd");  // default q: the grain the engine moves
   } else {
-    c.restitution = read_restitution(r);
-    if (r.has("edmd", "rotational_temperature"))
-      r.problem("edmd", "rotational_temperature", "only rough grains spin: needs [restitution] law = \"walton\"");
+    c.restitution = read_restitution(r, "edmd");
   }
   const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
                                   std::holds_alternative<PowerLawRestitution>(c.restitution) || c.rough.has_value();
@@ -222,6 +221,13 @@ Config read_config(CaseReader& r) {
     r.problem("background", "velocity", "a 2D medium cannot drift in z");
   // sampling
   c.sample_interval = r.real("sampling", "interval", 1.0, Bounds::positive(), "collisions per particle");
+  // a longer interval than the measurement leaves one sample (at its end): no mean, no error bar
+  if (r.has("sampling", "interval") && c.sample_interval > c.collisions)
+    r.problem("sampling", "interval",
+              "expected interval <= collisions (both per particle; the measurement), found interval = " +
+                  format_real(c.sample_interval) + " (" + r.origin("sampling", "interval") + ") > collisions = " +
+                  format_real(c.collisions) + " (" + r.origin("edmd", "collisions") + ")",
+              "edmd", "collisions");
   c.gr_max = r.real("sampling", "gr_max", 5.0, Bounds::positive(), "sigma");
   c.gr_bin = r.real("sampling", "gr_bin", 0.02, Bounds::positive(), "sigma");
   c.corr_max = r.real("sampling", "corr_max", 0.0, Bounds::non_negative(), "sigma");
@@ -785,7 +791,16 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     }
     summary.set("state.hash", h.hex());
   }
-  if (!c.free_cooling) summary.set("g_r.contact_fit", pairs.contact_value());
+  if (!c.free_cooling) {
+    const double contact = pairs.contact_value();
+    // applies but not measurable: null in summary.json, and the reason here (docs/OUTPUT.md)
+    if (!std::isfinite(contact))
+      std::fprintf(stderr,
+                   "warning: no g_r.contact_fit: the fit of g(r) over [sigma, 1.1 sigma] needs 2 bin centres there, "
+                   "sampling.gr_bin = %.4g gives fewer: use gr_bin <= 0.05\n",
+                   c.gr_bin);
+    summary.set("g_r.contact_fit", contact);
+  }
   // loss rate (Bizon eqs. 14, 29-31)
   const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
   const double Gfor = Gs / pref / c.packing_fraction;  // g from the EOS measurement, as Bizon does
@@ -981,10 +996,16 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     std::vector<double> edges{box.x, box.y, box.z};
     edges.resize(static_cast<std::size_t>(D));
     h5.write("/particles/all/box/edges", edges);
-    h5.attribute("/particles/all/box", "dimension", static_cast<double>(D));
-    h5.attribute("/particles/all/box", "boundary", c.walls[0] || c.walls[1] || c.walls[2] ? "mixed" : "periodic");
-    h5.attribute("/h5md", "version", "1.1");
-    h5.attribute("/h5md", "creator", "grainbath edmd");
+    // H5MD 1.1 (de Buyl et al. 2014): integer dimension, one boundary string per axis
+    // ("periodic" or "none"), version as the integer pair (1, 1), author and creator groups
+    h5.attribute("/particles/all/box", "dimension", static_cast<std::int64_t>(D));
+    std::vector<std::string> boundary;
+    for (int d = 0; d < D; ++d) boundary.push_back(c.walls[d] ? "none" : "periodic");
+    h5.attribute("/particles/all/box", "boundary", boundary);
+    h5.attribute("/h5md", "version", std::vector<std::int64_t>{1, 1});
+    h5.attribute("/h5md/author", "name", std::string("grainbath user"));
+    h5.attribute("/h5md/creator", "name", std::string("grainbath"));
+    h5.attribute("/h5md/creator", "version", std::string(GRAINBATH_VERSION));
   }
   // every numeric summary value but the wall-clock performance block, so that results.h5
   // is a function of case and seed alone (and a resumed run's file equals an uninterrupted one's)

@@ -286,7 +286,7 @@ TEST_F(BadInput, DsmcOutOfRangeEveryParameter) {
       {"dsmc", "collision_group", "-1", "expected an integer in [0, 1000000000], found -1"},
       {"sampling", "every", "0.0", "> 0.0"},
       {"sampling", "steady_from", "-1.0", ">= 0.0"},
-      {"sampling", "steady_from", "0.2", "expected a time before t_end"},
+      {"sampling", "steady_from", "0.2", "expected steady_from < t_end, so the averaging window is not empty, found steady_from = 0.2 (case.toml:"},
       {"sampling", "histogram_bins", "3", "expected an integer in [4, 100000]"},
       {"sampling", "histogram_range", "0.0", "> 0.0"},
       {"run", "seed", "-1", "expected an integer in [0, 9223372036854775807]"},
@@ -531,6 +531,117 @@ TEST_F(BadInput, BadOverrides) {
                   "--set");
   expect_rejected(std::nullopt, {{0, "dsmc.particles", "not valid UTF-8"}}, {"--set", "dsmc.particles=\xFF"}, "run",
                   "--set");
+}
+
+// ---------------------------------------------------------------- keys of another law, table or solver
+
+TEST_F(BadInput, KeyOfAnotherLawIsNamedAsSuch) {
+  Case c = dsmc_case();  // law = "constant", e = 0.9
+  c.set("restitution", "beta", "0.1");
+  expect_rejected(c.text(), {{c.line_of("restitution", "beta"), "restitution.beta",
+                              "not used by law = \"constant\" (it is a key of law = \"power\"; keys of law = "
+                              "\"constant\": e)"}});
+  // walton: mu is a valid key even when absent, so "muu" gets its suggestion
+  write_text(case_file(), dsmc_case().text());
+  expect_rejected(std::nullopt,
+                  {{0, "restitution.muu", "unknown key (did you mean 'mu'?); valid keys in [restitution]: beta0, e, law, mu, q"}},
+                  {"--set", "restitution.law=walton", "--set", "restitution.beta0=0.5", "--set", "restitution.muu=1"}, "check",
+                  "--set");
+  // the initial Trot of rough grains (docs/CASE_FILE.md) is walton's, in DSMC and EDMD
+  expect_rejected(std::nullopt,
+                  {{0, "grains.rotational_temperature", "only rough grains spin: used only with [restitution] law = \"walton\""}},
+                  {"--set", "grains.rotational_temperature=1"}, "check", "--set");
+  Case e = edmd_case();
+  e.set("edmd", "rotational_temperature", "1.0");
+  expect_rejected(e.text(), {{e.line_of("edmd", "rotational_temperature"), "edmd.rotational_temperature",
+                              "used only with [restitution] law = \"walton\", found law = \"constant\""}});
+}
+
+TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
+  // --set restitution.law switches the law: the file's keys of its own law are ignored, with a note
+  write_text(case_file(), dsmc_case().text());
+  auto r = grainbath({"check", case_dir().string(), "--set", "restitution.law=power", "--set", "restitution.beta=0.1"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("note: " + case_file().string() + ":" + std::to_string(dsmc_case().line_of("restitution", "e")) +
+                       ": restitution.e: ignored: a key of the file's law = \"constant\", which --set restitution.law = "
+                       "\"power\" replaces"),
+            std::string::npos)
+      << r.err;
+  // ... but a misspelt key, a stray key of a third law, or another law's key from --set is still an error
+  Case c = dsmc_case();
+  c.set("restitution", "bta", "0.1").set("restitution", "crossover", "2.0");
+  expect_rejected(c.text(),
+                  {{c.line_of("restitution", "bta"), "restitution.bta", "unknown key (did you mean 'beta'?)"},
+                   {c.line_of("restitution", "crossover"), "restitution.crossover", "not used by law = \"power\""}},
+                  {"--set", "restitution.law=power"}, "check");
+  write_text(case_file(), dsmc_case().text());
+  expect_rejected(std::nullopt, {{0, "restitution.delta", "not used by law = \"bizon\" (it is a key of law = \"power\""}},
+                  {"--set", "restitution.law=bizon", "--set", "restitution.delta=0.1"}, "check", "--set");
+}
+
+TEST_F(BadInput, KeyOrSectionOfAnotherTableOrSolver) {
+  write_text(case_file(), dsmc_case().text());
+  expect_rejected(std::nullopt, {{0, "dsmc.knudsen", "unknown key (knudsen is a key of [background])"}},
+                  {"--set", "dsmc.knudsen=0.1"}, "check", "--set");
+  expect_rejected(std::nullopt,
+                  {{0, "sampling.interval", "not used by solver = \"dsmc\" (a [sampling] key of solver = \"edmd\")"}},
+                  {"--set", "sampling.interval=1"}, "check", "--set");
+  write_text(case_file(), edmd_case().text());
+  expect_rejected(std::nullopt,
+                  {{0, "[dsmc]",
+                    "unknown section ([dsmc] is a section of solver = \"dsmc\", this case has solver = \"edmd\"); "
+                    "valid sections for solver = \"edmd\": background, checkpoint, edmd, heating, profiles, restitution, "
+                    "run, sampling, transport, walls"}},
+                  {"--set", "dsmc.particles=100"}, "check", "--set");
+  expect_rejected(std::nullopt, {{0, "sampling.every", "not used by solver = \"edmd\""}},
+                  {"--set", "sampling.every=1"}, "check", "--set");
+}
+
+TEST_F(BadInput, SetNamesItselfAndTheValuesInChecksBetweenKeys) {
+  const Case c = dsmc_case();
+  write_text(case_file(), c.text());
+  const std::string dt_line = "case.toml:" + std::to_string(c.line_of("dsmc", "dt"));
+  expect_rejected(std::nullopt,
+                  {{0, "dsmc.t_end", "expected dt <= t_end, found dt = 0.01 (" + dt_line + ") > t_end = 0.001 (--set)"}},
+                  {"--set", "dsmc.t_end=0.001"}, "check", "--set");
+  // spaces around the key and the value of an override (shell quoting) are not part of them
+  auto r = grainbath({"check", case_dir().string(), "--set", " dsmc.dt = 0.02 "});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  expect_rejected(std::nullopt, {{0, "dsmc.dtt", "unknown key (did you mean 'dt'?)"}}, {"--set", "dsmc.dtt = 0.1"},
+                  "check", "--set");
+}
+
+TEST_F(BadInput, UnquotedStringGetsAQuotesHint) {
+  Case c = dsmc_case();
+  c.set("restitution", "law", "constant");
+  expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law",
+                              "(a string needs quotes: law = \"constant\")"}});
+}
+
+TEST_F(BadInput, SamplingLongerThanTheWindowAndUnusedWallTemperature) {
+  Case c = dsmc_case();  // t_end = 0.2, steady_from = 0.1
+  c.set("sampling", "every", "0.15");
+  expect_rejected(c.text(), {{c.line_of("sampling", "every"), "sampling.every",
+                              "expected every <= t_end - steady_from (the averaging window), found every = 0.15 "
+                              "(case.toml:" + std::to_string(c.line_of("sampling", "every")) + ") > t_end = 0.2"}});
+  Case e = edmd_case();  // collisions = 5
+  e.set("sampling", "interval", "10.0");
+  expect_rejected(e.text(), {{e.line_of("sampling", "interval"), "sampling.interval",
+                              "expected interval <= collisions (both per particle; the measurement), found interval = 10.0"}});
+  Case s = spatial_case();  // all faces periodic
+  s.set("domain", "wall_temperature", "2.0");
+  expect_rejected(s.text(), {{s.line_of("domain", "wall_temperature"), "domain.wall_temperature",
+                              "not used: no face is \"diffuse\""}});
+  // --set switching the boundaries drops the file's wall temperature with a note
+  s.set("domain", "boundaries", "[\"diffuse\"]");
+  write_text(case_file(), s.text());
+  auto r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  r = grainbath({"check", case_dir().string(), "--set", "domain.boundaries=[\"specular\"]"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("domain.wall_temperature: ignored: no face is \"diffuse\" with --set domain.boundaries"),
+            std::string::npos)
+      << r.err;
 }
 
 // ---------------------------------------------------------------- case directories
@@ -810,4 +921,17 @@ TEST_F(NonFiniteMonitor, EdmdStopsAndPointsAtTheNewestCheckpoint) {
   expect_previous_output_intact({"out.checkpoints"});
   auto ok = grainbath({"run", case_dir().string(), "--out", out().string(), "--quiet"});
   EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
+}
+
+// The pointer to `grainbath list-models` only when a model name was wrong, not after every
+// range error (new-user review, 2026-11-26).
+TEST_F(BadInput, ListModelsHintOnlyForUnknownNames) {
+  Case c = dsmc_case();
+  c.set("dsmc", "dt", "0.0");
+  auto r = expect_rejected(c.text(), {{c.line_of("dsmc", "dt"), "dsmc.dt", "> 0.0"}}, {}, "check");
+  EXPECT_EQ(r.err.find("list-models"), std::string::npos) << r.err;
+  c = dsmc_case();
+  c.set("restitution", "law", "\"constnat\"");
+  r = expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law", "unknown value"}}, {}, "check");
+  EXPECT_NE(r.err.find("list-models"), std::string::npos) << r.err;
 }

@@ -14,13 +14,14 @@ using grainbath::testing::run_dsmc;
 
 namespace {
 std::string box(const std::string& boundaries, const std::string& extra = "") {
+  // a wall temperature only with a diffuse face: without one the reader rejects it as unused
+  const std::string wall = boundaries.find("diffuse") != std::string::npos ? "wall_temperature = 2.0\n" : "";
   return R"(
 [domain]
 dimensions = 2
 length = [1.0, 1.0]
 cells = [8, 8]
-boundaries = )" + boundaries + R"(
-wall_temperature = 2.0
+boundaries = )" + boundaries + "\n" + wall + R"(
 [grains]
 temperature = 1.0
 [background]

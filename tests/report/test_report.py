@@ -189,6 +189,8 @@ def main():
         for k, v in leaves("", summary):
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
+        if case == "@edmd":  # the trajectory's layout as the report checks it against H5MD 1.1
+            check("The snapshot layout conforms to H5MD 1.1" in md, f"{case}: H5MD layout problems (see report.md)")
         if os.path.isfile(os.path.join(out, "fields.xdmf")):
             check("fields.xdmf checked:" in md and "fields.xdmf problems" not in md,
                   f"{case}: fields.xdmf does not match results.h5 (see report.md)")
