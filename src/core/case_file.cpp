@@ -703,12 +703,23 @@ double CaseReader::real(std::string_view section, std::string_view key, double f
   return x;
 }
 
+// For a required key missing where --set changed its section (a law switched on the command
+// line needs its own keys there too): how to give it.
+static std::string set_hint(const std::set<std::string>& overridden, std::string_view section, std::string_view key) {
+  const std::string prefix = std::string(section) + ".";
+  for (const auto& o : overridden)
+    if (o.rfind(prefix, 0) == 0)
+      return "; " + o + " came from --set: give this key there too, --set " + prefix + std::string(key) + "=VALUE";
+  return "";
+}
+
 double CaseReader::real_required(std::string_view section, std::string_view key, Bounds bounds,
                                  std::string_view unit) {
   if (!has(section, key)) {
     accept(section, key);
     problem(section, key, "missing: expected a number in " + bounds.describe() +
-                              (unit.empty() ? "" : " (" + std::string(unit) + ")"));
+                              (unit.empty() ? "" : " (" + std::string(unit) + ")") +
+                              set_hint(impl_->overridden, section, key));
     return std::isfinite(bounds.lo) ? bounds.lo : 0.0;
   }
   return real(section, key, 0.0, bounds, unit);
@@ -747,7 +758,8 @@ std::int64_t CaseReader::integer_required(std::string_view section, std::string_
                                           std::int64_t hi) {
   if (!has(section, key)) {
     accept(section, key);
-    problem(section, key, "missing: expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    problem(section, key, "missing: expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" +
+                              set_hint(impl_->overridden, section, key));
     return lo;
   }
   return integer(section, key, lo, lo, hi);

@@ -935,3 +935,12 @@ TEST_F(BadInput, ListModelsHintOnlyForUnknownNames) {
   r = expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law", "unknown value"}}, {}, "check");
   EXPECT_NE(r.err.find("list-models"), std::string::npos) << r.err;
 }
+
+// A law switched with --set needs its own required keys there too: the message says how.
+TEST_F(BadInput, RequiredKeyOfALawSwitchedBySetSaysHowToGiveIt) {
+  Case c = dsmc_case();
+  c.set("restitution", "law", "\"power\"").set("restitution", "beta", "0.2").set("restitution", "delta", "0.2");
+  c.erase("restitution", "e");
+  expect_rejected(c.text(), {{0, "restitution.e", "--set restitution.e=VALUE"}}, {"--set", "restitution.law=constant"},
+                  "check");
+}
