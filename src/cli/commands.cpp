@@ -155,7 +155,9 @@ int command_run(const RunArgs& a) {
   } catch (const CaseError& e) {
     return report_case_error(e);
   }
-  const fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "output" : fs::path(a.out_dir);
+  fs::path out = a.out_dir.empty() ? fs::path(a.case_dir) / "output" : fs::path(a.out_dir);
+  // "out/" is out: its checkpoints (out.checkpoints) and siblings go beside it, not inside
+  while (!out.has_filename() && out.has_parent_path() && out != out.root_path()) out = out.parent_path();
   // MPI (several ranks, not an ensemble replica): one DSMC run split over the ranks; rank 0
   // writes everything, the others only compute
   namespace mpi = dsmc::mpi_env;
@@ -171,9 +173,7 @@ int command_run(const RunArgs& a) {
   std::unique_ptr<OutputDirectory> dir;
   try {
     // the case directory must survive the move-aside of a previous output
-    const fs::path case_path(a.case_dir);
-    const fs::path keep = fs::is_regular_file(case_path) ? case_path.parent_path() : case_path;
-    if (writer) dir = std::make_unique<OutputDirectory>(out, std::vector<fs::path>{keep});
+    if (writer) dir = std::make_unique<OutputDirectory>(out, std::vector<fs::path>{fs::path(a.case_dir)});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     if (split) mpi::abort(2);

@@ -195,20 +195,27 @@ int command_sweep(const SweepArgs& a) {
   namespace mpi = dsmc::mpi_env;
   // A sweep writes into `out` as its runs finish, so an earlier sweep there is moved aside
   // to out.previous first (the runs of two sweeps must not mix in one table); as for a run,
-  // only a directory grainbath wrote is moved aside (check_output_path).
-  try {
-    const fs::path case_path(a.case_dir);
-    check_output_path(out, {fs::is_regular_file(case_path) ? case_path.parent_path() : case_path});
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
+  // only a directory grainbath wrote is moved aside (check_output_path), and exactly the path
+  // checked is moved. Rank 0 alone checks and moves; the others learn the verdict in a
+  // collective (a rank checking while rank 0 moves could see half a move).
+  int refused = 0;
+  fs::path checked;
+  if (mpi::world_rank() == 0) {
+    try {
+      checked = check_output_path(out, {fs::path(a.case_dir)});
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "error: %s\n", e.what());
+      refused = 1;
+    }
   }
+  if (mpi::active()) refused = static_cast<int>(mpi::sum(refused));
+  if (refused) return 2;
   std::error_code ec;
-  if (mpi::world_rank() == 0 && fs::exists(out, ec) && !fs::is_empty(out, ec)) {
-    fs::path previous = out;
+  if (mpi::world_rank() == 0 && fs::exists(checked, ec) && !fs::is_empty(checked, ec)) {
+    fs::path previous = checked;
     previous += ".previous";
     fs::remove_all(previous, ec);
-    if (!ec) fs::rename(out, previous, ec);
+    if (!ec) fs::rename(checked, previous, ec);
     if (ec) {
       std::fprintf(stderr, "error: %s: cannot move the previous sweep aside to %s (%s)\n", out.string().c_str(),
                    previous.string().c_str(), ec.message().c_str());
@@ -217,6 +224,10 @@ int command_sweep(const SweepArgs& a) {
     }
     std::fprintf(stderr, "sweep: the previous sweep in %s was moved to %s\n", out.string().c_str(),
                  previous.string().c_str());
+  }
+  if (mpi::world_rank() == 0) {
+    fs::create_directories(out, ec);
+    if (!ec) mark_output_directory(out);
   }
   if (mpi::active()) mpi::barrier();  // the other ranks write into `out` only after the move
   fs::create_directories(out, ec);

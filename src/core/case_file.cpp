@@ -703,11 +703,14 @@ double CaseReader::real(std::string_view section, std::string_view key, double f
   return x;
 }
 
-// For a required key missing where --set changed its section (a law switched on the command
-// line needs its own keys there too): how to give it.
-static std::string set_hint(const std::set<std::string>& overridden, std::string_view section, std::string_view key) {
+// For a required key missing where --set replaced a named setting of its section (a law
+// switched on the command line needs its own keys there too): how to give it. Only an
+// override that replaced one of the file's strings counts (`replaced`: "section.key" -> the
+// file's value), not any --set of the section.
+static std::string set_hint(const std::map<std::string, std::string>& replaced, std::string_view section,
+                            std::string_view key) {
   const std::string prefix = std::string(section) + ".";
-  for (const auto& o : overridden)
+  for (const auto& [o, old] : replaced)
     if (o.rfind(prefix, 0) == 0)
       return "; " + o + " came from --set: give this key there too, --set " + prefix + std::string(key) + "=VALUE";
   return "";
@@ -719,7 +722,7 @@ double CaseReader::real_required(std::string_view section, std::string_view key,
     accept(section, key);
     problem(section, key, "missing: expected a number in " + bounds.describe() +
                               (unit.empty() ? "" : " (" + std::string(unit) + ")") +
-                              set_hint(impl_->overridden, section, key));
+                              set_hint(impl_->file_strings, section, key));
     return std::isfinite(bounds.lo) ? bounds.lo : 0.0;
   }
   return real(section, key, 0.0, bounds, unit);
@@ -759,7 +762,7 @@ std::int64_t CaseReader::integer_required(std::string_view section, std::string_
   if (!has(section, key)) {
     accept(section, key);
     problem(section, key, "missing: expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" +
-                              set_hint(impl_->overridden, section, key));
+                              set_hint(impl_->file_strings, section, key));
     return lo;
   }
   return integer(section, key, lo, lo, hi);

@@ -16,6 +16,13 @@ namespace grainbath {
 
 namespace fs = std::filesystem;
 
+// The marker every run and sweep directory gets (OutputDirectory, sweep.cpp); directories
+// from before it (2026-11-26) are recognised by their contents, read, not by their names
+// alone: a run's results.h5 beside a summary.json that has grainbath's run.seed and
+// run.version, a sweep's sweep.tsv whose header starts with "variant", or variant-*
+// directories that are such runs.
+const char* const kOutputMarker = ".grainbath-output";
+
 namespace {
 
 // a is b or lies below it (both absolute and normalised: weakly_canonical)
@@ -28,15 +35,22 @@ bool is_within(const fs::path& a, const fs::path& b) {
   return true;
 }
 
-// p absolute, its directories resolved (symbolic links, . and ..), its last component kept
-// as given, so that a link named as the output is seen as a link (check_replaceable)
+// p absolute with its directories resolved in order (symbolic links, then . and .., as the
+// kernel does: "link/../x" is x beside the link's target), its last component kept as given
+// so that a link named as the output is seen as a link (check_replaceable). A lexical
+// normalisation first would resolve ".." before the link and name another directory.
 fs::path normalised(const fs::path& p) {
-  fs::path q = fs::absolute(p).lexically_normal();
-  if (!q.has_filename() && q.has_parent_path() && q != q.root_path()) q = q.parent_path();
-  if (!q.has_parent_path() || q == q.root_path()) return q;
+  fs::path q = fs::absolute(p);
+  while (!q.has_filename() && q.has_parent_path() && q != q.root_path()) q = q.parent_path();  // "out/"
   std::error_code ec;
+  const fs::path name = q.filename();
+  if (name == "." || name == "..") {  // a directory named by . or ..: resolve it whole
+    const fs::path r = fs::weakly_canonical(q, ec);
+    return ec ? q.lexically_normal() : r;
+  }
+  if (!q.has_parent_path() || q == q.root_path()) return q;
   const fs::path parent = fs::weakly_canonical(q.parent_path(), ec);
-  return ec ? q : parent / q.filename();
+  return ec ? q.lexically_normal() : parent / name;
 }
 
 // p with every symbolic link resolved (for containment)
@@ -65,24 +79,47 @@ void check_replaceable(const fs::path& p, const std::string& shown, const std::s
     throw std::runtime_error(shown + ": exists and is not a directory (grainbath writes a directory there and " + fate +
                              "): choose another --out, or move the file away");
   if (!empty_directory(p) && !holds_grainbath_output(p))
-    throw std::runtime_error(shown + ": exists and does not hold grainbath output (no summary.json, results.h5, "
-                             "sweep.md or variant-* in it); grainbath " + fate +
+    throw std::runtime_error(shown + ": exists and does not hold grainbath output (no " + std::string(kOutputMarker) +
+                             ", no run's results.h5 and summary.json, no sweep.tsv or variant-* runs in it); grainbath " +
+                             fate +
                              ", so it only takes a directory it wrote: choose another --out, or empty or remove " +
                              shown + " yourself");
 }
 
 }  // namespace
 
-bool holds_grainbath_output(const fs::path& dir) {
+
+namespace {
+bool holds_run_output(const fs::path& dir) {
   std::error_code ec;
-  for (const char* f : {"summary.json", "results.h5", "sweep.md", "sweep.tsv"})
-    if (fs::exists(dir / f, ec)) return true;
+  if (fs::exists(dir / kOutputMarker, ec)) return true;
+  if (!fs::is_regular_file(dir / "results.h5", ec)) return false;
+  std::ifstream in(dir / "summary.json");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return text.find("\"run\"") != std::string::npos && text.find("\"seed\"") != std::string::npos &&
+         text.find("\"version\"") != std::string::npos;
+}
+}  // namespace
+
+bool holds_grainbath_output(const fs::path& dir) {
+  if (holds_run_output(dir)) return true;
+  std::error_code ec;
+  {
+    std::ifstream in(dir / "sweep.tsv");
+    std::string header;
+    if (in && std::getline(in, header) && header.rfind("variant", 0) == 0) return true;
+  }
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
-    if (it->path().filename().string().rfind("variant-", 0) == 0) return true;
+    if (it->path().filename().string().rfind("variant-", 0) == 0 && it->is_directory(ec) && holds_run_output(it->path()))
+      return true;
   return false;
 }
 
-void check_output_path(const fs::path& out, const std::vector<fs::path>& keep) {
+void mark_output_directory(const fs::path& dir) {
+  std::ofstream(dir / kOutputMarker) << "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n";
+}
+
+fs::path check_output_path(const fs::path& out, const std::vector<fs::path>& keep) {
   const std::string shown = out.string();
   const fs::path full = normalised(out), target = resolved(out);
   std::error_code ec;
@@ -98,17 +135,18 @@ void check_output_path(const fs::path& out, const std::vector<fs::path>& keep) {
                                "run: choose an --out outside the case, e.g. " + (fs::path(k) / "output").string());
   check_replaceable(full, shown, "moves the previous output aside to " + shown + ".previous");
   // out.previous is deleted only when there is an output to move there
-  if (!fs::exists(fs::symlink_status(full, ec))) return;
+  if (!fs::exists(fs::symlink_status(full, ec))) return full;
   fs::path previous = full;
   previous += ".previous";
   check_replaceable(previous, shown + ".previous", "deletes the output kept there when a newer one is moved aside");
+  return full;
 }
 
 OutputDirectory::OutputDirectory(fs::path final_path, const std::vector<fs::path>& keep)
     : final_(std::move(final_path)) {
-  // "out/" names the directory out: the temporary and previous siblings go beside it
-  if (!final_.has_filename() && final_.has_parent_path()) final_ = final_.parent_path();
-  check_output_path(final_, keep);
+  // the path checked is the path used (absolute, directories resolved; "out/" is out, whose
+  // temporary and previous siblings go beside it)
+  final_ = check_output_path(final_, keep);
   std::error_code ec;
   fs::path parent = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
   if (!fs::exists(parent, ec)) fs::create_directories(parent, ec);
@@ -119,6 +157,7 @@ OutputDirectory::OutputDirectory(fs::path final_path, const std::vector<fs::path
   fs::remove_all(tmp_, ec);
   if (!fs::create_directory(tmp_, ec) || ec)
     throw std::runtime_error(tmp_.string() + ": cannot create the output directory (not writable?)");
+  mark_output_directory(tmp_);
 }
 
 OutputDirectory::~OutputDirectory() {

@@ -34,15 +34,19 @@ class OutputDirectory {
   bool committed_ = false, keep_tmp_ = false;
 };
 
-// Whether `dir` holds what grainbath writes: a run's summary.json or results.h5, a sweep's
-// sweep.md, sweep.tsv or variant-* runs. Only such a directory (or an empty one) is moved
-// aside or deleted by a run or a sweep.
+// Whether `dir` holds what grainbath writes: the marker file every run and sweep directory
+// gets (mark_output_directory), or, for directories from before the marker, a run's
+// results.h5 with grainbath's summary.json, a sweep's sweep.tsv, or variant-* runs. Only
+// such a directory (or an empty one) is moved aside or deleted by a run or a sweep.
 bool holds_grainbath_output(const std::filesystem::path& dir);
+void mark_output_directory(const std::filesystem::path& dir);
 
 // The checks of OutputDirectory's constructor for `out` (and out.previous), for callers that
 // write into `out` directly (a sweep): throws std::runtime_error naming the path, what was
-// found and what to do.
-void check_output_path(const std::filesystem::path& out, const std::vector<std::filesystem::path>& keep = {});
+// found and what to do. Returns the path checked (absolute, its directories resolved), which
+// is the path to move aside and write.
+std::filesystem::path check_output_path(const std::filesystem::path& out,
+                                        const std::vector<std::filesystem::path>& keep = {});
 
 // Writes text to `path` via a temporary file and rename (atomic on POSIX).
 void write_file_atomic(const std::filesystem::path& path, const std::string& text);

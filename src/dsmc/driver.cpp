@@ -483,8 +483,9 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
       }
       if (!resolution_checked && s.step > first_step) {
         resolution_checked = true;
+        // the grains present now (open faces let them leave)
         const Resolution res = resolution(c, s.counters.grain.collisions - first_grain_collisions, s.step - first_step,
-                                          static_cast<double>(c.particles), s.series.T.back());
+                                          s.series.count.back(), s.series.T.back());
         if (dec.root())
           for (const auto& w : res.warnings) std::fprintf(stderr, "%swarning: %s\n", ctx.quiet ? "" : "\n", w.c_str());
       }

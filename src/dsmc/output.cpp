@@ -444,10 +444,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   summary.set("performance.threads", static_cast<std::int64_t>(omp_get_max_threads()));
 
   // dt and the cells against the collisions and the mean free path the run itself measured
-  double mean_T = 0.0;
+  // (the grains present, sampled: open faces let them leave)
+  double mean_T = 0.0, mean_N = 0.0;
   for (double T : s.series.T) mean_T += T;
+  for (double N : s.series.count) mean_N += N;
   if (!s.series.T.empty()) mean_T /= static_cast<double>(s.series.T.size());
-  const Resolution res = resolution(c, rc.grain.collisions, c.steps, static_cast<double>(c.particles), mean_T);
+  mean_N = s.series.count.empty() ? static_cast<double>(c.particles) : mean_N / static_cast<double>(s.series.count.size());
+  const Resolution res = resolution(c, rc.grain.collisions, c.steps, mean_N, mean_T);
   summary.set("resolution.grain_collisions_per_grain_step", res.collisions_per_grain_step);
   if (res.mean_free_path > 0.0) summary.set("resolution.mean_free_path", res.mean_free_path);
   if (c.spatial()) {

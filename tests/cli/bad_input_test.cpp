@@ -767,6 +767,8 @@ class FullDisk : public BadInput {
   void SetUp() override {
     BadInput::SetUp();
     write_text(case_file(), dsmc_case().text());
+    // a previous output as grainbath leaves one (its marker: only such a directory is moved aside)
+    write_text(out() / ".grainbath-output", "written by grainbath\n");
     write_text(out() / "results.h5", "previous results");
     write_text(out() / "summary.json", "{\"previous\": true}");
   }
@@ -853,6 +855,7 @@ TEST_F(FullDisk, RealEnospcOnATinyTmpfs) {
         ::mount("tmpfs", mnt.c_str(), "tmpfs", 0, "size=64k") != 0)
       ::_exit(77);
     const fs::path o = mnt / "out";
+    write_text(o / ".grainbath-output", "written by grainbath\n");  // a previous output, marked as grainbath's
     write_text(o / "summary.json", "{\"previous\": true}");
     write_text(mnt / "filler", std::string(40 * 1024, 'x'));  // leave ~20 KiB free
     RunOptions opt;

@@ -140,4 +140,32 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_EQ(listing(tmp.path()), before);
 }
 
+// Review of 2026-11-26: names alone do not make grainbath output (a user's variant-calls.vcf,
+// a summary.json of their own); "link/../x" is x beside the link's target, as the kernel
+// resolves it, and is checked there; "out/" keeps its checkpoints beside it, not inside.
+TEST_F(OutputDir, NamesAloneAreNotGrainbathOutputAndLinkDotDotIsResolvedInOrder) {
+  write_text(tmp / "mydata" / "notes.txt", "mine");
+  write_text(tmp / "mydata" / "variant-calls.vcf", "mine");
+  write_text(tmp / "mydata" / "summary.json", "{}");
+  expect_refused(tmp / "mydata", "exists and does not hold grainbath output");
+  fs::create_directories(tmp / "elsewhere" / "deep");
+  write_text(tmp / "elsewhere" / "victim" / "mine.txt", "mine");
+  write_text(tmp / "elsewhere" / "victim.previous" / "mydata.txt", "mine");
+  fs::create_directory_symlink(tmp / "elsewhere" / "deep", tmp / "dl");
+  const auto before = listing(tmp.path());
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--out", (tmp / "dl" / ".." / "victim").string(), "-j",
+                                 "1", "--set", "run.seed=1,2"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_EQ(listing(tmp.path()), before);
+  EXPECT_EQ(read_text(tmp / "elsewhere" / "victim.previous" / "mydata.txt"), "mine");
+}
+
+TEST_F(OutputDir, TrailingSlashKeepsCheckpointsBesideTheOutput) {
+  write_text(case_dir() / "case.toml", std::string(kCase) + "[checkpoint]\nevery = 0.1\nkeep = true\n");
+  const RunResult r = run(work().string() + "/o2/");
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_TRUE(fs::exists(work() / "o2" / "summary.json"));
+  EXPECT_FALSE(fs::exists(work() / "o2" / ".checkpoints"));
+}
+
 }  // namespace
