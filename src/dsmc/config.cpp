@@ -1,5 +1,6 @@
 // Reading a DSMC case: [grains], [background], [restitution], [dsmc], [sampling],
 // [domain] (spatial runs), [checkpoint]. Every key, default and unit: docs/CASE_FILE.md.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -120,6 +121,57 @@ void read_domain(CaseReader& r, Config& c) {
   }
 }
 
+// The keys a profile of `kind` ("background profile", "grain profile") reads: the first word
+// of each key description in dsmc_models(), the registry `list-models` prints.
+std::vector<std::string> profile_keys(std::string_view kind, std::string_view profile) {
+  std::vector<std::string> keys;
+  for (const auto& m : dsmc_models())
+    if (m.kind == kind && m.name == profile)
+      for (const auto& k : m.keys) keys.push_back(k.substr(0, k.find(' ')));
+  return keys;
+}
+
+// A key of another profile is not "unknown": say which profiles read it (as for the keys of
+// another restitution law, core/physics_config.cpp). When --set changed the profile, the
+// file's keys of the profile it replaced are ignored with a note, so that
+// `--set background.profile=uniform` works without editing the file.
+void reject_other_profile_keys(CaseReader& r, std::string_view section, std::string_view kind,
+                               const std::string& profile) {
+  const std::string file_profile = r.overridden(section, "profile") ? r.file_string(section, "profile") : "";
+  const std::vector<std::string> mine = profile_keys(kind, profile);
+  std::vector<std::string> seen;
+  for (const auto& m : dsmc_models()) {
+    if (m.kind != kind || m.name == profile) continue;
+    for (const auto& key : profile_keys(kind, m.name)) {
+      if (std::find(mine.begin(), mine.end(), key) != mine.end() || !r.has(section, key)) continue;
+      if (std::find(seen.begin(), seen.end(), key) != seen.end()) continue;
+      seen.push_back(key);
+      const std::vector<std::string> file_keys = profile_keys(kind, file_profile);
+      if (!file_profile.empty() && file_profile != profile && !r.overridden(section, key) &&
+          std::find(file_keys.begin(), file_keys.end(), key) != file_keys.end()) {
+        r.ignore(section, key,
+                 "ignored: a key of the file's profile = \"" + file_profile + "\", which --set " + std::string(section) +
+                     ".profile = \"" + profile + "\" replaces");
+        continue;
+      }
+      std::string owners;
+      for (const auto& o : dsmc_models()) {
+        if (o.kind != kind) continue;
+        const auto ok = profile_keys(kind, o.name);
+        if (std::find(ok.begin(), ok.end(), key) != ok.end())
+          owners += (owners.empty() ? "\"" : " or \"") + o.name + "\"";
+      }
+      std::string own;
+      for (const auto& k : mine) own += (own.empty() ? "" : ", ") + k;
+      r.used_elsewhere(section, key,
+                       "not used by profile = \"" + profile + "\" (it is a key of profile = " + owners + "; " +
+                           (own.empty() ? "profile = \"" + profile + "\" takes no keys of its own"
+                                        : "keys of profile = \"" + profile + "\": " + own) +
+                           "; see grainbath list-models)");
+    }
+  }
+}
+
 void read_background_field(CaseReader& r, Config& c, const std::string& case_dir) {
   BackgroundField& f = c.field;
   const std::string profile =
@@ -127,6 +179,10 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
   if (profile == "isobaric_sine") f.profile = BackgroundProfile::isobaric_sine;
   if (profile == "shear") f.profile = BackgroundProfile::shear;
   if (profile == "file") f.profile = BackgroundProfile::file;
+  // a profile that is no profile (already reported) says nothing about which keys are right
+  const auto named = r.resolved().find("background.profile");
+  if (named == r.resolved().end() || named->second == "\"" + profile + "\"")
+    reject_other_profile_keys(r, "background", "background profile", profile);
   if (f.profile != BackgroundProfile::uniform && !c.spatial())
     r.problem("background", "profile", "profile \"" + profile + "\" needs a spatial run: add a [domain] section");
   if (f.profile == BackgroundProfile::isobaric_sine) {
@@ -187,6 +243,9 @@ Config read_config(CaseReader& r) {
   if (r.has_section("domain")) read_domain(r, c);
   read_background_field(r, c, case_dir);
   const std::string gprofile = r.choice("grains", "profile", "uniform", {"uniform", "mode"});
+  if (const auto named = r.resolved().find("grains.profile");
+      named == r.resolved().end() || named->second == "\"" + gprofile + "\"")
+    reject_other_profile_keys(r, "grains", "grain profile", gprofile);
   if (gprofile == "mode") {
     c.grains.profile = GrainProfile::mode;
     c.grains.amplitude = r.real("grains", "amplitude", 0.1, Bounds::open(-1.0, 1.0));

@@ -557,6 +557,33 @@ TEST_F(BadInput, KeyOfAnotherLawIsNamedAsSuch) {
                               "used only with [restitution] law = \"walton\", found law = \"constant\""}});
 }
 
+TEST_F(BadInput, KeyOfAnotherProfileIsNamedAsSuch) {
+  // [background] and [grains] profile keys under a profile that does not read them
+  Case c = dsmc_case();  // profile = "uniform" by default in both sections
+  c.set("background", "amplitude", "0.2").set("grains", "wavenumber_index", "2");
+  expect_rejected(c.text(), {{c.line_of("background", "amplitude"), "background.amplitude",
+                              "not used by profile = \"uniform\" (it is a key of profile = \"isobaric_sine\" or "
+                              "\"shear\"; profile = \"uniform\" takes no keys of its own"},
+                             {c.line_of("grains", "wavenumber_index"), "grains.wavenumber_index",
+                              "not used by profile = \"uniform\" (it is a key of profile = \"mode\""}});
+  // --set background.profile switches the profile: the file's keys of the replaced profile get a note
+  Case s = dsmc_case();
+  s.set("domain", "dimensions", "1").set("domain", "length", "[10.0]").set("domain", "cells", "[10]");
+  s.set("domain", "boundaries", "[\"periodic\"]");
+  s.set("background", "profile", "\"isobaric_sine\"").set("background", "amplitude", "0.3");
+  write_text(case_file(), s.text());
+  auto r = grainbath({"check", case_dir().string(), "--set", "background.profile=uniform"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find(":" + std::to_string(s.line_of("background", "amplitude")) +
+                       ": background.amplitude: ignored: a key of the file's profile = \"isobaric_sine\", which --set "
+                       "background.profile = \"uniform\" replaces"),
+            std::string::npos)
+      << r.err;
+  // ... while the same key from --set is still an error
+  expect_rejected(std::nullopt, {{0, "background.amplitude", "not used by profile = \"uniform\""}},
+                  {"--set", "background.profile=uniform", "--set", "background.amplitude=0.1"}, "check", "--set");
+}
+
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
   // --set restitution.law switches the law: the file's keys of its own law are ignored, with a note
   write_text(case_file(), dsmc_case().text());
