@@ -123,14 +123,20 @@ int command_check(const RunArgs& a) {
   }
 }
 
-int command_check_quiet(const RunArgs& a) {
+std::vector<std::string> case_problems(const RunArgs& a) {
+  std::vector<std::string> problems;
   try {
     load_case(a);
-    return 0;
   } catch (const CaseError& e) {
-    for (const auto& p : e.problems()) std::fprintf(stderr, "error: %s\n", p.to_string().c_str());
-    return 2;
+    for (const auto& p : e.problems()) problems.push_back(p.to_string());
   }
+  return problems;
+}
+
+int command_check_quiet(const RunArgs& a) {
+  const auto problems = case_problems(a);
+  for (const auto& p : problems) std::fprintf(stderr, "error: %s\n", p.c_str());
+  return problems.empty() ? 0 : 2;
 }
 
 int command_theory(const RunArgs& a) {

@@ -24,6 +24,8 @@ struct SweepArgs {
 int command_run(const RunArgs&);
 int command_check(const RunArgs&);
 int command_check_quiet(const RunArgs&);  // like check, messages only on problems
+// The case-file problems of a case with its overrides, one message each (none: valid).
+std::vector<std::string> case_problems(const RunArgs&);
 int command_sweep(const SweepArgs&);
 int command_theory(const RunArgs&);
 int command_list_models();

@@ -178,13 +178,37 @@ int command_sweep(const SweepArgs& a) {
     o.insert(o.end(), variants[k].begin(), variants[k].end());
     return o;
   };
-  // validate every variant before running any
+  // validate every variant before running any; a problem common to several variants (a key
+  // of the file, a fixed --set) is printed once, with the variants it concerns
   int bad = 0;
+  std::vector<std::pair<std::string, std::vector<std::size_t>>> problems;  // in order of first appearance
   for (std::size_t k = 0; k < variants.size(); ++k) {
     RunArgs ra;
     ra.case_dir = a.case_dir;
     ra.overrides = overrides_of(k);
-    if (command_check_quiet(ra) != 0) ++bad;
+    const auto found = case_problems(ra);
+    bad += !found.empty();
+    for (const auto& p : found) {
+      auto at = std::find_if(problems.begin(), problems.end(), [&](const auto& q) { return q.first == p; });
+      if (at == problems.end()) problems.push_back({p, {k}});
+      else at->second.push_back(k);
+    }
+  }
+  for (const auto& [p, in] : problems) {
+    std::string which;
+    if (variants.size() > 1 && in.size() == variants.size()) {
+      which = " (every variant)";
+    } else if (in.size() == 1 && variants.size() > 1) {
+      which = " (variant " + std::to_string(in[0]);
+      for (const auto& w : variants[in[0]]) which += (w == variants[in[0]].front() ? ": " : " ") + w;
+      which += ")";
+    } else if (variants.size() > 1) {
+      which = " (variants";
+      for (std::size_t i = 0; i < in.size() && i < 12; ++i) which += (i ? ", " : " ") + std::to_string(in[i]);
+      if (in.size() > 12) which += ", ...";
+      which += ")";
+    }
+    std::fprintf(stderr, "error: %s%s\n", p.c_str(), which.c_str());
   }
   if (bad) {
     std::fprintf(stderr, "%d of %zu variants are invalid; nothing was run.\n", bad, variants.size());

@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -898,7 +899,14 @@ std::vector<std::string> CaseReader::texts(std::string_view section, std::string
 bool CaseReader::ok() const { return problems_.empty(); }
 
 void CaseReader::finish() {
-  for (const auto& [_, note] : impl_->ignored) std::fprintf(stderr, "note: %s\n", note.c_str());
+  // A note said once per process: a sweep validates every variant in this process, and the
+  // file's ignored keys are the same for all of them.
+  static std::mutex printed_mutex;
+  static std::set<std::string> printed;
+  for (const auto& [_, note] : impl_->ignored) {
+    const std::lock_guard<std::mutex> lock(printed_mutex);
+    if (printed.insert(note).second) std::fprintf(stderr, "note: %s\n", note.c_str());
+  }
   std::set<std::string> known_sections;
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);
   // The sections are the solver's: a section of the other solver is not a typo.
