@@ -15,7 +15,7 @@ namespace {
 // updated (x86-64 sizes).
 static_assert(sizeof(Counters) == 9 * 8 + 8 * 8 + 2 * 8 + 2 * 8 + 2 * 8 + sizeof(std::vector<std::uint64_t>),
               "Counters changed: save the new member in the checkpoint (pack/unpack below)");
-static_assert(sizeof(EngineState) == 7 * sizeof(std::vector<double>) + 2 * 8 + 5 * 8 + sizeof(Counters),
+static_assert(sizeof(EngineState) == 7 * sizeof(std::vector<double>) + 3 * 8 + 5 * 8 + sizeof(Counters),
               "EngineState changed: save the new member in the checkpoint (arrays_of below)");
 static_assert(sizeof(VelocityHistogram) == 8 + 8 + 3 * sizeof(std::vector<double>) + 4 * 8,
               "VelocityHistogram changed: save the new member in the checkpoint (arrays_of below)");
@@ -172,7 +172,7 @@ Staging stage(const EngineState& e, const RunState& r) {
   g.omega = flatten(e.omega);
   g.accelerations = flatten(e.accelerations);
   g.last_collision = e.last_collision;
-  g.engine_real = {e.offset, e.calendar_width};
+  g.engine_real = {e.offset, e.calendar_width, e.vn_bin_width};
   g.counters = e.event_counters;
   g.pairs = convert<std::uint64_t>(e.pairs);
   g.engine_int = {e.rebuilds, e.total_collisions, e.next_rebuild, e.rebuild_every, e.cell_capacity};
@@ -210,11 +210,14 @@ void unstage(const Staging& g, EngineState& e, RunState& r) {
   e.omega = unflatten(g.omega);
   e.accelerations = unflatten(g.accelerations);
   e.last_collision = g.last_collision;
-  if (g.engine_real.size() != 2 || g.engine_int.size() != 5 || g.run_real.size() != 10 || g.run_int.size() != 4 ||
+  // engine_real: 2 values in checkpoints written before the normal-speed bins followed the
+  // temperature (their width is then the setup's, as when they were written)
+  if ((g.engine_real.size() != 2 && g.engine_real.size() != 3) || g.engine_int.size() != 5 || g.run_real.size() != 10 || g.run_int.size() != 4 ||
       g.pairs_real.size() != 1 || g.pairs_int.size() != 2 || g.vhist_real.size() != 4)
     throw std::runtime_error("wrong scalar layout");
   e.offset = g.engine_real[0];
   e.calendar_width = g.engine_real[1];
+  e.vn_bin_width = g.engine_real.size() > 2 ? g.engine_real[2] : 0.0;
   e.event_counters = g.counters;
   for (std::uint64_t p : g.pairs)
     if (p > 0xffffffffull) throw std::runtime_error("air-table pair id out of range");

@@ -590,6 +590,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     rs.c_eq = eng.counters();
     eng.counters() = Counters{};
     eng.counters().vn_histogram.assign(rs.c_eq.vn_histogram.size(), 0);
+    // the normal-speed bins in units of the measured temperature, not of the case's scales
+    // (those are >= 1 by their defaults: bins of 0.09 sqrt(T) at T = 0.05 before)
+    if (T > 0.0) eng.set_vn_bin_width(0.02 * std::sqrt(T));
     rs.t0 = eng.time();
     rs.T0 = T;
     T = snapshot();
@@ -978,7 +981,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   {
     std::vector<double> centres, dens;
-    const double w = make_setup(c, seed).vn_bin_width;
+    const double w = eng.vn_bin_width();
     const double tot = static_cast<double>(std::max<std::uint64_t>(1, f.collisions));
     for (std::size_t b = 0; b < f.vn_histogram.size(); ++b) {
       centres.push_back((b + 0.5) * w / std::sqrt(T_mean));

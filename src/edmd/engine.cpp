@@ -1194,6 +1194,7 @@ EngineState Engine::state() const {
   }
   st.offset = offset_;
   st.calendar_width = calendar_width_;
+  st.vn_bin_width = vn_bin_width_;
   st.rebuilds = rebuilds_;
   st.total_collisions = total_collisions_;
   st.next_rebuild = next_rebuild_;
@@ -1243,6 +1244,7 @@ void Engine::restore(const EngineState& st) {
   next_rebuild_ = st.next_rebuild;
   c_ = st.counters;
   calendar_width_ = st.calendar_width;
+  if (st.vn_bin_width > 0.0) vn_bin_width_ = st.vn_bin_width;
   for (std::uint32_t i = 0; i < n_; ++i) draw_background_time(i);
   rebuild_calendar();
 }

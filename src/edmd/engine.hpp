@@ -151,6 +151,7 @@ struct EngineState {
   std::vector<double> last_collision;       // relative to the time origin
   double offset = 0.0;                      // time of the origin: time() = offset
   double calendar_width = 0.0;
+  double vn_bin_width = 0.0;                // normal-speed histogram bins (0: the setup's)
   std::uint64_t rebuilds = 0, total_collisions = 0, next_rebuild = 0, rebuild_every = 0;
   std::uint64_t cell_capacity = 4;
   Counters counters;
@@ -188,6 +189,10 @@ class Engine {
   std::uint64_t event_counter(std::size_t id) const { return k_[slot_of_[id]].counter; }
   const Counters& counters() const { return c_; }
   Counters& counters() { return c_; }
+  // Width (velocity) of the normal-speed histogram's bins; the driver sets it from the
+  // temperature when the measurements start, with the counts zeroed.
+  double vn_bin_width() const { return vn_bin_width_; }
+  void set_vn_bin_width(double w) { vn_bin_width_ = w; }
   double kinetic_energy() const;   // after synchronize()
   Vec3 momentum() const;
   // Smallest centre distance over all pairs (cell search), after synchronize().

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 
 #include "core/case_file.hpp"
 #include "core/h5.hpp"
@@ -171,4 +172,51 @@ TEST(EdmdPhysics, FreeCoolingFollowsHaffsLaw) {
       "[restitution]\nlaw = \"constant\"\ne = 0.9\n[sampling]\ninterval = 0.5\nfree_cooling = true\n");
   EXPECT_NEAR(s.number("haff.ratio"), 1.02, 0.03);
   EXPECT_LT(s.number("haff.final_temperature"), 0.5 * s.number("temperature.initial"));
+}
+
+// The normal relative speed u = -g.n of the colliding pairs of an elastic gas in equilibrium
+// has the collision-weighted density u/(2T) exp(-u^2/(4T)) (m = 1; the pair's relative
+// velocity is Gaussian with variance 2T per component and uncorrelated with the positions,
+// so at contact the flux weight u alone shapes it, at any density): <u/sqrt(T)> = sqrt(pi),
+// <u^2/T> = 4. A cold gas (T = 0.01) also checks that the bins follow the measured
+// temperature (0.02 sqrt(T0) wide); they were 0.02 sqrt(max(1, ...)) = 0.2 sqrt(T) here before.
+TEST(EdmdPhysics, NormalSpeedAtCollisionsIsFluxWeightedGaussianInAColdGas) {
+  CaseReader r(
+      "[edmd]\ndimensions = 3\nparticles = 500\npacking_fraction = 0.2\nequilibrate = 5\ncollisions = 40\n"
+      "temperature = 0.01\n",
+      "t.toml");
+  Config c = read_config(r);
+  r.finish();
+  RunContext ctx;
+  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_vn_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(ctx.out_dir);
+  ctx.quiet = true;
+  ctx.seed = 3;
+  Summary s;
+  run(c, ctx, s);
+  std::vector<double> x, d;
+  {
+    H5File h((ctx.out_dir / "results.h5").string(), H5File::Mode::read);
+    x = h.read_doubles("/observables/normal_speed/vn_over_sqrtT");
+    d = h.read_doubles("/observables/normal_speed/density");
+  }
+  std::filesystem::remove_all(ctx.out_dir);
+  ASSERT_GE(x.size(), 2u);
+  ASSERT_EQ(x.size(), d.size());
+  const double dx = x[1] - x[0];
+  const double T0 = s.number("temperature.initial"), T = s.number("temperature.mean");
+  EXPECT_NEAR(dx, 0.02 * std::sqrt(T0 / T), 1e-12);
+  double norm = 0, m1 = 0, m2 = 0;
+  for (std::size_t b = 0; b < x.size(); ++b) {
+    norm += d[b] * dx;
+    m1 += x[b] * d[b] * dx;
+    m2 += x[b] * x[b] * d[b] * dx;
+  }
+  EXPECT_NEAR(norm, 1.0, 1e-12);
+  // standard errors from the collision count (sd of u/sqrt(T): sqrt(4 - pi) = 0.93; of
+  // u^2/T: sqrt(32 - 16) = 4), times 2 for correlations between a grain's successive collisions
+  const double n = s.number("collision.count");
+  ASSERT_GT(n, 5000);
+  EXPECT_NEAR(m1, std::sqrt(std::numbers::pi), 5 * 2 * 0.93 / std::sqrt(n) + 0.002);
+  EXPECT_NEAR(m2, 4.0, 5 * 2 * 4.0 / std::sqrt(n) + 0.002);
 }
