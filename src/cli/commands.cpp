@@ -1,5 +1,6 @@
 #include "cli/commands.hpp"
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -7,6 +8,8 @@
 #include <csignal>
 #include <cstdlib>
 #include <cstdio>
+#include <cstring>
+#include <cerrno>
 #include <filesystem>
 #include <iostream>
 #include <variant>
@@ -27,7 +30,28 @@ namespace fs = std::filesystem;
 namespace {
 
 std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop.store(true); }
+std::atomic<bool> g_announce_stop{true};  // false on the MPI ranks that do not write
+
+// SIGINT, SIGTERM, SIGHUP (a closed terminal or ssh session), SIGUSR1 and SIGXCPU (batch
+// systems' warnings before a kill): the run stops at its next step (DSMC) or rebuild (EDMD)
+// and writes a checkpoint; it says so at once, since an EDMD stop can take seconds. A second
+// signal stops at once, without a checkpoint (the default action; the temporary output
+// directory it leaves is removed by the next run into the same --out: OutputDirectory).
+extern "C" void on_signal(int sig) {
+  if (g_stop.exchange(true)) {
+    std::signal(sig, SIG_DFL);
+    std::raise(sig);
+    return;
+  }
+  if (g_announce_stop.load()) {
+    static const char msg[] =
+        "\ngrainbath: stop requested: writing a checkpoint at the next step (DSMC) or rebuild (EDMD), then stopping "
+        "(the same signal again stops at once, without a checkpoint)\n";
+    [[maybe_unused]] const auto written = ::write(STDERR_FILENO, msg, sizeof msg - 1);
+  }
+}
+
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU};
 
 using SolverConfig = std::variant<dsmc::Config, edmd::Config>;
 
@@ -176,17 +200,34 @@ int command_run(const RunArgs& a) {
                    lc->reader.file().c_str(), lc->solver.c_str(), mpi::world_size());
     return 2;
   }
+  // --resume needs a checkpoint: said before anything is created or moved (exit 2, bad input)
+  if (a.resume && count_checkpoints(checkpoint_directory(out)) == 0) {
+    if (writer)
+      std::fprintf(stderr,
+                   "error: --resume: no checkpoint in %s: nothing to resume (a run writes one when it is interrupted, "
+                   "and every [checkpoint] every; without --resume the run starts afresh)\n",
+                   checkpoint_directory(out).string().c_str());
+    return 2;
+  }
   std::unique_ptr<OutputDirectory> dir;
   try {
     // the case directory must survive the move-aside of a previous output
     if (writer) dir = std::make_unique<OutputDirectory>(out, std::vector<fs::path>{fs::path(a.case_dir)});
+    // a fresh run starts a fresh series of checkpoints (an earlier run's would otherwise be
+    // taken for this run's by --resume, and pruned this run's away)
+    if (writer && !a.resume)
+      if (const std::string note = set_aside_checkpoints(checkpoint_directory(out)); !note.empty())
+        std::fprintf(stderr, "note: %s\n", note.c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     if (split) mpi::abort(2);
     return 2;
   }
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  g_announce_stop.store(writer);
+  for (int sig : kStopSignals) std::signal(sig, on_signal);
+  // output piped into `head` must not kill the run when the pipe closes: stdout's table is
+  // a copy of summary.json, the results are the files
+  std::signal(SIGPIPE, SIG_IGN);
   RunContext ctx;
   ctx.out_dir = writer ? dir->tmp() : fs::path();
   ctx.case_dir = a.case_dir;
@@ -221,6 +262,9 @@ int command_run(const RunArgs& a) {
                    lc->threads, busy, use.cores);
     }
   }
+  if (lc->solver == "edmd" && lc->threads > 1 && writer && !a.quiet)
+    std::fprintf(stderr, "note: [run] threads = %d: the EDMD engine runs on one thread (threads are for DSMC; run "
+                         "replicas in parallel with grainbath sweep --set run.seed=1,2,...)\n", lc->threads);
   ctx.quiet = a.quiet;
   ctx.case_text = lc->reader.source_text();
   ctx.resolved = lc->reader.resolved();
@@ -256,13 +300,22 @@ int command_run(const RunArgs& a) {
     std::error_code ec;
     if (!keep) fs::remove_all(ctx.checkpoint_dir, ec);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
-                 e.what(), out.string().c_str());
+    // a changed case or an end before the checkpoint on --resume (std::invalid_argument) is bad
+    // input: exit 2, as for a bad case file; the checkpoints are kept
+    const bool bad_input = dynamic_cast<const std::invalid_argument*>(&e) != nullptr;
+    const bool interrupted = dynamic_cast<const RunInterrupted*>(&e) != nullptr;
+    // an interruption is the same on every rank: said once; any other error may be one rank's
+    if (writer || !interrupted)
+      std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
+                   e.what(), out.string().c_str());
     // Remove the temporary directory, then leave without running HDF5's exit-time cleanup:
     // after a failed close (disk full) the library's atexit handler can crash.
-    const int code = g_stop.load() ? 130 : 1;
+    const int code = interrupted || g_stop.load() ? 130 : bad_input ? 2 : 1;
     dir.reset();
     std::fflush(nullptr);
+    // every rank stopped at the same step, after the checkpoint's collectives: all leave
+    // normally (MPI_Finalize in main), so mpirun exits with 130 and prints no abort banner
+    if (interrupted) return code;
     if (split) mpi::abort(code);  // the other ranks wait in a collective call
     std::_Exit(code);
   }
@@ -307,21 +360,52 @@ int command_list_models() {
   return 0;
 }
 
-int command_report(const std::string& dir, const char* argv0) {
-  fs::path exe = fs::canonical("/proc/self/exe").parent_path();
+int command_report(const ReportArgs& a) {
+  std::error_code ec;
+  const fs::path exe = fs::canonical("/proc/self/exe", ec).parent_path();
+  std::vector<fs::path> candidates;
+  if (const char* env = std::getenv("GRAINBATH_PYTHON_DIR"); env != nullptr && *env != '\0')
+    candidates.push_back(fs::path(env) / "report.py");
+  candidates.push_back(exe / "../python/report.py");     // build/grainbath
+  candidates.push_back(exe / "../../python/report.py");  // build/x/grainbath
+  candidates.push_back(fs::path(GRAINBATH_PYTHON_SOURCE_DIR) / "report.py");  // the source tree it was built from
   fs::path script;
-  for (fs::path cand : {exe / "../python/report.py", exe / "../../python/report.py", fs::path("python/report.py")})
-    if (fs::exists(cand)) {
-      script = cand;
+  for (const auto& cand : candidates)
+    if (fs::is_regular_file(cand, ec)) {
+      script = fs::weakly_canonical(cand, ec);
       break;
     }
   if (script.empty()) {
-    std::fprintf(stderr, "error: python/report.py not found next to %s\n", argv0);
+    std::string looked;
+    for (const auto& cand : candidates) looked += "\n  " + cand.lexically_normal().string();
+    std::fprintf(stderr, "error: grainbath report: python/report.py not found; looked in:%s\n(set GRAINBATH_PYTHON_DIR "
+                         "to the python/ directory of a grainbath source tree)\n", looked.c_str());
     return 1;
   }
+  // Debian's python3 has numpy, h5py and matplotlib; the first python3 on PATH may not
   const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string cmd = python + " '" + script.string() + "' '" + dir + "'";
-  return std::system(cmd.c_str()) == 0 ? 0 : 1;
+  std::vector<std::string> args = {python, script.string(), a.dir};
+  if (!a.out_dir.empty()) args.insert(args.end(), {"--out", a.out_dir});
+  if (a.strict) args.push_back("--strict");
+  std::vector<char*> argv;
+  for (auto& x : args) argv.push_back(x.data());
+  argv.push_back(nullptr);
+  std::fflush(nullptr);
+  const pid_t child = ::fork();
+  if (child < 0) {
+    std::fprintf(stderr, "error: grainbath report: cannot start %s: %s\n", python.c_str(), std::strerror(errno));
+    return 1;
+  }
+  if (child == 0) {  // the arguments go to Python as they are: no shell, no quoting
+    ::execvp(argv[0], argv.data());
+    std::fprintf(stderr, "error: grainbath report: cannot run %s: %s\n", python.c_str(), std::strerror(errno));
+    std::_Exit(127);
+  }
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0)
+    if (errno != EINTR) return 1;
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 
 }  // namespace grainbath::cli

@@ -29,6 +29,13 @@ std::vector<std::string> case_problems(const RunArgs&);
 int command_sweep(const SweepArgs&);
 int command_theory(const RunArgs&);
 int command_list_models();
-int command_report(const std::string& dir, const char* argv0);
+struct ReportArgs {
+  std::string dir;
+  std::string out_dir;  // "": report.py's default (OUTPUT_DIR/report)
+  bool strict = false;
+};
+// Runs python/report.py (no shell in between) and returns its exit status: 0 done, 2 bad
+// input, 3 a Python module missing (python/README.md); 1 when report.py cannot be found or started.
+int command_report(const ReportArgs&);
 
 }  // namespace grainbath::cli

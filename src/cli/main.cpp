@@ -64,9 +64,11 @@ int cli_main(int argc, char** argv) {
   sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
   sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once (default: number of cores)");
 
-  std::string report_dir;
+  grainbath::cli::ReportArgs report_args;
   auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
-  report->add_option("dir", report_dir, "Case directory or output directory")->required();
+  report->add_option("dir", report_args.dir, "Case directory or output directory")->required();
+  report->add_option("--out", report_args.out_dir, "Report directory (default OUTPUT_DIR/report)");
+  report->add_flag("--strict", report_args.strict, "Exit with an error when a section cannot be made");
 
   try {
     app.parse(argc, argv);
@@ -84,12 +86,31 @@ int cli_main(int argc, char** argv) {
               << simd << "\"\n";
     return 2;
   }
+#ifndef GRAINBATH_MPI
+  // This build has no MPI; under mpirun every process would run the whole case into the
+  // same output (the last to finish wins, the others end up in OUT.previous)
+  if (*run || *sweep) {
+    const char* size = std::getenv("OMPI_COMM_WORLD_SIZE");
+    if (size == nullptr) size = std::getenv("PMI_SIZE");
+    if (size != nullptr && std::atoi(size) > 1) {
+      const char* rank = std::getenv("OMPI_COMM_WORLD_RANK");
+      if (rank == nullptr) rank = std::getenv("PMI_RANK");
+      if (rank == nullptr || std::atoi(rank) == 0)
+        std::fprintf(stderr,
+                     "error: this grainbath was built without MPI, but runs as one of %s MPI processes: each would run "
+                     "the whole case into the same output. Use the MPI build (cmake -DGRAINBATH_MPI=ON, e.g. "
+                     "build-mpi/grainbath), or run without mpirun\n",
+                     size);
+      return 2;
+    }
+  }
+#endif
   if (*run) return grainbath::cli::command_run(run_args);
   if (*check) return grainbath::cli::command_check(check_args);
   if (*theory) return grainbath::cli::command_theory(theory_args);
   if (*list) return grainbath::cli::command_list_models();
   if (*sweep) return grainbath::cli::command_sweep(sweep_args);
-  if (*report) return grainbath::cli::command_report(report_dir, argv[0]);
+  if (*report) return grainbath::cli::command_report(report_args);
   return 1;
 }
 }  // namespace

@@ -129,12 +129,60 @@ void commit_checkpoint_file(const fs::path& partial) {
   std::error_code ec;
   fs::rename(partial, final_path, ec);
   if (ec) throw std::runtime_error(final_path.string() + ": cannot move the checkpoint into place: " + ec.message());
-  // keep this one and the previous one
-  auto all = list_checkpoints(final_path.parent_path());
-  while (all.size() > 2) {
-    fs::remove(all.front().second, ec);
-    all.erase(all.begin());
+  // keep this one and the newest before it; never the one just written, whatever else the
+  // directory holds (a file of a higher index can only be a stale or corrupt one: a fresh run
+  // sets an earlier run's checkpoints aside, set_aside_checkpoints, and --resume continues
+  // from the newest valid one)
+  const auto all = list_checkpoints(final_path.parent_path());  // by index, oldest first
+  const auto mine = std::find_if(all.begin(), all.end(),
+                                 [&](const auto& c) { return c.second.filename() == final_path.filename(); });
+  const fs::path* previous = nullptr;
+  for (auto c = all.begin(); c != mine && mine != all.end(); ++c) previous = &c->second;
+  for (const auto& [index, path] : all)
+    if (path.filename() != final_path.filename() && (previous == nullptr || path != *previous)) fs::remove(path, ec);
+}
+
+std::size_t count_checkpoints(const fs::path& dir) { return list_checkpoints(dir).size(); }
+
+std::string set_aside_checkpoints(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(dir, ec))) return {};
+  if (!fs::is_directory(fs::symlink_status(dir, ec)))
+    throw std::runtime_error(dir.string() + ": is not a directory of checkpoints; this run would write its checkpoints "
+                             "there: move it away or choose another --out");
+  // only checkpoint files (and their .partial leftovers) are moved, so a directory of the
+  // user's own that happens to have this name is never touched
+  const auto ours = [](const fs::path& p) {
+    const std::string n = p.filename().string();
+    return n.rfind("checkpoint-", 0) == 0 && (p.extension() == ".h5" || p.extension() == ".partial");
+  };
+  std::size_t files = 0;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (!ours(e.path()))
+      throw std::runtime_error(dir.string() + ": holds " + e.path().filename().string() +
+                               ", which is not a checkpoint; this run would write its checkpoints there: move it "
+                               "away or choose another --out");
+    ++files;
   }
+  if (files == 0) return {};
+  const auto kept = list_checkpoints(dir);
+  fs::path previous = dir;
+  previous += ".previous";
+  if (fs::exists(fs::symlink_status(previous, ec))) {
+    for (const auto& e : fs::directory_iterator(previous, ec))
+      if (!ours(e.path()))
+        throw std::runtime_error(previous.string() + ": holds " + e.path().filename().string() +
+                                 ", which is not a checkpoint; it would be replaced by " + dir.string() +
+                                 " (the checkpoints of an earlier run): move it away");
+    fs::remove_all(previous, ec);
+  }
+  fs::rename(dir, previous, ec);
+  if (ec)
+    throw std::runtime_error(dir.string() + ": cannot move the earlier run's checkpoints aside (" + ec.message() + ")");
+  return dir.string() + " held " + std::to_string(kept.size()) + " checkpoint(s) of an earlier run" +
+         (kept.empty() ? std::string() : " (the newest: " + kept.back().second.filename().string() + ")") +
+         "; this run starts afresh (no --resume), so they were moved to " + previous.string() +
+         " (to continue that run instead: move them back and add --resume)";
 }
 
 void discard_checkpoint_file(const fs::path& partial) {

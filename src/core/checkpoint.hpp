@@ -33,6 +33,16 @@ CheckpointSettings read_checkpoint_settings(CaseReader& reader, const char* ever
 // so that they survive a crash of the run that is writing OUT).
 std::filesystem::path checkpoint_directory(const std::filesystem::path& final_out);
 
+// The number of checkpoint files in `dir` (0 if there is no such directory).
+std::size_t count_checkpoints(const std::filesystem::path& dir);
+
+// A run that starts afresh (no --resume) writes a new series of checkpoints: the files an
+// earlier run left in `dir` are moved to DIR.previous (replacing an older one), so that
+// they cannot be mistaken for this run's, nor prune them (they used to: the two newest by
+// index were kept). Returns a note for the user ("" if there was nothing). Throws when `dir`,
+// or DIR.previous, holds anything but checkpoint files.
+std::string set_aside_checkpoints(const std::filesystem::path& dir);
+
 // The checksum: FNV-1a over bytes, chained across the arrays in their list order, each array
 // prefixed by its length. Exposed so that processes that each hold a part of an array (MPI
 // ranks, src/dsmc/checkpoint.cpp) can continue it in turn: the bytes of a part go in

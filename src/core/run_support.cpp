@@ -1,7 +1,12 @@
 #include "core/run_support.hpp"
 
 #include <sched.h>
+#include <signal.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <sstream>
 
 #include <algorithm>
 #include <cmath>
@@ -119,6 +124,61 @@ void mark_output_directory(const fs::path& dir) {
   std::ofstream(dir / kOutputMarker) << "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n";
 }
 
+namespace {
+
+std::string host_name() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "?";
+  return name;
+}
+
+// The marker of a run's temporary directory also names the run's host and process, so that a
+// later run can tell a temporary directory whose run was killed (SIGKILL, a crash, a power
+// cut) from one a live run is writing, here or on another host of a shared file system.
+void mark_temporary_directory(const fs::path& dir) {
+  std::ofstream(dir / kOutputMarker) << "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n"
+                                     << "temporary of the run on host " << host_name() << " process " << ::getpid()
+                                     << "\n";
+}
+
+// Temporary directories OUT.tmp-PID of earlier runs into OUT that did not finish: removed
+// when their marker names this host and a process that no longer exists; otherwise only
+// named (a run on another host, or kept results: a failed final move re-marks its
+// directory as plain output).
+void remove_dead_temporaries(const fs::path& final_path) {
+  const fs::path parent = final_path.has_parent_path() ? final_path.parent_path() : fs::path(".");
+  const std::string prefix = final_path.filename().string() + ".tmp-";
+  const std::string here = host_name();
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(parent, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string digits = name.substr(prefix.size());
+    if (digits.empty() || digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    const long pid = std::stol(digits);
+    if (pid == ::getpid() || !fs::is_directory(fs::symlink_status(e.path(), ec))) continue;
+    std::ifstream in(e.path() / kOutputMarker);
+    if (!in) continue;  // not grainbath's
+    std::stringstream text;
+    text << in.rdbuf();
+    const bool ours = text.str().find("on host " + here + " process " + digits + "\n") != std::string::npos;
+    if (ours && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+      fs::remove_all(e.path(), ec);
+      std::fprintf(stderr, "note: removed %s, the temporary output of an earlier run (process %s) that did not finish\n",
+                   e.path().string().c_str(), digits.c_str());
+    } else if (text.str().find("temporary of the run") != std::string::npos && !ours) {
+      std::fprintf(stderr, "note: %s is the temporary output of a run on another host or from before this check; "
+                           "remove it if no run is writing it\n", e.path().string().c_str());
+    } else if (text.str().find("temporary of the run") == std::string::npos) {
+      std::fprintf(stderr, "note: %s holds the results of an earlier run that could not be moved into place, or of "
+                           "a run killed before 2026-11-27: look at it, and remove it when it is no longer needed\n",
+                   e.path().string().c_str());
+    }
+  }
+}
+
+}  // namespace
+
 fs::path check_output_path(const fs::path& out, const std::vector<fs::path>& keep) {
   const std::string shown = out.string();
   const fs::path full = normalised(out), target = resolved(out);
@@ -152,12 +212,16 @@ OutputDirectory::OutputDirectory(fs::path final_path, const std::vector<fs::path
   if (!fs::exists(parent, ec)) fs::create_directories(parent, ec);
   if (ec || !fs::is_directory(parent))
     throw std::runtime_error(parent.string() + ": cannot create the output's parent directory");
+  remove_dead_temporaries(final_);
   tmp_ = final_;
   tmp_ += ".tmp-" + std::to_string(::getpid());
   fs::remove_all(tmp_, ec);
   if (!fs::create_directory(tmp_, ec) || ec)
-    throw std::runtime_error(tmp_.string() + ": cannot create the output directory (not writable?)");
-  mark_output_directory(tmp_);
+    throw std::runtime_error(final_.string() + ": cannot write the output: creating its temporary sibling " +
+                             tmp_.filename().string() + " in " + parent.string() + " failed (" +
+                             (ec ? ec.message() : std::string("it exists")) +
+                             "); choose an --out in a writable directory");
+  mark_temporary_directory(tmp_);
 }
 
 OutputDirectory::~OutputDirectory() {
@@ -178,12 +242,14 @@ void OutputDirectory::commit() {
       check_replaceable(final_, final_.string(), "moves the previous output aside");
     } catch (const std::exception& e) {
       keep_tmp_ = true;
+      mark_output_directory(tmp_);  // kept results: no later run may take them for a dead run's
       throw std::runtime_error(std::string(e.what()) + "; the results of this run are kept in " + tmp_.string());
     }
     fs::remove_all(previous, ec);
     fs::rename(final_, previous, ec);
     if (ec) {
       keep_tmp_ = true;
+      mark_output_directory(tmp_);  // kept results: no later run may take them for a dead run's
       throw std::runtime_error(final_.string() + ": cannot move the previous output aside (" + ec.message() +
                                "); the results of this run are kept in " + tmp_.string());
     }
@@ -191,6 +257,7 @@ void OutputDirectory::commit() {
   fs::rename(tmp_, final_, ec);
   if (ec) {
     keep_tmp_ = true;
+    mark_output_directory(tmp_);  // kept results: no later run may take them for a dead run's
     throw std::runtime_error(final_.string() + ": cannot move the new output into place (" + ec.message() +
                              "); the results of this run are kept in " + tmp_.string());
   }

@@ -4,10 +4,18 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace grainbath {
+
+// Thrown by a solver that stopped on a stop request (a signal) after writing its checkpoint;
+// the CLI exits with 130. Under MPI every rank throws it at the same step (the ranks agree on
+// the stop), so they can all leave normally instead of through MPI_Abort.
+struct RunInterrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 // Results are written into a temporary sibling directory and moved into place only when
 // the run succeeded, so an existing output directory is never clobbered half-way. The

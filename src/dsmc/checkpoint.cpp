@@ -290,7 +290,7 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
   part.agree = [&](const std::string& mine) { return dec.first_error(mine); };
   part.first = dec.root();
   const fs::path loaded = read_newest_checkpoint_file(
-      dir, ctx, "dsmc", may_change, "dsmc.t_end and [checkpoint]",
+      dir, ctx, "dsmc", may_change, "dsmc.t_end, run.threads and [checkpoint]",
       [&] {
         s = State{};
         k = Scalars{};

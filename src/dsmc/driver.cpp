@@ -514,7 +514,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     }
     if (stop) {
       progress.finish();
-      throw std::runtime_error("interrupted at step " + std::to_string(s.step) + " (t = " +
+      throw RunInterrupted("interrupted at step " + std::to_string(s.step) + " (t = " +
                                std::to_string(s.step * c.dt) + "); a checkpoint was written to " +
                                ctx.checkpoint_dir.string() + "; continue with: " +
                                (ctx.resume_command.empty() ? "grainbath run " + ctx.case_dir.string() + " --resume"

@@ -302,7 +302,7 @@ bool read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, Engine& 
   const RunState fresh = run;  // bin layouts of the measurements, from the case
   Staging g;
   const fs::path loaded = read_newest_checkpoint_file(
-      dir, ctx, "edmd", may_change, "edmd.collisions and [checkpoint]",
+      dir, ctx, "edmd", may_change, "edmd.collisions, run.threads and [checkpoint]",
       [&] {
         g = Staging{};
         run = fresh;

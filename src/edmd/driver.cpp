@@ -548,7 +548,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       char where[96];
       std::snprintf(where, sizeof where, "%.6g collisions per particle (t = %.6g)",
                     static_cast<double>(eng.total_collisions()) / N, eng.time());
-      throw std::runtime_error(std::string("interrupted at ") + where +
+      throw RunInterrupted(std::string("interrupted at ") + where +
                                (ctx.checkpoint_dir.empty() ? std::string("; no checkpoint directory, nothing saved")
                                                            : "; a checkpoint was written to " + ctx.checkpoint_dir.string() +
                                                                  "; continue with: " +

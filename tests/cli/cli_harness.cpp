@@ -63,6 +63,7 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       struct rlimit rl {*opt.file_size_limit, *opt.file_size_limit};
       if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(121);
     }
+    for (const auto& [name, value] : opt.env) ::setenv(name.c_str(), value.c_str(), 1);
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
@@ -73,7 +74,7 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
   std::string* sinks[2] = {&r.out, &r.err};
   int open_fds = 2;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(opt.timeout_s);
-  bool sent = false;
+  bool sent = false, sent_again = false;
   std::optional<std::chrono::steady_clock::time_point> send_at;
   while (open_fds > 0) {
     if (opt.send_signal && !sent) {
@@ -83,6 +84,10 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
         ::kill(pid, opt.send_signal);
         sent = true;
       }
+    } else if (opt.send_signal && !opt.send_again_when.empty() && !sent_again &&
+               r.err.find(opt.send_again_when) != std::string::npos) {
+      ::kill(pid, opt.send_signal);
+      sent_again = true;
     }
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) {
@@ -90,7 +95,8 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       r.timed_out = true;
       break;
     }
-    const int wait_ms = opt.send_signal && !sent ? 50 : static_cast<int>(left.count());
+    const bool waiting_to_send = opt.send_signal && (!sent || (!opt.send_again_when.empty() && !sent_again));
+    const int wait_ms = waiting_to_send ? 50 : static_cast<int>(left.count());
     if (::poll(fds, 2, std::min(wait_ms, static_cast<int>(left.count()))) < 0) break;
     for (int k = 0; k < 2; ++k) {
       if (fds[k].fd < 0 || !(fds[k].revents & (POLLIN | POLLHUP | POLLERR))) continue;

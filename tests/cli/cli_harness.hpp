@@ -43,6 +43,8 @@ struct RunOptions {
   double timeout_s = 60;
   int send_signal = 0;                    // if set: sent once stderr contains send_when (then 0.3 s later)
   std::string send_when;
+  std::string send_again_when;            // if set: the same signal once more when stderr contains it
+  std::vector<std::pair<std::string, std::string>> env;  // extra environment variables
 };
 
 RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt);

@@ -5,6 +5,8 @@
 // the user's own are refused at start-up, before any work, with nothing changed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <csignal>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -182,3 +184,110 @@ TEST_F(OutputDir, TrailingSlashKeepsCheckpointsBesideTheOutput) {
 }
 
 }  // namespace
+
+// ------------------------------------------------------------ a run's life: checkpoints, signals
+// (second workflow review, 2026-11-27: /work/review2.md A2, A6, A7, A8, B1)
+
+// A fresh run used to leave an earlier run's checkpoints in OUT.checkpoints, and the
+// keep-two-newest rule then deleted the new run's lower-numbered checkpoint as it was written.
+TEST_F(OutputDir, AFreshRunSetsAnEarlierRunsCheckpointsAside) {
+  const fs::path out = tmp / "out";
+  write_text(tmp / "out.checkpoints" / "checkpoint-000000009000.h5", "an earlier run's");
+  write_text(tmp / "out.checkpoints" / "checkpoint-000000009174.h5", "an earlier run's, newer");
+  RunResult r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "run.threads=1",
+                           "--set", "checkpoint.every=0.05", "--set", "checkpoint.keep=true"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("held 2 checkpoint(s) of an earlier run (the newest: checkpoint-000000009174.h5)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_text(tmp / "out.checkpoints.previous" / "checkpoint-000000009174.h5"), "an earlier run's, newer");
+  // this run's own two newest are kept, nothing else (every 5 of its 20 steps, none at the end)
+  std::vector<std::string> mine;
+  for (const auto& e : fs::directory_iterator(tmp / "out.checkpoints")) mine.push_back(e.path().filename().string());
+  std::sort(mine.begin(), mine.end());
+  EXPECT_EQ(mine, (std::vector<std::string>{"checkpoint-000000000010.h5", "checkpoint-000000000015.h5"}));
+  // a directory of that name holding anything else is refused before any work
+  write_text(tmp / "out.checkpoints" / "notes.txt", "mine");
+  const auto before = listing(tmp.path());
+  r = run(out);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("holds notes.txt, which is not a checkpoint"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+}
+
+TEST_F(OutputDir, ResumeWithoutACheckpointOrWithAChangedCaseIsBadInput) {
+  const fs::path out = tmp / "out";
+  RunResult r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--resume"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("--resume: no checkpoint in " + (tmp / "out.checkpoints").string() + ": nothing to resume"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // a checkpoint, then a changed case on --resume: exit 2 (was 1), the checkpoint kept
+  r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "checkpoint.every=0.1",
+                 "--set", "checkpoint.keep=true"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  const auto before = listing(tmp / "out.checkpoints");
+  r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--resume", "--set",
+                 "restitution.e=0.8", "--set", "checkpoint.every=0.1", "--set", "checkpoint.keep=true"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("restitution.e was 0.9, now 0.8 (only dsmc.t_end, run.threads and [checkpoint] may change"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(listing(tmp / "out.checkpoints"), before);
+}
+
+// SIGHUP (a closed terminal) is a stop request like SIGINT: checkpoint, exit 130, said at
+// once; the same signal again stops at once, without a checkpoint, and the temporary output
+// it leaves is removed by the next run into the same --out.
+TEST_F(OutputDir, HangupStopsWithACheckpointAndASecondSignalAtOnce) {
+  std::string long_case = kCase;
+  long_case.replace(long_case.find("particles = 1000"), 16, "particles = 200000");
+  long_case.replace(long_case.find("t_end = 0.2"), 11, "t_end = 500.0");
+  write_text(case_dir() / "case.toml", long_case);
+  const fs::path out = tmp / "out";
+  RunOptions opt;
+  opt.cwd = work();
+  opt.send_signal = SIGHUP;
+  opt.send_when = "running";
+  RunResult r = run_binary({kBinary, "run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"}, opt);
+  EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
+  EXPECT_NE(r.err.find("grainbath: stop requested"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::is_empty(tmp / "out.checkpoints"));
+  EXPECT_FALSE(fs::exists(out));
+  // twice: the second stops the run by the signal's default action, before any checkpoint
+  fs::remove_all(tmp / "out.checkpoints");
+  opt.send_again_when = "stop requested";
+  r = run_binary({kBinary, "run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"}, opt);
+  EXPECT_FALSE(r.exited) << r.describe();
+  std::vector<fs::path> temporaries;
+  for (const auto& e : fs::directory_iterator(tmp.path()))
+    if (e.path().filename().string().rfind("out.tmp-", 0) == 0) temporaries.push_back(e.path());
+  ASSERT_EQ(temporaries.size(), 1u);
+  EXPECT_NE(read_text(temporaries[0] / ".grainbath-output").find("temporary of the run on host"), std::string::npos);
+  // the next run into out removes it (its process is gone) and says so
+  write_text(case_dir() / "case.toml", kCase);
+  r = run(out);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_FALSE(fs::exists(temporaries[0]));
+  EXPECT_NE(r.err.find("note: removed " + temporaries[0].string()), std::string::npos) << r.err;
+  // results kept after a failed final move are re-marked as plain output: never removed
+  const fs::path kept = tmp / "out.tmp-999999999";
+  write_text(kept / ".grainbath-output", "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n");
+  r = run(out);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_TRUE(fs::exists(kept));
+  EXPECT_NE(r.err.find("holds the results of an earlier run"), std::string::npos) << r.err;
+}
+
+TEST_F(OutputDir, ABuildWithoutMpiRefusesToRunAsOneOfSeveralMpiProcesses) {
+  RunOptions opt;
+  opt.cwd = work();
+  opt.env = {{"OMPI_COMM_WORLD_SIZE", "2"}, {"OMPI_COMM_WORLD_RANK", "0"}};
+  const auto before = listing(tmp.path());
+  RunResult r = run_binary({kBinary, "run", case_dir().string(), "--out", (tmp / "out").string()}, opt);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("this grainbath was built without MPI, but runs as one of 2 MPI processes"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+}
