@@ -15,7 +15,9 @@ here = os.path.dirname(os.path.abspath(__file__))
 out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "output")
 s = json.load(open(os.path.join(out, "summary.json")))
 h = h5py.File(os.path.join(out, "results.h5"), "r")
-t, T = h["series/time"][:], h["series/temperature"][:]
+# /timeseries/t (the layout DSMC writes); results.h5 of older builds have /series/time only
+g, time = ("timeseries", "t") if "timeseries/t" in h else ("series", "time")
+t, T = h[f"{g}/{time}"][:], h[f"{g}/temperature"][:]
 T0 = T[0]
 fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
 a.plot(t, T, "o", ms=3, label="EDMD")

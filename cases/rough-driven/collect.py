@@ -31,10 +31,12 @@ with open(os.path.join(here, "edmd_curves.csv"), "w", newline="") as f:
         h = h5py.File(os.path.join(here, sub, "output", "results.h5"), "r")
         s = json.load(open(os.path.join(here, sub, "output", "summary.json")))
         phi = 0.0866
-        t = h["/series/time"][:]
-        T = h["/series/temperature"][:]
+        # /timeseries/t (the layout DSMC writes); results.h5 of older builds have /series/time only
+        g, time = ("timeseries", "t") if "timeseries/t" in h else ("series", "time")
+        t = h[f"/{g}/{time}"][:]
+        T = h[f"/{g}/temperature"][:]
         nu0 = prefactor_2d(phi) * math.sqrt(T[0])
-        cols = [h["/series/temperature"][:], h["/series/rotational_temperature"][:]]
+        cols = [h[f"/{g}/temperature"][:], h[f"/{g}/rotational_temperature"][:]]
         cols += [h[f"/theory/rough_model_{m}/Ttr"][:] for m in "ABCDE"]
         cols += [h[f"/theory/rough_model_{m}/Trot"][:] for m in "ABCDE"]
         last = -1.0

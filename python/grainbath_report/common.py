@@ -1,5 +1,6 @@
 """Sections every solver shares: overview / key numbers, and the appendix (all summary values,
 the case file, the layout of results.h5)."""
+import h5py
 import numpy as np
 
 from .document import Section, fmt, fmt_pm
@@ -167,6 +168,11 @@ def appendix(run, ctx):
     def visit(name, obj):
         shape = getattr(obj, "shape", None)
         lines.append(f"/{name}" + (f"  {shape}" if shape is not None else "/"))
+        if shape is None:  # a group: its soft links too (visititems skips them; EDMD's /series/*)
+            for k in obj:
+                link = obj.get(k, getlink=True)
+                if isinstance(link, h5py.SoftLink):
+                    lines.append(f"/{name}/{k}  -> {link.path}")
 
     run.h5.visititems(visit)
     s.code("\n".join(lines), f"results.h5 datasets ({run.out_dir}/results.h5; layout in docs/OUTPUT.md)")

@@ -1,4 +1,4 @@
-"""Sections for the event-driven MD solver (solver = "edmd": /series, /observables, H5MD snapshots).
+"""Sections for the event-driven MD solver (solver = "edmd": /timeseries, /observables, H5MD snapshots).
 
 Reference formulas mirror src/edmd/theory.hpp (units: σ = 1, m = 1, k_B = 1)."""
 import math
@@ -19,6 +19,16 @@ def _is_edmd(run):
 def _dims(run):
     d = run.param("edmd.dimensions", 3)
     return int(d) if isinstance(d, (int, float)) else 3
+
+
+def _series(run):
+    """Group and time-axis name of the time series: /timeseries/t (DSMC's layout, written since
+    /series was renamed), else /series/time of results.h5 written by older builds. None when
+    neither is there."""
+    for group, time in (("timeseries", "t"), ("series", "time")):
+        if run.has(f"{group}/{time}", f"{group}/temperature"):
+            return group, time
+    return None
 
 
 def _packing(run):
@@ -132,13 +142,15 @@ def equation_of_state(run, ctx):
 # ---------------------------------------------------------------------------------------
 def temperature(run, ctx):
     """T(t), Z(t) and the collision frequency; Haff's law for free cooling."""
-    if not _is_edmd(run) or not run.has("series/time", "series/temperature"):
+    layout = _series(run) if _is_edmd(run) else None
+    if layout is None:
         return None
-    t = run.arr("series/time")
-    T = run.arr("series/temperature")
+    group, time = layout
+    t = run.arr(f"{group}/{time}")
+    T = run.arr(f"{group}/temperature")
     s = Section("EDMD time series: temperature, pressure, collision rate", "edmd-series")
     haff_t0 = run.num("haff.t0_theory")
-    panels = 2 if run.has("series/Z") else 1
+    panels = 2 if run.has(f"{group}/Z") else 1
     n = min(len(t), len(T))
     t, T = t[:n], T[:n]
     if haff_t0:
@@ -183,7 +195,7 @@ def temperature(run, ctx):
     ax.set_title("Temperature")
     ax.legend(loc="best", fontsize=8)
     if panels > 1:
-        Zs = run.arr("series/Z")
+        Zs = run.arr(f"{group}/Z")
         axz = axes[1]
         # per-interval series have one value fewer than the sample times: plot at interval midpoints
         tz = 0.5 * (t[:-1] + t[1:]) if len(Zs) == len(t) - 1 else t[:len(Zs)]

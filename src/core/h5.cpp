@@ -256,6 +256,24 @@ void H5File::attribute(const std::string& object, const std::string& name, const
   if (a.id < 0 || H5Awrite(a.id, type.id, buf.data()) < 0) fail("cannot write attribute " + name);
 }
 
+void H5File::soft_link(const std::string& name, const std::string& target) {
+  if (!exists(target)) fail("cannot link " + name + " to " + target + ": no such object");
+  ensure_parents(name);
+  if (H5Lexists(file_, name.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file_, name.c_str(), H5P_DEFAULT);
+  if (H5Lcreate_soft(target.c_str(), file_, name.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+    fail("cannot create link " + name + " -> " + target);
+}
+
+std::string H5File::soft_link_target(const std::string& name) const {
+  if (!exists(name)) return {};
+  H5L_info_t info;  // unversioned names: HDF5 1.10 and 1.12+ alike
+  if (H5Lget_info(file_, name.c_str(), &info, H5P_DEFAULT) < 0 || info.type != H5L_TYPE_SOFT) return {};
+  std::string buf(info.u.val_size, '\0');  // val_size counts the terminating null
+  if (H5Lget_val(file_, name.c_str(), buf.data(), buf.size(), H5P_DEFAULT) < 0) return {};
+  buf.resize(buf.find('\0') == std::string::npos ? buf.size() : buf.find('\0'));
+  return buf;
+}
+
 template <class T>
 static std::vector<T> read_array(const H5File& f, hid_t file, const std::string& name, hid_t type,
                                  std::vector<hsize_t>* dims_out) {

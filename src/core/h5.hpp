@@ -43,6 +43,14 @@ class H5File {
   // an array of fixed-length strings (H5MD's box boundary, one per dimension)
   void attribute(const std::string& object, const std::string& name, const std::vector<std::string>& values);
 
+  // A soft link `name` -> `target` (absolute path of an existing object; intermediate groups
+  // of `name` are created, an earlier link or object at `name` is replaced). For names kept
+  // after a layout change: a reader of the old path gets the new object, no data is copied.
+  // The target must exist when the link is made, so a typo fails here, not in a user's script.
+  void soft_link(const std::string& name, const std::string& target);
+  // The target of the soft link `name`; empty when `name` is missing or not a soft link.
+  std::string soft_link_target(const std::string& name) const;
+
   bool exists(const std::string& name) const;
   std::vector<double> read_doubles(const std::string& name, std::vector<hsize_t>* dims = nullptr) const;
   std::vector<std::uint64_t> read_u64(const std::string& name) const;

@@ -954,19 +954,32 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);
   write_provenance(h5, ctx, "edmd");
   h5.attribute("/", "units", "sigma = 1, m = 1, k_B = 1; time sigma sqrt(m/energy)");
-  h5.write("/series/time", s.time);
-  h5.write("/series/temperature", s.temperature);
-  h5.write("/series/Z", s.z);
-  h5.write("/series/loss_rate", s.energy_lost);
-  h5.write("/series/heating_rate", s.heating);
-  h5.write("/series/background_rate", s.background);
-  h5.write("/series/collision_frequency", s.collisions);
+  {
+    // The time series under /timeseries with the time axis t, the layout DSMC writes
+    // (src/dsmc/output.cpp), so both solvers' results read alike. /series/<name> (time for
+    // t) is the former layout, kept as soft links for existing scripts (docs/OUTPUT.md: to be
+    // removed later). The checkpoint keeps its own names (checkpoint.cpp "series/*").
+    std::vector<std::pair<std::string, const std::vector<double>*>> series{
+        {"t", &s.time},
+        {"temperature", &s.temperature},
+        {"Z", &s.z},
+        {"loss_rate", &s.energy_lost},
+        {"heating_rate", &s.heating},
+        {"background_rate", &s.background},
+        {"collision_frequency", &s.collisions}};
+    if (rough) series.emplace_back("rotational_temperature", &s.rotational_temperature);
+    for (const auto& [name, values] : series) h5.write("/timeseries/" + name, *values);
+    h5.attribute("/timeseries", "units",
+                 std::string("t: time; temperature, rotational_temperature: energy; Z: 1; loss_rate, heating_rate, "
+                             "background_rate: energy/(sigma^D time); collision_frequency: 1/time per grain"));
+    for (const auto& [name, values] : series)
+      h5.soft_link("/series/" + (name == "t" ? std::string("time") : name), "/timeseries/" + name);
+  }
   if (rough) {
-    h5.write("/series/rotational_temperature", s.rotational_temperature);
     for (const auto& [name, curve] : model_curves) {
       std::vector<double> a, b;
       for (const auto& x : curve) a.push_back(x.Ttr), b.push_back(x.Trot);
-      h5.write("/theory/rough_model_" + name + "/Ttr", a);  // at /series/time
+      h5.write("/theory/rough_model_" + name + "/Ttr", a);  // at /timeseries/t
       h5.write("/theory/rough_model_" + name + "/Trot", b);
     }
   }

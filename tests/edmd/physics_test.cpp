@@ -164,6 +164,52 @@ TEST(EdmdPhysics, TrajectoriesInH5mdLayout) {
   std::filesystem::remove_all(ctx.out_dir);
 }
 
+// results.h5 keeps the time series under /timeseries with the time axis t (DSMC's layout);
+// the former /series/<name> (/series/time for t) are soft links reading the same data.
+// Rough disks, so that rotational_temperature and the model curves at t are covered too.
+TEST(EdmdPhysics, TimeSeriesLayoutWithFormerNamesAsLinks) {
+  CaseReader r(
+      "[edmd]\ndimensions = 2\nparticles = 100\npacking_fraction = 0.2\nrotational_temperature = 0.5\n"
+      "equilibrate = 5\ncollisions = 20\n"
+      "[restitution]\nlaw = \"walton\"\ne = 0.9\nbeta0 = 0.5\nmu = 0.3\n"
+      "[heating]\nmodel = \"white_noise\"\nkick = 0.3\n",
+      "t.toml");
+  Config c = read_config(r);
+  r.finish();
+  RunContext ctx;
+  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_series_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(ctx.out_dir);
+  ctx.quiet = true;
+  Summary s;
+  run(c, ctx, s);
+  {
+    H5File h((ctx.out_dir / "results.h5").string(), H5File::Mode::read);
+    const auto t = h.read_doubles("/timeseries/t");
+    ASSERT_GE(t.size(), 3u);
+    EXPECT_EQ(t.front(), 0.0);
+    EXPECT_FALSE(h.read_attribute("/timeseries", "units").empty());
+    EXPECT_FALSE(h.exists("/timeseries/time"));
+    EXPECT_EQ(h.soft_link_target("/series/time"), "/timeseries/t");
+    EXPECT_EQ(h.read_doubles("/series/time"), t);
+    const std::size_t n_s = t.size(), intervals = n_s - 1;  // per-sample and per-interval series
+    const std::pair<const char*, std::size_t> names[] = {
+        {"temperature", n_s},          {"Z", intervals},
+        {"loss_rate", intervals},      {"heating_rate", intervals},
+        {"background_rate", intervals}, {"collision_frequency", intervals},
+        {"rotational_temperature", n_s}};
+    for (const auto& [name, n] : names) {
+      const std::string now = std::string("/timeseries/") + name, old = std::string("/series/") + name;
+      const auto a = h.read_doubles(now);
+      EXPECT_EQ(a.size(), n) << now;
+      EXPECT_EQ(h.soft_link_target(old), now) << old;
+      EXPECT_EQ(h.read_doubles(old), a) << old;
+      EXPECT_EQ(h.soft_link_target(now), "") << now << " is a dataset, not a link";
+    }
+    EXPECT_EQ(h.read_doubles("/theory/rough_model_A/Ttr").size(), t.size());  // at /timeseries/t
+  }
+  std::filesystem::remove_all(ctx.out_dir);
+}
+
 TEST(EdmdPhysics, FreeCoolingFollowsHaffsLaw) {
   // cases/free-cooling-disks at 2500 disks: measured t0 / (Enskog + a2) = 1.02-1.03
   // (velocity correlations slow the cooling slightly); the shape must be Haff's.

@@ -113,6 +113,44 @@ def get(summary, key):
     return node
 
 
+def check_edmd_series(grainbath, out, env):
+    """EDMD's time series: /timeseries/t and the rest under /timeseries (DSMC's layout), the
+    former /series/<name> (/series/time for t) soft links to them reading the same data; and
+    the report still plots results.h5 of older builds, which have /series only."""
+    import h5py
+    import numpy as np
+    path = os.path.join(out, "results.h5")
+    with h5py.File(path, "r") as h:
+        check(isinstance(h.get("timeseries/t"), h5py.Dataset), "edmd: /timeseries/t missing")
+        names = list(h["timeseries"]) if "timeseries" in h else []
+        check("timeseries" in h and "units" in h["timeseries"].attrs, "edmd: /timeseries lacks its units attribute")
+        check({"t", "temperature", "Z", "loss_rate", "collision_frequency"} <= set(names),
+              f"edmd: /timeseries has {names}")
+        for n in names:
+            old = "series/" + ("time" if n == "t" else n)
+            link = h.get(old, getlink=True)
+            check(isinstance(link, h5py.SoftLink) and link.path == f"/timeseries/{n}",
+                  f"edmd: /{old} is not a soft link to /timeseries/{n} ({link!r})")
+            check(old in h and np.array_equal(h[old][()], h[f"timeseries/{n}"][()]),
+                  f"edmd: /{old} does not read /timeseries/{n}")
+    if not names:
+        return
+    # an older build's layout: the datasets under /series, time axis "time", no /timeseries
+    legacy = out + "-series-layout"
+    shutil.rmtree(legacy, ignore_errors=True)
+    shutil.copytree(out, legacy, ignore=shutil.ignore_patterns("report"))
+    with h5py.File(os.path.join(legacy, "results.h5"), "r+") as h:
+        del h["series"]
+        h.create_group("series")
+        for n in list(h["timeseries"]):
+            h.move(f"timeseries/{n}", "series/" + ("time" if n == "t" else n))
+        del h["timeseries"]
+    r = subprocess.run([grainbath, "report", legacy], capture_output=True, text=True, env=env)
+    md_path = os.path.join(legacy, "report", "report.md")
+    check(r.returncode == 0 and os.path.isfile(md_path) and '<a id="edmd-series"></a>' in open(md_path).read(),
+          f"edmd: no time-series section for the former /series layout ({r.returncode}): {r.stderr.strip()[-500:]}")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--grainbath", required=True)
@@ -189,8 +227,10 @@ def main():
         for k, v in leaves("", summary):
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
-        if case == "@edmd":  # the trajectory's layout as the report checks it against H5MD 1.1
+        if case_dir == edmd_dir:  # the trajectory's layout as the report checks it against H5MD 1.1
             check("The snapshot layout conforms to H5MD 1.1" in md, f"{case}: H5MD layout problems (see report.md)")
+            check_edmd_series(a.grainbath, out, env)
+            check("/series/time  -> /timeseries/t" in md, f"{case}: the appendix does not list the /series links")
         if os.path.isfile(os.path.join(out, "fields.xdmf")):
             check("fields.xdmf checked:" in md and "fields.xdmf problems" not in md,
                   f"{case}: fields.xdmf does not match results.h5 (see report.md)")
