@@ -297,7 +297,9 @@ void Progress::update(double done, const std::string& extra) {
   const auto now = std::chrono::steady_clock::now();
   const double frac = std::min(1.0, std::max(0.0, done / total_));
   const double elapsed = std::chrono::duration<double>(now - start_).count();
-  const double eta = frac > 0 ? elapsed * (1 - frac) / frac : NAN;
+  // no estimate before the rate is known: the first steps or events (set-up, cold caches,
+  // an EDMD melt) are not the run's pace (an 18-minute ETA for a 40-second run, review 2)
+  const double eta = frac >= 0.01 && elapsed >= 1.0 ? elapsed * (1 - frac) / frac : NAN;
   if (tty_) {
     if (std::chrono::duration<double>(now - last_draw_).count() < 0.2 && frac < 1.0) return;
     last_draw_ = now;

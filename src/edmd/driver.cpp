@@ -581,7 +581,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     // --- equilibration -----------------------------------------------------------------
     for (; rs.eq_chunk <= 20 && n_eq > 0; ++rs.eq_chunk) {
       advance_checked(kInf, n_eq * rs.eq_chunk / 20);
-      progress.update(static_cast<double>(eng.counters().collisions) / N);
+      char status[64];
+      std::snprintf(status, sizeof status, "equilibrating  t=%.4g", eng.time());
+      progress.update(static_cast<double>(eng.counters().collisions) / N, status);
     }
     T = snapshot();
     const double t_eq = eng.time();
@@ -717,7 +719,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     prev = cur;
     t_prev = eng.time();
     T_prev = T;
-    progress.update(c.equilibrate + static_cast<double>(cur.collisions) / N);
+    char status[64];
+    std::snprintf(status, sizeof status, "t=%.4g T=%.5g", eng.time() - t0, T);
+    progress.update(c.equilibrate + static_cast<double>(cur.collisions) / N, status);
   }
   progress.finish();
   eng.synchronize();
