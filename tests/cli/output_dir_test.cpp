@@ -291,3 +291,14 @@ TEST_F(OutputDir, ABuildWithoutMpiRefusesToRunAsOneOfSeveralMpiProcesses) {
       << r.err;
   EXPECT_EQ(listing(tmp.path()), before);
 }
+
+// results.h5 is a function of case and seed alone: `cmp` of 1- and 2-thread runs (the file
+// used to differ in the /parameters attribute run.threads; review 2, B7)
+TEST_F(OutputDir, ResultsFileIsTheSameBytesAtOneAndTwoThreads) {
+  for (const char* t : {"1", "2"}) {
+    const RunResult r = grainbath({"run", case_dir().string(), "--out", (tmp / ("t" + std::string(t))).string(),
+                                   "--quiet", "--set", std::string("run.threads=") + t});
+    ASSERT_EQ(r.code, 0) << r.describe();
+  }
+  EXPECT_EQ(read_text(tmp / "t1" / "results.h5"), read_text(tmp / "t2" / "results.h5"));
+}
