@@ -277,9 +277,13 @@ int command_run(const RunArgs& a) {
     auto quote = [](const std::string& x) {
       return x.find_first_of(" \t'\"$\\") == std::string::npos ? x : "'" + x + "'";
     };
+    // the binary that runs (a bare "grainbath" need not be on PATH), and the options as given
+    std::error_code ec;
+    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
     std::string cmd = (split ? "mpirun -np " + std::to_string(mpi::world_size()) + " " : std::string()) +
-                      "grainbath run " + quote(a.case_dir);
+                      quote(ec ? std::string("grainbath") : self.string()) + " run " + quote(a.case_dir);
     if (!a.out_dir.empty()) cmd += " --out " + quote(a.out_dir);
+    if (a.quiet) cmd += " --quiet";
     for (const auto& o : a.overrides) cmd += " --set " + quote(o);
     ctx.resume_command = cmd + " --resume";
   }
@@ -308,6 +312,16 @@ int command_run(const RunArgs& a) {
     if (writer || !interrupted)
       std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
                    e.what(), out.string().c_str());
+    // after a failure (a full disk, a fault): say what survived, and leave no empty
+    // checkpoint directory behind
+    if (writer && !interrupted && !bad_input) {
+      std::error_code ec;
+      if (count_checkpoints(ctx.checkpoint_dir) > 0)
+        std::fprintf(stderr, "(the checkpoints in %s remain: once the cause is fixed, %s continues from the newest)\n",
+                     ctx.checkpoint_dir.string().c_str(), ctx.resume_command.c_str());
+      else if (fs::is_directory(ctx.checkpoint_dir, ec) && fs::is_empty(ctx.checkpoint_dir, ec))
+        fs::remove(ctx.checkpoint_dir, ec);
+    }
     // Remove the temporary directory, then leave without running HDF5's exit-time cleanup:
     // after a failed close (disk full) the library's atexit handler can crash.
     const int code = interrupted || g_stop.load() ? 130 : bad_input ? 2 : 1;
