@@ -340,25 +340,35 @@ Moments Decomposition::moments(const Particles& p, const std::vector<std::size_t
 
 // Boundaries that split the block weights into `size_` nearly equal contiguous parts:
 // rank r starts at the first block where the running weight reaches r/size of the total.
-std::vector<std::size_t> Decomposition::balanced_boundaries(const std::vector<std::uint64_t>& w) {
-  std::vector<std::size_t> first(size_ + 1, blocks_);
+std::vector<std::size_t> balanced_block_boundaries(const std::vector<std::uint64_t>& w, int ranks) {
+  const std::size_t blocks = w.size();
+  std::vector<std::size_t> first(static_cast<std::size_t>(ranks) + 1, blocks);
   first[0] = 0;
   std::uint64_t total = 0;
   for (auto x : w) total += x;
-  const auto n = static_cast<std::uint64_t>(size_);
+  const auto n = static_cast<std::uint64_t>(ranks);
   std::uint64_t run = 0;  // weight of the blocks before b
   int r = 1;
-  for (std::size_t b = 0; b < blocks_; ++b) {
-    while (r < size_ && run * n >= static_cast<std::uint64_t>(r) * total) {
-      // cut before b, or before b - 1 if that is nearer the target r * total / size
+  // b runs to blocks inclusive: a target inside the last block still gets its cut (before
+  // that block, or at the end); with b < blocks only, 2 blocks of unequal weight all went to
+  // rank 0 whenever the first was the lighter (found 2026-11-27 by the idle-rank note)
+  for (std::size_t b = 0; b <= blocks; ++b) {
+    while (r < ranks && run * n >= static_cast<std::uint64_t>(r) * total) {
+      // cut before b, or before b - 1 if that is nearer the target r * total / ranks
       const std::uint64_t target = static_cast<std::uint64_t>(r) * total, before = (run - (b > 0 ? w[b - 1] : 0)) * n;
       const bool earlier = b > first[r - 1] && target - before < run * n - target;
       first[r] = earlier ? b - 1 : b;
       ++r;
     }
-    run += w[b];
+    if (b < blocks) run += w[b];
   }
-  std::uint64_t worst = 0;
+  return first;
+}
+
+std::vector<std::size_t> Decomposition::balanced_boundaries(const std::vector<std::uint64_t>& w) {
+  std::vector<std::size_t> first = balanced_block_boundaries(w, size_);
+  std::uint64_t total = 0, worst = 0;
+  for (auto x : w) total += x;
   for (int q = 0; q < size_; ++q) {
     std::uint64_t part = 0;
     for (std::size_t b = first[q]; b < first[q + 1]; ++b) part += w[b];

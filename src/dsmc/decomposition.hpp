@@ -54,6 +54,11 @@ long long sum(long long x);    // over MPI_COMM_WORLD (a barrier too)
 int node_ranks();              // ranks on this machine (sharing its memory), this one included
 }  // namespace mpi_env
 
+// The first block of each of `ranks` contiguous ranges (and the end, w.size(), last) that
+// share the block weights `w` (grains + 1 per block) about equally: rank r's range starts
+// at the block boundary nearest to r/ranks of the total weight.
+std::vector<std::size_t> balanced_block_boundaries(const std::vector<std::uint64_t>& w, int ranks);
+
 class Decomposition {
  public:
   // use_world: split the cells over MPI_COMM_WORLD (false: this process alone).

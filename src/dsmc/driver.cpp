@@ -391,6 +391,15 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   // MPI: each rank now keeps its own cells' grains (from a checkpoint, each rank has read
   // only its own; from initialise(), each rank made its share of the ids)
   dec.distribute(s, c, resumed);
+  if (dec.size() > 1 && c.spatial() && dec.root()) {
+    // the cells are dealt out in reduction blocks: with fewer blocks than ranks, some idle
+    int idle = 0;
+    for (int r = 0; r < dec.size(); ++r) idle += dec.first_cell(r) == dec.end_cell(r);
+    if (idle > 0)
+      std::fprintf(stderr, "note: %d of %d ranks own no cells (%zu cells in blocks of %zu) and idle; fewer ranks "
+                           "would run as fast\n",
+                   idle, dec.size(), c.domain.cell_count(), dec.block_cells());
+  }
   rebuild_cells();
   std::vector<std::size_t> bounds;
   LocalBathCache local_bath;

@@ -140,6 +140,10 @@ p = json.load(open(sys.argv[1]))["performance"]
 print("     2 ranks: %d rebalances, load imbalance %.3f at the last" % (p["rank_rebalances"], p["rank_load_imbalance"]))
 if p["ranks"] != 2 or p["rank_rebalances"] < int(sys.argv[2]):
     print("FAIL: expected 2 ranks and at least %s rebalance(s)" % sys.argv[2]); sys.exit(1)
+# both ranks must hold grains (imbalance 2 = one rank had everything: the decomposition bug
+# fixed on 2026-11-27, under which "2 ranks" ran on one)
+if p["rank_load_imbalance"] >= 1.99:
+    print("FAIL: one rank held every grain (load imbalance %.3f)" % p["rank_load_imbalance"]); sys.exit(1)
 PY
 fi
 exit $fail
