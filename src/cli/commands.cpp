@@ -53,6 +53,17 @@ extern "C" void on_signal(int sig) {
 
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU};
 
+}  // namespace
+
+void install_stop_handlers() {
+  for (int sig : kStopSignals) std::signal(sig, on_signal);
+  std::signal(SIGPIPE, SIG_IGN);
+}
+
+bool stop_requested() { return g_stop.load(); }
+
+namespace {
+
 using SolverConfig = std::variant<dsmc::Config, edmd::Config>;
 
 // Solver dispatch: one overload per engine.
@@ -224,10 +235,9 @@ int command_run(const RunArgs& a) {
     return 2;
   }
   g_announce_stop.store(writer);
-  for (int sig : kStopSignals) std::signal(sig, on_signal);
-  // output piped into `head` must not kill the run when the pipe closes: stdout's table is
-  // a copy of summary.json, the results are the files
-  std::signal(SIGPIPE, SIG_IGN);
+  // output piped into `head` must not kill the run when the pipe closes (SIGPIPE ignored):
+  // stdout's table is a copy of summary.json, the results are the files
+  install_stop_handlers();
   RunContext ctx;
   ctx.out_dir = writer ? dir->tmp() : fs::path();
   ctx.case_dir = a.case_dir;

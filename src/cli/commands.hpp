@@ -18,7 +18,13 @@ struct SweepArgs {
   std::vector<std::string> overrides;  // section.key=v1,v2,...
   std::string out_dir;
   int jobs = 0;                        // 0: number of cores
+  bool resume = false;                 // continue an interrupted sweep in out_dir
 };
+
+// Stop requests (SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU; commands.cpp on_signal): installs
+// the handler, and says whether one arrived. A sweep uses them to stop starting variants.
+void install_stop_handlers();
+bool stop_requested();
 
 // Exit codes: 0 success, 1 run failure, 2 bad input (case file, overrides, paths).
 int command_run(const RunArgs&);

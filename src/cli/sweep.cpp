@@ -8,6 +8,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -20,6 +22,7 @@
 
 #include "cli/commands.hpp"
 #include "core/case_file.hpp"
+#include "core/checkpoint.hpp"
 #include "core/run_support.hpp"
 #include "core/summary.hpp"
 #include "dsmc/decomposition.hpp"
@@ -131,6 +134,25 @@ std::map<std::string, double> read_summary(const fs::path& p) {
   return j.out;
 }
 
+std::string read_text_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string read_case_text(const std::string& case_dir) { return read_text_file(fs::path(case_dir) / "case.toml"); }
+
+std::atomic<int> g_sweep_signals{0};
+extern "C" void on_sweep_signal(int) { g_sweep_signals.fetch_add(1); }
+
+std::string quote_arg(const std::string& x) {
+  if (!x.empty() && x.find_first_of(" \t'\"$\\*?[]{}()<>|&;#~`!") == std::string::npos) return x;
+  std::string q = "'";
+  for (char c : x) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
 std::string sanitize(const std::string& s) {
   std::string r;
   for (char c : s) r += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
@@ -224,9 +246,24 @@ int command_sweep(const SweepArgs& a) {
   // collective (a rank checking while rank 0 moves could see half a move).
   int refused = 0;
   fs::path checked;
+  // what a sweep is: the case file's text and the --set list, recorded in the sweep directory
+  // so that --resume continues the same sweep and nothing else
+  std::string identity = "case.toml:\n" + read_case_text(a.case_dir) + "\n--set:\n";
+  for (const auto& o : a.overrides) identity += o + "\n";
+  const std::string identity_file = "sweep.identity";
   if (mpi::world_rank() == 0) {
     try {
       checked = check_output_path(out, {fs::path(a.case_dir)});
+      if (a.resume) {
+        std::error_code e2;
+        if (!fs::is_regular_file(checked / identity_file, e2))
+          throw std::runtime_error(out.string() + ": no sweep to resume here (no " + identity_file +
+                                   "; it is written by sweeps from 2026-11-27 on): run the sweep without --resume");
+        if (read_text_file(checked / identity_file) != identity)
+          throw std::runtime_error(out.string() + ": the case file or the --set list differ from the sweep's (" +
+                                   (checked / identity_file).string() +
+                                   " holds them): --resume continues the same sweep only");
+      }
     } catch (const std::exception& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
       refused = 1;
@@ -235,7 +272,7 @@ int command_sweep(const SweepArgs& a) {
   if (mpi::active()) refused = static_cast<int>(mpi::sum(refused));
   if (refused) return 2;
   std::error_code ec;
-  if (mpi::world_rank() == 0 && fs::exists(checked, ec) && !fs::is_empty(checked, ec)) {
+  if (!a.resume && mpi::world_rank() == 0 && fs::exists(checked, ec) && !fs::is_empty(checked, ec)) {
     fs::path previous = checked;
     previous += ".previous";
     fs::remove_all(previous, ec);
@@ -249,9 +286,10 @@ int command_sweep(const SweepArgs& a) {
     std::fprintf(stderr, "sweep: the previous sweep in %s was moved to %s\n", out.string().c_str(),
                  previous.string().c_str());
   }
-  if (mpi::world_rank() == 0) {
+  if (mpi::world_rank() == 0 && !a.resume) {
     fs::create_directories(out, ec);
     if (!ec) mark_output_directory(out);
+    if (!ec) write_file_atomic(out / identity_file, identity);
   }
   if (mpi::active()) mpi::barrier();  // the other ranks write into `out` only after the move
   fs::create_directories(out, ec);
@@ -272,12 +310,28 @@ int command_sweep(const SweepArgs& a) {
                  mpi::active() ? mpi::world_size() : jobs, out.string().c_str());
   std::size_t next = 0, done = 0;
   int running = 0, failed = 0;
+  // --resume: a variant with its summary.json finished in the earlier sweep and is not run
+  // again; one with checkpoints continues from them (grainbath run --resume); the others start
+  auto finished = [&](std::size_t k) { return fs::is_regular_file(dirs[k] / "summary.json", ec); };
+  auto resumable = [&](std::size_t k) { return count_checkpoints(checkpoint_directory(dirs[k])) > 0; };
+  std::vector<char> skip(variants.size(), 0);
+  if (a.resume) {
+    std::size_t earlier = 0;
+    for (std::size_t k = 0; k < variants.size(); ++k) earlier += skip[k] = finished(k);
+    if (mpi::world_rank() == 0)
+      std::fprintf(stderr, "sweep: resuming: %zu of %zu variants finished earlier\n", earlier, variants.size());
+  }
+  auto log_of = [&](std::size_t k) { return dirs[k].string() + ".log"; };
+  bool stopped = false;
   if (mpi::active()) {
     // rank r runs variants r, r + size, ... one after the other, in this process (a child
-    // started from an MPI process would inherit its launcher environment)
+    // started from an MPI process would inherit its launcher environment); after a stop
+    // request (the run's own handler, commands.cpp) no further variant starts
     const auto rank = static_cast<std::size_t>(mpi::world_rank()), size = static_cast<std::size_t>(mpi::world_size());
     const auto start = std::chrono::steady_clock::now();
+    install_stop_handlers();  // also between variants: a stop then starts no more
     for (std::size_t k = rank; k < variants.size(); k += size) {
+      if (skip[k] || stop_requested()) continue;
       RunArgs ra;
       ra.case_dir = a.case_dir;
       ra.overrides = overrides_of(k);
@@ -285,9 +339,10 @@ int command_sweep(const SweepArgs& a) {
       ra.out_dir = dirs[k].string();
       ra.quiet = true;
       ra.alone = true;
+      ra.resume = a.resume && resumable(k);
       std::fflush(nullptr);
       const int saved_out = dup(STDOUT_FILENO), saved_err = dup(STDERR_FILENO);
-      std::FILE* log = std::fopen((dirs[k].string() + ".log").c_str(), "w");
+      std::FILE* log = std::fopen(log_of(k).c_str(), a.resume ? "a" : "w");
       if (log) {
         dup2(fileno(log), STDOUT_FILENO);
         dup2(fileno(log), STDERR_FILENO);
@@ -299,18 +354,32 @@ int command_sweep(const SweepArgs& a) {
       close(saved_out);
       close(saved_err);
       if (log) std::fclose(log);
-      if (code != 0) ++failed;
-      std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank, code == 0 ? "done  " : "FAILED",
+      if (code != 0 && code != 130) ++failed;
+      std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank,
+                   code == 0 ? "done  " : code == 130 ? "stopped" : "FAILED",
                    dirs[k].filename().string().c_str(), wall_seconds_since(start));
     }
     failed = static_cast<int>(mpi::sum(failed));
-    if (rank != 0) return failed ? 1 : 0;
+    stopped = mpi::sum(stop_requested() ? 1 : 0) > 0;
+    if (rank != 0) return stopped ? 130 : failed ? 1 : 0;
     done = variants.size();  // rank 0 gathers below
+  } else {
+    // Ctrl-C reaches the sweep alone (the variants run in process groups of their own); it
+    // passes each stop request on to the running variants: the first makes them write a
+    // checkpoint and stop, a second stops them at once. No variant starts after a stop.
+    g_sweep_signals.store(0);
+    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) std::signal(sig, on_sweep_signal);
   }
   std::map<pid_t, std::size_t> children;
   const auto start = std::chrono::steady_clock::now();
-  while (done < variants.size()) {
-    while (running < jobs && next < variants.size()) {
+  int forwarded = 0;
+  for (std::size_t k = 0; k < variants.size() && !mpi::active(); ++k) done += skip[k];
+  while (done < variants.size() && !mpi::active()) {
+    while (running < jobs && next < variants.size() && g_sweep_signals.load() == 0) {
+      if (skip[next]) {
+        ++next;
+        continue;
+      }
       std::vector<std::string> args = {self, "run", a.case_dir, "--out", dirs[next].string(), "-q"};
       for (const auto& kv : overrides_of(next)) {
         args.push_back("--set");
@@ -320,16 +389,20 @@ int command_sweep(const SweepArgs& a) {
         args.push_back("--set");
         args.push_back("run.threads=1");  // the variants share the cores
       }
-      const fs::path log = dirs[next].string() + ".log";
+      if (a.resume && resumable(next)) args.push_back("--resume");
+      const std::string log = log_of(next);
+      const char* mode = a.resume ? "a" : "w";
       const pid_t pid = fork();
       if (pid == 0) {
-        std::FILE* f = std::fopen(log.c_str(), "w");
+        ::setpgid(0, 0);  // the terminal's Ctrl-C goes to the sweep, which passes it on once
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) std::signal(sig, SIG_DFL);
+        std::FILE* f = std::fopen(log.c_str(), mode);
         if (f) {
           dup2(fileno(f), STDOUT_FILENO);
           dup2(fileno(f), STDERR_FILENO);
         }
         std::vector<char*> argv;
-        for (auto& s : args) argv.push_back(s.data());
+        for (auto& x : args) argv.push_back(x.data());
         argv.push_back(nullptr);
         execv(self.c_str(), argv.data());
         _exit(127);
@@ -337,16 +410,56 @@ int command_sweep(const SweepArgs& a) {
       children[pid] = next++;
       ++running;
     }
+    // each stop request once to the running variants, said once
+    auto pass_on_stops = [&] {
+      const int signals = g_sweep_signals.load();
+      if (signals <= forwarded) return;
+      if (forwarded == 0)
+        std::fprintf(stderr, "\nsweep: stop requested: the running variants write a checkpoint and stop; no "
+                             "variant starts (the same signal again stops them at once)\n");
+      for (const auto& [child, k] : children) ::kill(child, SIGTERM);
+      forwarded = signals;
+    };
+    pass_on_stops();
+    if (running == 0) break;  // stopped before every variant started
     int status = 0;
-    const pid_t pid = wait(&status);
-    if (pid <= 0) break;
-    const std::size_t k = children[pid];
+    pid_t pid = 0;
+    while ((pid = waitpid(-1, &status, WNOHANG)) == 0) {
+      pass_on_stops();
+      ::usleep(50000);
+    }
+    if (pid < 0) break;
+    const auto it = children.find(pid);
+    if (it == children.end()) continue;
+    const std::size_t k = it->second;
+    children.erase(it);
     --running;
     ++done;
     const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-    if (!ok) ++failed;
-    std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(), ok ? "done  " : "FAILED",
-                 dirs[k].filename().string().c_str(), wall_seconds_since(start));
+    const bool interrupted = WIFEXITED(status) && WEXITSTATUS(status) == 130;
+    if (!ok && !interrupted) ++failed;
+    std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(),
+                 ok ? "done  " : interrupted ? "stopped" : "FAILED", dirs[k].filename().string().c_str(),
+                 wall_seconds_since(start));
+  }
+  if (!mpi::active()) stopped = g_sweep_signals.load() > 0;
+  if (stopped) {
+    std::size_t finished_now = 0, with_checkpoint = 0, not_started = 0;
+    for (std::size_t k = 0; k < variants.size(); ++k) {
+      if (finished(k)) ++finished_now;
+      else if (resumable(k)) ++with_checkpoint;
+      else ++not_started;
+    }
+    std::string cmd = quote_arg(self) + " sweep " + quote_arg(a.case_dir);
+    if (!a.out_dir.empty()) cmd += " --out " + quote_arg(a.out_dir);
+    if (a.jobs > 0) cmd += " -j " + std::to_string(a.jobs);
+    for (const auto& o : a.overrides) cmd += " --set " + quote_arg(o);
+    std::fprintf(stderr,
+                 "sweep: interrupted: %zu of %zu variants finished, %zu stopped with a checkpoint, %zu not started or "
+                 "failed; no table was made. Continue with:\n  %s%s --resume\n",
+                 finished_now, variants.size(), with_checkpoint, not_started,
+                 mpi::active() ? ("mpirun -np " + std::to_string(mpi::world_size()) + " ").c_str() : "", cmd.c_str());
+    return 130;
   }
   // gather
   std::vector<std::map<std::string, double>> rows(variants.size());

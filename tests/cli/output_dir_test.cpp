@@ -302,3 +302,57 @@ TEST_F(OutputDir, ResultsFileIsTheSameBytesAtOneAndTwoThreads) {
   }
   EXPECT_EQ(read_text(tmp / "t1" / "results.h5"), read_text(tmp / "t2" / "results.h5"));
 }
+
+// An interrupted sweep (review 2, B9): Ctrl-C reaches the sweep, which passes it on to the
+// running variant (checkpoint, stop), starts no other, says what happened and how to go on;
+// `sweep --resume` keeps the finished variant, resumes the stopped one from its checkpoint
+// (the same bytes as a straight run) and runs the rest. A different --set is refused.
+TEST_F(OutputDir, InterruptedSweepResumes) {
+  std::string c = kCase;
+  c.replace(c.find("particles = 1000"), 16, "particles = 100000");  // about 2 s a variant (one thread)
+  c.replace(c.find("t_end = 0.2"), 11, "t_end = 50.0");
+  write_text(case_dir() / "case.toml", c);
+  const fs::path out = tmp / "sweep";
+  const std::vector<std::string> sweep = {kBinary, "sweep", case_dir().string(), "--out", out.string(), "-j", "1",
+                                          "--set", "run.seed=1,2,3"};
+  RunOptions opt;
+  opt.cwd = work();
+  opt.timeout_s = 120;
+  opt.send_signal = SIGINT;
+  opt.send_when = "sweep: 1/3 done";
+  RunResult r = run_binary(sweep, opt);
+  EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
+  EXPECT_NE(r.err.find("sweep: stop requested"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sweep: interrupted: 1 of 3 variants finished, 1 stopped with a checkpoint, 1 not started"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find(" --resume"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(out / "variant-0_seed_1" / "summary.json"));
+  EXPECT_FALSE(fs::exists(out / "variant-1_seed_2"));
+  EXPECT_FALSE(fs::exists(out / "variant-2_seed_3.log"));  // never started
+  // --resume with another --set list is not the same sweep
+  std::vector<std::string> other = sweep;
+  other.back() = "run.seed=1,2";
+  other.push_back("--resume");
+  RunOptions plain;
+  plain.cwd = work();
+  plain.timeout_s = 120;
+  r = run_binary(other, plain);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("differ from the sweep's"), std::string::npos) << r.err;
+  const std::string first = read_text(out / "variant-0_seed_1" / "results.h5");
+  std::vector<std::string> resume = sweep;
+  resume.push_back("--resume");
+  r = run_binary(resume, plain);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming: 1 of 3 variants finished earlier"), std::string::npos) << r.err;
+  EXPECT_EQ(read_text(out / "variant-0_seed_1" / "results.h5"), first);  // kept, not run again
+  EXPECT_TRUE(fs::exists(out / "ensemble.json"));
+  EXPECT_FALSE(fs::exists(out / "variant-1_seed_2.checkpoints"));
+  // the stopped and resumed variant is the straight run, byte for byte
+  r = run_binary({kBinary, "run", case_dir().string(), "--out", (tmp / "straight").string(), "--quiet", "--set",
+                  "run.seed=2", "--set", "run.threads=1"},
+                 plain);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_EQ(read_text(tmp / "straight" / "results.h5"), read_text(out / "variant-1_seed_2" / "results.h5"));
+}
