@@ -58,6 +58,10 @@ constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU};
 void install_stop_handlers() {
   for (int sig : kStopSignals) std::signal(sig, on_signal);
   std::signal(SIGPIPE, SIG_IGN);
+  sigset_t stops;
+  sigemptyset(&stops);
+  for (int sig : kStopSignals) sigaddset(&stops, sig);
+  ::sigprocmask(SIG_UNBLOCK, &stops, nullptr);
 }
 
 bool stop_requested() { return g_stop.load(); }
@@ -190,6 +194,11 @@ int command_theory(const RunArgs& a) {
 }
 
 int command_run(const RunArgs& a) {
+  // stop requests from the start: one that arrives while the case is read or the output
+  // directory made stops the run at its first step, with a checkpoint, instead of killing it
+  // half set up (a sweep starts its variants with the stop signals blocked, so that one
+  // passed on before this point waits until here)
+  install_stop_handlers();
   std::optional<LoadedCase> lc;
   try {
     lc.emplace(load_case(a));
@@ -235,9 +244,9 @@ int command_run(const RunArgs& a) {
     return 2;
   }
   g_announce_stop.store(writer);
-  // output piped into `head` must not kill the run when the pipe closes (SIGPIPE ignored):
-  // stdout's table is a copy of summary.json, the results are the files
-  install_stop_handlers();
+  // (output piped into `head` must not kill the run when the pipe closes, hence SIGPIPE
+  // ignored in install_stop_handlers: stdout's table is a copy of summary.json, the results
+  // are the files)
   RunContext ctx;
   ctx.out_dir = writer ? dir->tmp() : fs::path();
   ctx.case_dir = a.case_dir;

@@ -395,7 +395,15 @@ int command_sweep(const SweepArgs& a) {
       const pid_t pid = fork();
       if (pid == 0) {
         ::setpgid(0, 0);  // the terminal's Ctrl-C goes to the sweep, which passes it on once
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) std::signal(sig, SIG_DFL);
+        // blocked until the run has its handlers (command_run unblocks them): a stop passed on
+        // while the variant starts up waits instead of killing it without a checkpoint
+        sigset_t stops;
+        sigemptyset(&stops);
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) {
+          std::signal(sig, SIG_DFL);
+          sigaddset(&stops, sig);
+        }
+        ::sigprocmask(SIG_BLOCK, &stops, nullptr);
         std::FILE* f = std::fopen(log.c_str(), mode);
         if (f) {
           dup2(fileno(f), STDOUT_FILENO);
