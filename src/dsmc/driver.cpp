@@ -517,7 +517,10 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
                                          : 0));
     const bool stop = raised & 1, due_wall = raised & 2;
     const bool due_sim = checkpoint_steps > 0 && s.step % checkpoint_steps == 0;
-    if (!ctx.checkpoint_dir.empty() && (stop || ((due_sim || due_wall) && s.step < c.steps))) {
+    // [checkpoint] keep = true also keeps the end: a longer t_end then continues from there
+    // instead of re-running from the last periodic checkpoint (review 2, B5)
+    const bool final_kept = c.checkpoint.keep && s.step == c.steps;
+    if (!ctx.checkpoint_dir.empty() && (stop || ((due_sim || due_wall) && s.step < c.steps) || final_kept)) {
       checkpoint();
       last_checkpoint_wall = std::chrono::steady_clock::now();
     }

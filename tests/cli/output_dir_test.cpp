@@ -201,11 +201,11 @@ TEST_F(OutputDir, AFreshRunSetsAnEarlierRunsCheckpointsAside) {
             std::string::npos)
       << r.err;
   EXPECT_EQ(read_text(tmp / "out.checkpoints.previous" / "checkpoint-000000009174.h5"), "an earlier run's, newer");
-  // this run's own two newest are kept, nothing else (every 5 of its 20 steps, none at the end)
+  // this run's own two newest are kept, nothing else (every 5 of its 20 steps; keep: the end)
   std::vector<std::string> mine;
   for (const auto& e : fs::directory_iterator(tmp / "out.checkpoints")) mine.push_back(e.path().filename().string());
   std::sort(mine.begin(), mine.end());
-  EXPECT_EQ(mine, (std::vector<std::string>{"checkpoint-000000000010.h5", "checkpoint-000000000015.h5"}));
+  EXPECT_EQ(mine, (std::vector<std::string>{"checkpoint-000000000015.h5", "checkpoint-000000000020.h5"}));
   // a directory of that name holding anything else is refused before any work
   write_text(tmp / "out.checkpoints" / "notes.txt", "mine");
   const auto before = listing(tmp.path());
@@ -355,4 +355,23 @@ TEST_F(OutputDir, InterruptedSweepResumes) {
                  plain);
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_EQ(read_text(tmp / "straight" / "results.h5"), read_text(out / "variant-1_seed_2" / "results.h5"));
+}
+
+// [checkpoint] keep = true keeps a checkpoint of the end, so a run extended with a longer
+// t_end continues from there (review 2, B5: it re-ran from the last periodic checkpoint),
+// and the extended run is byte for byte the straight run to the longer end.
+TEST_F(OutputDir, KeptCheckpointsIncludeTheEndAndAnExtensionIsTheStraightRun) {
+  const fs::path out = tmp / "out";
+  RunResult r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set",
+                           "checkpoint.keep=true"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_TRUE(fs::exists(tmp / "out.checkpoints" / "checkpoint-000000000020.h5"));  // t_end = 0.2, dt = 0.01
+  r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "checkpoint.keep=true",
+                 "--set", "dsmc.t_end=0.4", "--resume"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming from step 20"), std::string::npos) << r.err;
+  r = grainbath({"run", case_dir().string(), "--out", (tmp / "straight").string(), "--quiet", "--set",
+                 "checkpoint.keep=true", "--set", "dsmc.t_end=0.4"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_EQ(read_text(out / "results.h5"), read_text(tmp / "straight" / "results.h5"));
 }
