@@ -30,37 +30,60 @@ namespace fs = std::filesystem;
 namespace {
 
 std::atomic<bool> g_stop{false};
-std::atomic<bool> g_announce_stop{true};  // false on the MPI ranks that do not write
+std::atomic<long long> g_first_stop_ns{0};  // CLOCK_MONOTONIC of the first stop request
+std::atomic<bool> g_announce_stop{true};     // false on the MPI ranks that do not write
+
+long long monotonic_ns() {  // clock_gettime is async-signal-safe
+  timespec ts{};
+  ::clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
 
 // SIGINT, SIGTERM, SIGHUP (a closed terminal or ssh session), SIGUSR1 and SIGXCPU (batch
 // systems' warnings before a kill): the run stops at its next step (DSMC) or rebuild (EDMD)
-// and writes a checkpoint; it says so at once, since an EDMD stop can take seconds. A second
-// signal stops at once, without a checkpoint (the default action; the temporary output
-// directory it leaves is removed by the next run into the same --out: OutputDirectory).
+// and writes a checkpoint; it says so at once, since an EDMD stop can take seconds. A request
+// repeated 2 s or more after the first stops at once, without a checkpoint (the default
+// action; the temporary output directory it leaves is removed by the next run into the same
+// --out: OutputDirectory). Repeats within 2 s are the same request delivered twice (a closed
+// terminal: SIGHUP from the kernel and again from the shell; a process group killed while a
+// sweep passes the request on), not a second one.
 extern "C" void on_signal(int sig) {
-  if (g_stop.exchange(true)) {
+  const long long now = monotonic_ns();
+  long long first = 0;
+  if (!g_first_stop_ns.compare_exchange_strong(first, now)) {
+    if (now - first < 2000000000LL) return;
     std::signal(sig, SIG_DFL);
     std::raise(sig);
     return;
   }
+  g_stop.store(true);
   if (g_announce_stop.load()) {
     static const char msg[] =
         "\ngrainbath: stop requested: writing a checkpoint at the next step (DSMC) or rebuild (EDMD), then stopping "
-        "(the same signal again stops at once, without a checkpoint)\n";
+        "(the same request again, 2 s or more later, stops at once, without a checkpoint)\n";
     [[maybe_unused]] const auto written = ::write(STDERR_FILENO, msg, sizeof msg - 1);
   }
 }
 
-constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU};
-
 }  // namespace
 
+const std::vector<int>& stop_signals() {
+  static const std::vector<int> s = {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU};
+  return s;
+}
+
 void install_stop_handlers() {
-  for (int sig : kStopSignals) std::signal(sig, on_signal);
+  for (int sig : stop_signals()) {
+    // a signal the run was started with ignored stays ignored: nohup's SIGHUP, the SIGINT
+    // of a background job of a non-interactive shell
+    struct sigaction old {};
+    if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+    std::signal(sig, on_signal);
+  }
   std::signal(SIGPIPE, SIG_IGN);
   sigset_t stops;
   sigemptyset(&stops);
-  for (int sig : kStopSignals) sigaddset(&stops, sig);
+  for (int sig : stop_signals()) sigaddset(&stops, sig);
   ::sigprocmask(SIG_UNBLOCK, &stops, nullptr);
 }
 
@@ -220,8 +243,12 @@ int command_run(const RunArgs& a) {
                    lc->reader.file().c_str(), lc->solver.c_str(), mpi::world_size());
     return 2;
   }
-  // --resume needs a checkpoint: said before anything is created or moved (exit 2, bad input)
-  if (a.resume && count_checkpoints(checkpoint_directory(out)) == 0) {
+  // --resume needs a checkpoint: said before anything is created or moved (exit 2, bad input);
+  // decided on the writing rank and shared, so that all ranks of a split run agree even where
+  // their listings of a shared file system differ
+  int no_checkpoint = a.resume && writer && count_checkpoints(checkpoint_directory(out)) == 0 ? 1 : 0;
+  if (split && a.resume) no_checkpoint = static_cast<int>(mpi::sum(no_checkpoint));
+  if (no_checkpoint) {
     if (writer)
       std::fprintf(stderr,
                    "error: --resume: no checkpoint in %s: nothing to resume (a run writes one when it is interrupted, "
@@ -293,9 +320,7 @@ int command_run(const RunArgs& a) {
   ctx.decompose = !a.alone;
   ctx.quiet = a.quiet || !writer;
   {
-    auto quote = [](const std::string& x) {
-      return x.find_first_of(" \t'\"$\\") == std::string::npos ? x : "'" + x + "'";
-    };
+    auto quote = [](const std::string& x) { return shell_quote(x); };
     // the binary that runs (a bare "grainbath" need not be on PATH), and the options as given
     std::error_code ec;
     const fs::path self = fs::read_symlink("/proc/self/exe", ec);
@@ -347,8 +372,10 @@ int command_run(const RunArgs& a) {
     dir.reset();
     std::fflush(nullptr);
     // every rank stopped at the same step, after the checkpoint's collectives: all leave
-    // normally (MPI_Finalize in main), so mpirun exits with 130 and prints no abort banner
-    if (interrupted) return code;
+    // normally (MPI_Finalize in main), so mpirun exits with 130 and prints no abort banner;
+    // a sweep's variant run in this process (alone) returns its code to the sweep, which goes
+    // on with the other variants
+    if (interrupted || a.alone) return code;
     if (split) mpi::abort(code);  // the other ranks wait in a collective call
     std::_Exit(code);
   }
@@ -397,8 +424,15 @@ int command_report(const ReportArgs& a) {
   std::error_code ec;
   const fs::path exe = fs::canonical("/proc/self/exe", ec).parent_path();
   std::vector<fs::path> candidates;
-  if (const char* env = std::getenv("GRAINBATH_PYTHON_DIR"); env != nullptr && *env != '\0')
+  if (const char* env = std::getenv("GRAINBATH_PYTHON_DIR"); env != nullptr && *env != '\0') {
+    // the user's choice is taken or refused, never replaced by another copy silently
+    if (!fs::is_regular_file(fs::path(env) / "report.py", ec)) {
+      std::fprintf(stderr, "error: grainbath report: GRAINBATH_PYTHON_DIR=%s has no report.py (expected the python/ "
+                           "directory of a grainbath source tree)\n", env);
+      return 1;
+    }
     candidates.push_back(fs::path(env) / "report.py");
+  }
   candidates.push_back(exe / "../python/report.py");     // build/grainbath
   candidates.push_back(exe / "../../python/report.py");  // build/x/grainbath
   candidates.push_back(fs::path(GRAINBATH_PYTHON_SOURCE_DIR) / "report.py");  // the source tree it was built from

@@ -25,6 +25,7 @@ struct SweepArgs {
 // the handler, and says whether one arrived. A sweep uses them to stop starting variants.
 void install_stop_handlers();
 bool stop_requested();
+const std::vector<int>& stop_signals();  // SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU
 
 // Exit codes: 0 success, 1 run failure, 2 bad input (case file, overrides, paths).
 int command_run(const RunArgs&);
@@ -41,7 +42,8 @@ struct ReportArgs {
   bool strict = false;
 };
 // Runs python/report.py (no shell in between) and returns its exit status: 0 done, 2 bad
-// input, 3 a Python module missing (python/README.md); 1 when report.py cannot be found or started.
+// input, 3 a Python module missing (python/README.md); 1 when report.py cannot be found (or
+// $GRAINBATH_PYTHON_DIR has none), 127 when Python cannot be run.
 int command_report(const ReportArgs&);
 
 }  // namespace grainbath::cli

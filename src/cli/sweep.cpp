@@ -4,6 +4,7 @@
 // headline columns) and one plot (scripts/plot_sweep.py, if Python with matplotlib is there).
 // MPI build under mpirun: the ranks share the variants (each run alone in its rank's
 // process) and rank 0 gathers; `--set run.seed=...` alone is the MPI ensemble mode.
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -12,7 +13,10 @@
 #include <csignal>
 #include <cctype>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <ctime>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -143,15 +147,21 @@ std::string read_text_file(const fs::path& p) {
 
 std::string read_case_text(const std::string& case_dir) { return read_text_file(fs::path(case_dir) / "case.toml"); }
 
+// Stop requests to the sweep: counted when 2 s or more apart (a request delivered twice, e.g.
+// to a whole process group and again by the sweep, is one request; commands.cpp on_signal)
 std::atomic<int> g_sweep_signals{0};
-extern "C" void on_sweep_signal(int) { g_sweep_signals.fetch_add(1); }
-
-std::string quote_arg(const std::string& x) {
-  if (!x.empty() && x.find_first_of(" \t'\"$\\*?[]{}()<>|&;#~`!") == std::string::npos) return x;
-  std::string q = "'";
-  for (char c : x) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
+std::atomic<long long> g_sweep_last_ns{0};
+extern "C" void on_sweep_signal(int) {
+  timespec ts{};
+  ::clock_gettime(CLOCK_MONOTONIC, &ts);
+  const long long now = static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+  const long long last = g_sweep_last_ns.load();
+  if (last != 0 && now - last < 2000000000LL) return;
+  g_sweep_last_ns.store(now);
+  g_sweep_signals.fetch_add(1);
 }
+
+std::string quote_arg(const std::string& x) { return shell_quote(x); }
 
 std::string sanitize(const std::string& s) {
   std::string r;
@@ -323,6 +333,7 @@ int command_sweep(const SweepArgs& a) {
   }
   auto log_of = [&](std::size_t k) { return dirs[k].string() + ".log"; };
   bool stopped = false;
+  std::vector<int> handled;  // the stop signals the sweep handles (not those it inherited ignored)
   if (mpi::active()) {
     // rank r runs variants r, r + size, ... one after the other, in this process (a child
     // started from an MPI process would inherit its launcher environment); after a stop
@@ -368,7 +379,12 @@ int command_sweep(const SweepArgs& a) {
     // passes each stop request on to the running variants: the first makes them write a
     // checkpoint and stop, a second stops them at once. No variant starts after a stop.
     g_sweep_signals.store(0);
-    for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) std::signal(sig, on_sweep_signal);
+    for (int sig : stop_signals()) {
+      struct sigaction old {};
+      if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;  // nohup: stays ignored
+      std::signal(sig, on_sweep_signal);
+      handled.push_back(sig);
+    }
   }
   std::map<pid_t, std::size_t> children;
   const auto start = std::chrono::steady_clock::now();
@@ -392,18 +408,21 @@ int command_sweep(const SweepArgs& a) {
       if (a.resume && resumable(next)) args.push_back("--resume");
       const std::string log = log_of(next);
       const char* mode = a.resume ? "a" : "w";
+      // The stop signals are blocked from before the fork until the variant's run has its
+      // handlers (command_run unblocks them): a stop passed on while it starts up waits
+      // instead of killing it without a checkpoint.
+      sigset_t stops, before;
+      sigemptyset(&stops);
+      for (int sig : stop_signals()) sigaddset(&stops, sig);
+      ::sigprocmask(SIG_BLOCK, &stops, &before);
+      const pid_t parent = ::getpid();
       const pid_t pid = fork();
       if (pid == 0) {
         ::setpgid(0, 0);  // the terminal's Ctrl-C goes to the sweep, which passes it on once
-        // blocked until the run has its handlers (command_run unblocks them): a stop passed on
-        // while the variant starts up waits instead of killing it without a checkpoint
-        sigset_t stops;
-        sigemptyset(&stops);
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) {
-          std::signal(sig, SIG_DFL);
-          sigaddset(&stops, sig);
-        }
-        ::sigprocmask(SIG_BLOCK, &stops, nullptr);
+        for (int sig : handled) std::signal(sig, SIG_DFL);  // ignored ones stay ignored (nohup)
+        // a sweep that dies (SIGKILL, out of memory) stops its variants, with checkpoints
+        ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+        if (::getppid() != parent) _exit(130);
         std::FILE* f = std::fopen(log.c_str(), mode);
         if (f) {
           dup2(fileno(f), STDOUT_FILENO);
@@ -414,6 +433,12 @@ int command_sweep(const SweepArgs& a) {
         argv.push_back(nullptr);
         execv(self.c_str(), argv.data());
         _exit(127);
+      }
+      if (pid > 0) ::setpgid(pid, pid);  // both sides, the usual idiom: no window either way
+      ::sigprocmask(SIG_SETMASK, &before, nullptr);
+      if (pid < 0) {
+        std::fprintf(stderr, "error: sweep: cannot start a variant: %s\n", std::strerror(errno));
+        break;
       }
       children[pid] = next++;
       ++running;

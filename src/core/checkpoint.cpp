@@ -147,6 +147,10 @@ std::size_t count_checkpoints(const fs::path& dir) { return list_checkpoints(dir
 std::string set_aside_checkpoints(const fs::path& dir) {
   std::error_code ec;
   if (!fs::exists(fs::symlink_status(dir, ec))) return {};
+  if (fs::is_symlink(fs::symlink_status(dir, ec)))
+    throw std::runtime_error(dir.string() + ": is a symbolic link; a run started afresh moves an earlier run's "
+                             "checkpoints aside and would move the link: remove it (or its checkpoints), or continue "
+                             "that run with --resume");
   if (!fs::is_directory(fs::symlink_status(dir, ec)))
     throw std::runtime_error(dir.string() + ": is not a directory of checkpoints; this run would write its checkpoints "
                              "there: move it away or choose another --out");
@@ -169,6 +173,9 @@ std::string set_aside_checkpoints(const fs::path& dir) {
   fs::path previous = dir;
   previous += ".previous";
   if (fs::exists(fs::symlink_status(previous, ec))) {
+    if (!fs::is_directory(fs::symlink_status(previous, ec)))
+      throw std::runtime_error(previous.string() + ": is not a directory of checkpoints; it would be replaced by " +
+                               dir.string() + " (the checkpoints of an earlier run): move it away");
     for (const auto& e : fs::directory_iterator(previous, ec))
       if (!ours(e.path()))
         throw std::runtime_error(previous.string() + ": holds " + e.path().filename().string() +

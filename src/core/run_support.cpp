@@ -1,7 +1,9 @@
 #include "core/run_support.hpp"
 
 #include <sched.h>
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -132,47 +134,73 @@ std::string host_name() {
   return name;
 }
 
-// The marker of a run's temporary directory also names the run's host and process, so that a
-// later run can tell a temporary directory whose run was killed (SIGKILL, a crash, a power
-// cut) from one a live run is writing, here or on another host of a shared file system.
+// The marker of a run's temporary directory names the run's host and process (for people),
+// and the run holds an exclusive flock on it for its whole life: that lock, not the process
+// id, tells a later run whether the temporary belongs to a live run (a process id says
+// nothing across hosts of a shared file system or across PID namespaces, and is reused).
 void mark_temporary_directory(const fs::path& dir) {
   std::ofstream(dir / kOutputMarker) << "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n"
                                      << "temporary of the run on host " << host_name() << " process " << ::getpid()
                                      << "\n";
 }
 
-// Temporary directories OUT.tmp-PID of earlier runs into OUT that did not finish: removed
-// when their marker names this host and a process that no longer exists; otherwise only
-// named (a run on another host, or kept results: a failed final move re-marks its
-// directory as plain output).
-void remove_dead_temporaries(const fs::path& final_path) {
+enum class Holder { none, live, unknown };
+
+// Whether a live process holds the flock on `marker` (unknown: no marker, or the file system
+// has no locks). Taking the lock briefly to test it is harmless: a run takes it only once,
+// when it creates its temporary directory.
+Holder lock_holder(const fs::path& marker) {
+  const int fd = ::open(marker.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return Holder::unknown;
+  Holder h = Holder::none;
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) h = errno == EWOULDBLOCK ? Holder::live : Holder::unknown;
+  ::close(fd);
+  return h;
+}
+
+std::string read_small(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The temporary directories OUT.tmp-* that other runs into OUT left or are writing. A live
+// one means another run writes OUT now: refused (two runs into one OUT would replace each
+// other's results and prune each other's checkpoints). A dead run's temporary (its lock
+// free, its marker a temporary's, no summary.json) is removed with a note; complete results
+// (a summary.json: the run died between its final renames) and results kept after a failed
+// final move (re-marked as plain output) are only named. `mine` is skipped.
+void clear_other_temporaries(const fs::path& final_path, const fs::path& mine) {
   const fs::path parent = final_path.has_parent_path() ? final_path.parent_path() : fs::path(".");
   const std::string prefix = final_path.filename().string() + ".tmp-";
-  const std::string here = host_name();
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(parent, ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.rfind(prefix, 0) != 0) continue;
-    const std::string digits = name.substr(prefix.size());
-    if (digits.empty() || digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos) continue;
-    const long pid = std::stol(digits);
-    if (pid == ::getpid() || !fs::is_directory(fs::symlink_status(e.path(), ec))) continue;
-    std::ifstream in(e.path() / kOutputMarker);
-    if (!in) continue;  // not grainbath's
-    std::stringstream text;
-    text << in.rdbuf();
-    const bool ours = text.str().find("on host " + here + " process " + digits + "\n") != std::string::npos;
-    if (ours && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
-      fs::remove_all(e.path(), ec);
-      std::fprintf(stderr, "note: removed %s, the temporary output of an earlier run (process %s) that did not finish\n",
-                   e.path().string().c_str(), digits.c_str());
-    } else if (text.str().find("temporary of the run") != std::string::npos && !ours) {
-      std::fprintf(stderr, "note: %s is the temporary output of a run on another host or from before this check; "
-                           "remove it if no run is writing it\n", e.path().string().c_str());
-    } else if (text.str().find("temporary of the run") == std::string::npos) {
-      std::fprintf(stderr, "note: %s holds the results of an earlier run that could not be moved into place, or of "
-                           "a run killed before 2026-11-27: look at it, and remove it when it is no longer needed\n",
-                   e.path().string().c_str());
+  std::vector<fs::path> found;
+  for (const auto& e : fs::directory_iterator(parent, ec))
+    if (e.path().filename().string().rfind(prefix, 0) == 0 && e.path() != mine &&
+        fs::is_directory(fs::symlink_status(e.path(), ec)))
+      found.push_back(e.path());
+  std::sort(found.begin(), found.end());
+  for (const fs::path& t : found) {
+    const std::string marker = read_small(t / kOutputMarker);
+    if (marker.empty()) continue;  // not grainbath's
+    const bool temporary = marker.find("temporary of the run") != std::string::npos;
+    const Holder holder = lock_holder(t / kOutputMarker);
+    if (holder == Holder::live)
+      throw std::runtime_error(final_path.string() + ": another run is writing it now (its temporary directory " +
+                               t.string() + " is in use; " +
+                               (temporary ? marker.substr(marker.find("temporary of the run")) : std::string("\n")) +
+                               "wait for that run to end, or choose another --out");
+    if (temporary && holder == Holder::none && !fs::exists(t / "summary.json", ec)) {
+      fs::remove_all(t, ec);
+      std::fprintf(stderr, "note: removed %s, the temporary output of an earlier run that did not finish\n",
+                   t.string().c_str());
+    } else if (fs::exists(t / "summary.json", ec) || !temporary) {
+      std::fprintf(stderr, "note: %s holds the results of an earlier run that were not moved into place: look at "
+                           "them, and remove the directory when it is no longer needed\n", t.string().c_str());
+    } else {
+      std::fprintf(stderr, "note: %s is the temporary output of another run (this file system cannot tell whether "
+                           "it is still running): remove it if no run is writing it\n", t.string().c_str());
     }
   }
 }
@@ -212,16 +240,38 @@ OutputDirectory::OutputDirectory(fs::path final_path, const std::vector<fs::path
   if (!fs::exists(parent, ec)) fs::create_directories(parent, ec);
   if (ec || !fs::is_directory(parent))
     throw std::runtime_error(parent.string() + ": cannot create the output's parent directory");
-  remove_dead_temporaries(final_);
-  tmp_ = final_;
-  tmp_ += ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp_, ec);
-  if (!fs::create_directory(tmp_, ec) || ec)
-    throw std::runtime_error(final_.string() + ": cannot write the output: creating its temporary sibling " +
-                             tmp_.filename().string() + " in " + parent.string() + " failed (" +
-                             (ec ? ec.message() : std::string("it exists")) +
-                             "); choose an --out in a writable directory");
+  // this run's temporary, OUT.tmp-PID (-N after it when that name is taken: a process id of
+  // another PID namespace, or results kept there), created and locked before the others are
+  // looked at, so that of two runs starting together into one OUT neither misses the other
+  for (int n = 0;; ++n) {
+    tmp_ = final_;
+    std::string suffix = ".tmp-";  // built piece by piece: GCC 12's -Wrestrict misfires on "-" + to_string(n)
+    suffix += std::to_string(::getpid());
+    if (n > 0) {
+      suffix += '-';
+      suffix += std::to_string(n);
+    }
+    tmp_ += suffix;
+    if (fs::create_directory(tmp_, ec) && !ec) break;
+    if (!fs::exists(fs::symlink_status(tmp_, ec)) || n > 100)
+      throw std::runtime_error(final_.string() + ": cannot write the output: creating its temporary sibling " +
+                               tmp_.filename().string() + " in " + parent.string() + " failed (" +
+                               (ec ? ec.message() : std::string("it exists")) +
+                               "); choose an --out in a writable directory");
+  }
   mark_temporary_directory(tmp_);
+  lock_fd_ = ::open((tmp_ / kOutputMarker).c_str(), O_RDONLY | O_CLOEXEC);
+  if (lock_fd_ >= 0 && ::flock(lock_fd_, LOCK_EX | LOCK_NB) != 0) {
+    ::close(lock_fd_);
+    lock_fd_ = -1;
+  }
+  try {
+    clear_other_temporaries(final_, tmp_);
+  } catch (...) {
+    if (lock_fd_ >= 0) ::close(lock_fd_);
+    fs::remove_all(tmp_, ec);
+    throw;
+  }
 }
 
 OutputDirectory::~OutputDirectory() {
@@ -229,6 +279,16 @@ OutputDirectory::~OutputDirectory() {
     std::error_code ec;
     fs::remove_all(tmp_, ec);
   }
+  if (lock_fd_ >= 0) ::close(lock_fd_);
+}
+
+std::string shell_quote(const std::string& word) {
+  if (!word.empty() && word.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789"
+                                              "_-+=.,/:@%") == std::string::npos)
+    return word;
+  std::string q = "'";
+  for (char c : word) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
 }
 
 void OutputDirectory::commit() {
@@ -254,6 +314,7 @@ void OutputDirectory::commit() {
                                "); the results of this run are kept in " + tmp_.string());
     }
   }
+  mark_output_directory(tmp_);  // the results: no longer a temporary (the lock stays on the same file)
   fs::rename(tmp_, final_, ec);
   if (ec) {
     keep_tmp_ = true;

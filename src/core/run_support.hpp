@@ -40,7 +40,12 @@ class OutputDirectory {
  private:
   std::filesystem::path final_, tmp_;
   bool committed_ = false, keep_tmp_ = false;
+  int lock_fd_ = -1;  // the temporary's marker, flock-ed for the run's life (live-run test)
 };
+
+// A word for a POSIX shell: as is when it needs no quoting, else in single quotes with any
+// single quote inside written '\'' (for the commands printed to resume a run or a sweep).
+std::string shell_quote(const std::string& word);
 
 // Whether `dir` holds what grainbath writes: the marker file every run and sweep directory
 // gets (mark_output_directory), or, for directories from before the marker, a run's

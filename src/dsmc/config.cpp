@@ -139,6 +139,18 @@ void reject_other_profile_keys(CaseReader& r, std::string_view section, std::str
                                const std::string& profile) {
   const std::string file_profile = r.overridden(section, "profile") ? r.file_string(section, "profile") : "";
   const std::vector<std::string> mine = profile_keys(kind, profile);
+  // a key both profiles read may mean different things (amplitude: A, dimensionless, for
+  // isobaric_sine; U0, a velocity, for shear): the file's value is not carried over silently
+  if (!file_profile.empty() && file_profile != profile) {
+    const std::vector<std::string> file_keys = profile_keys(kind, file_profile);
+    for (const auto& key : mine)
+      if (std::find(file_keys.begin(), file_keys.end(), key) != file_keys.end() && r.has(section, key) &&
+          !r.overridden(section, key))
+        r.problem(section, key,
+                  "the file's value is profile = \"" + file_profile + "\"'s, and --set " + std::string(section) +
+                      ".profile = \"" + profile + "\" reads this key too, perhaps with another meaning (see grainbath "
+                      "list-models): give it with --set " + std::string(section) + "." + key + "=VALUE");
+  }
   std::vector<std::string> seen;
   for (const auto& m : dsmc_models()) {
     if (m.kind != kind || m.name == profile) continue;

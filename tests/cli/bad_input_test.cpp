@@ -586,6 +586,19 @@ TEST_F(BadInput, KeyOfAnotherProfileIsNamedAsSuch) {
   // ... while the same key from --set is still an error
   expect_rejected(std::nullopt, {{0, "background.amplitude", "not used by profile = \"uniform\""}},
                   {"--set", "background.profile=uniform", "--set", "background.amplitude=0.1"}, "check", "--set");
+  // a key both profiles read is not carried over silently: amplitude is A (dimensionless) for
+  // isobaric_sine and U0 (a velocity) for shear
+  Case t = s;
+  t.set("domain", "dimensions", "2").set("domain", "length", "[10.0, 10.0]").set("domain", "cells", "[10, 10]");
+  t.set("domain", "boundaries", "[\"periodic\", \"periodic\"]");
+  expect_rejected(t.text(), {{t.line_of("background", "amplitude"), "background.amplitude",
+                              "the file's value is profile = \"isobaric_sine\"'s, and --set background.profile = "
+                              "\"shear\" reads this key too"}},
+                  {"--set", "background.profile=shear"}, "check");
+  write_text(case_file(), t.text());
+  auto ok = grainbath({"check", case_dir().string(), "--set", "background.profile=shear", "--set",
+                       "background.amplitude=0.5"});
+  EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {

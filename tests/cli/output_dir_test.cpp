@@ -3,7 +3,10 @@
 // directory grainbath wrote (summary.json, results.h5, sweep.md, variant-*) or an empty one
 // may be taken; a case directory, the current directory, a file, a link or a directory of
 // the user's own are refused at start-up, before any work, with nothing changed.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <csignal>
@@ -213,6 +216,16 @@ TEST_F(OutputDir, AFreshRunSetsAnEarlierRunsCheckpointsAside) {
   EXPECT_EQ(r.code, 2) << r.describe();
   EXPECT_NE(r.err.find("holds notes.txt, which is not a checkpoint"), std::string::npos) << r.err;
   EXPECT_EQ(listing(tmp.path()), before);
+  // ... and so is a file of the user's where the earlier checkpoints would go (it was deleted)
+  fs::remove(tmp / "out.checkpoints" / "notes.txt");
+  fs::remove_all(tmp / "out.checkpoints.previous");
+  write_text(tmp / "out.checkpoints.previous", "mine too");
+  const auto before2 = listing(tmp.path());
+  r = run(out);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("out.checkpoints.previous: is not a directory of checkpoints"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before2);
+  EXPECT_EQ(read_text(tmp / "out.checkpoints.previous"), "mine too");
 }
 
 TEST_F(OutputDir, ResumeWithoutACheckpointOrWithAChangedCaseIsBadInput) {
@@ -240,7 +253,7 @@ TEST_F(OutputDir, ResumeWithoutACheckpointOrWithAChangedCaseIsBadInput) {
 // SIGHUP (a closed terminal) is a stop request like SIGINT: checkpoint, exit 130, said at
 // once; the same signal again stops at once, without a checkpoint, and the temporary output
 // it leaves is removed by the next run into the same --out.
-TEST_F(OutputDir, HangupStopsWithACheckpointAndASecondSignalAtOnce) {
+TEST_F(OutputDir, HangupStopsWithACheckpointAndADeadRunsTemporaryIsRemoved) {
   std::string long_case = kCase;
   long_case.replace(long_case.find("particles = 1000"), 16, "particles = 200000");
   long_case.replace(long_case.find("t_end = 0.2"), 11, "t_end = 500.0");
@@ -255,17 +268,25 @@ TEST_F(OutputDir, HangupStopsWithACheckpointAndASecondSignalAtOnce) {
   EXPECT_NE(r.err.find("grainbath: stop requested"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::is_empty(tmp / "out.checkpoints"));
   EXPECT_FALSE(fs::exists(out));
-  // twice: the second stops the run by the signal's default action, before any checkpoint
+  // the same request delivered twice at once (a closed terminal: the kernel's SIGHUP and the
+  // shell's) is one request: still a checkpoint, exit 130 (review 3: it killed the run)
   fs::remove_all(tmp / "out.checkpoints");
   opt.send_again_when = "stop requested";
   r = run_binary({kBinary, "run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"}, opt);
+  EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
+  EXPECT_FALSE(fs::is_empty(tmp / "out.checkpoints"));
+  // a run killed outright leaves its temporary directory
+  opt.send_signal = SIGKILL;
+  opt.send_again_when.clear();
+  r = run_binary({kBinary, "run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1", "--resume"},
+                 opt);
   EXPECT_FALSE(r.exited) << r.describe();
   std::vector<fs::path> temporaries;
   for (const auto& e : fs::directory_iterator(tmp.path()))
     if (e.path().filename().string().rfind("out.tmp-", 0) == 0) temporaries.push_back(e.path());
   ASSERT_EQ(temporaries.size(), 1u);
   EXPECT_NE(read_text(temporaries[0] / ".grainbath-output").find("temporary of the run on host"), std::string::npos);
-  // the next run into out removes it (its process is gone) and says so
+  // the next run into out removes it (no process holds its lock) and says so
   write_text(case_dir() / "case.toml", kCase);
   r = run(out);
   ASSERT_EQ(r.code, 0) << r.describe();
@@ -374,4 +395,33 @@ TEST_F(OutputDir, KeptCheckpointsIncludeTheEndAndAnExtensionIsTheStraightRun) {
                  "checkpoint.keep=true", "--set", "dsmc.t_end=0.4"});
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_EQ(read_text(out / "results.h5"), read_text(tmp / "straight" / "results.h5"));
+}
+
+// A run writing OUT holds a lock on its temporary's marker: a second run into the same OUT
+// meanwhile is refused before it touches anything (it set the first one's checkpoints aside
+// and pruned them; review 3), and the lock, not a process id, decides that the temporary is
+// alive (a process id says nothing across hosts or PID namespaces).
+TEST_F(OutputDir, ASecondRunIntoAnOutThatALiveRunWritesIsRefused) {
+  const fs::path out = tmp / "out";
+  const fs::path live = tmp / "out.tmp-1";  // pid 1 exists here; it is the lock that counts
+  write_text(live / ".grainbath-output",
+             "written by grainbath (docs/OUTPUT.md): --out may replace this directory\n"
+             "temporary of the run on host elsewhere process 4242\n");
+  write_text(tmp / "out.checkpoints" / "checkpoint-000000000007.h5", "the live run's");
+  const int fd = ::open((live / ".grainbath-output").c_str(), O_RDONLY);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  const auto before = listing(tmp.path());
+  RunResult r = run(out);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("another run is writing it now"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("temporary of the run on host elsewhere process 4242"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+  // that run ends without cleaning up (killed): its lock goes with it, and the next run
+  // removes the temporary
+  ::close(fd);
+  r = run(out);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_FALSE(fs::exists(live));
+  EXPECT_NE(r.err.find("note: removed " + live.string()), std::string::npos) << r.err;
 }
