@@ -19,6 +19,21 @@ def homogeneous_background(run):
     return run.param("background.profile", "uniform") == "uniform"
 
 
+def free_cooling(run):
+    """True for a gas that only cools: DSMC with no background medium (no [background]
+    density, no background file) and no diffuse (heat-exchanging) walls; EDMD with
+    `sampling.free_cooling`. Its temperature has no steady value and its fluxes need not
+    vanish, so window means and "equilibrium" wording do not apply."""
+    if run.solver == "edmd":
+        return bool(run.param("sampling.free_cooling", False))
+    if run.solver != "dsmc":
+        return False
+    if run.param("background.density", 0.0) or run.param("background.profile", "uniform") == "file":
+        return False
+    walls = run.param("domain.boundaries", [])
+    return "diffuse" not in (walls if isinstance(walls, list) else [walls])
+
+
 def deviation(sim, err, theory):
     """'Δ = …, … σ, … %' of theory relative to the simulation."""
     if sim is None or theory is None:
@@ -40,7 +55,9 @@ GLANCE = [
       ("ε-expansion, 1st order", "theory.expansion.first_order.T")]),
     ("a₂ (steady)", "a2.mean", "a2.stderr", [("Sonine closure", "theory.equilibrium.sonine.a2"),
                                               ("van Noije-Ernst (cooling state)", "theory.haff.a2_van_noije_ernst")]),
-    ("T(t_end), free cooling", "temperature.final", None, [("Haff's law", "theory.haff.temperature_at_t_end")]),
+    ("T(t_end), free cooling", "temperature.final", None,
+     [("Haff's law, Maxwellian cooling rate", "theory.haff.temperature_at_t_end_no_a2"),
+      ("Haff's law with the van Noije-Ernst a₂", "theory.haff.temperature_at_t_end")]),
     ("density-mode decay rate", "mode.decay_rate", "mode.decay_rate_stderr",
      [("Sonine closure", "theory.hydro.decay_rate_sonine_closure"),
       ("Grad closure", "theory.hydro.decay_rate_grad_closure"),
@@ -122,8 +139,13 @@ def overview(run, ctx):
         e = run.num(err_key) if err_key else None
         key_rows.append([label, f"`{key}`", fmt(v), fmt(e) if e is not None else ""])
 
-    row("mean temperature T over the run" if run.solver == "edmd" else "steady temperature T (window mean)",
-        "temperature.mean", "temperature.stderr")
+    if run.solver == "edmd":
+        row("mean temperature T over the run", "temperature.mean", "temperature.stderr")
+    elif free_cooling(run):  # the gas cools: a window mean of T is no steady value
+        row("mean of the cooling temperature over the window (not a steady value)", "temperature.mean",
+            "temperature.stderr")
+    else:
+        row("steady temperature T (window mean)", "temperature.mean", "temperature.stderr")
     row("final temperature", "temperature.final")
     row("Sonine coefficient a₂ (window mean)", "a2.mean", "a2.stderr")
     row("final a₂", "a2.final")
@@ -144,7 +166,8 @@ def overview(run, ctx):
     row("T#, ε-expansion 2nd order (Maxwellian)", "theory.expansion.second_order_maxwellian.T")
     row("T#, ε-expansion 2nd order (Grad)", "theory.expansion.second_order_grad.T")
     row("momentum relaxation rate (theory)", "theory.rates.momentum")
-    row("Haff T(t_end) (theory)", "theory.haff.temperature_at_t_end")
+    row("Haff T(t_end), Maxwellian cooling rate (theory)", "theory.haff.temperature_at_t_end_no_a2")
+    row("Haff T(t_end) with the van Noije-Ernst a₂ (theory)", "theory.haff.temperature_at_t_end")
     row("a₂ van Noije-Ernst (theory)", "theory.haff.a2_van_noije_ernst")
     row("Z, elastic equation of state (theory; inelastic grains: see the EOS section)", "theory.Z")
     row("g(σ), elastic equation of state (theory)", "theory.g_contact")

@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from .common import deviation, homogeneous_background
+from .common import deviation, free_cooling, homogeneous_background
 from .document import Section, fmt, fmt_pm
 from .plotting import SIM, SIM_POINTS, plt, subplots, theory_style
 
@@ -154,40 +154,44 @@ def _temperature_alone(run, ctx, s, t, T):
 
 
 def _temperature_haff(run, ctx, s, t, T, N):
-    haff = run.arr("theory/haff/temperature")
-    e = run.param("restitution.e")
-    n = run.param("grains.density", 1.0)
-    m = run.param("grains.mass", 1.0)
-    T0 = T[0]
-    a2 = run.num("theory.haff.a2_van_noije_ernst")
-    haff_a2 = None
-    if isinstance(e, (int, float)) and a2 is not None:
-        zeta = 4.0 * n * (1.0 - e * e) / (3.0 * math.sqrt(math.pi * m)) * (1.0 + 3.0 * a2 / 16.0)
-        haff_a2 = T0 / (1.0 + 0.5 * zeta * math.sqrt(T0) * t) ** 2
+    # /theory/haff/temperature: Haff's law with the cooling rate of the homogeneous cooling
+    # state, ζ₀(1 + 3a₂/16), a₂ van Noije-Ernst; /theory/haff/temperature_no_a2: with the
+    # Maxwellian rate ζ₀ (docs/OUTPUT.md)
+    haff_a2 = run.arr("theory/haff/temperature")
+    haff = run.arr("theory/haff/temperature_no_a2") if run.has("theory/haff/temperature_no_a2") else None
+    zeta0 = run.num("theory.haff.zeta0")
+    if haff is None and zeta0 is not None:  # results written before the Maxwellian curve was stored
+        T0 = float(haff_a2[0])
+        haff = T0 / (1.0 + 0.5 * zeta0 * math.sqrt(T0) * t) ** 2
+    ref = haff if haff is not None else haff_a2
     fig, (ax, axr) = subplots(2, 1, figsize=(7.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=[2.2, 1]))
     ax.plot(t, T, **SIM)
-    ax.plot(t, haff, **theory_style("haff", label="Haff's law (Maxwellian cooling rate)"))
-    if haff_a2 is not None:
-        ax.plot(t, haff_a2, **theory_style("sonine", label="Haff's law × (1 + 3a₂/16), a₂ van Noije-Ernst"))
+    if haff is not None:
+        ax.plot(t, haff, **theory_style("haff", label="Haff's law, Maxwellian cooling rate ζ₀"))
+    ax.plot(t, haff_a2, **theory_style("sonine", label="Haff's law, cooling rate ζ₀(1 + 3a₂/16), a₂ van Noije-Ernst"))
     ax.set_yscale("log")
     ax.set_ylabel(f"temperature T  [{T_UNIT}]  (log scale)")
     ax.set_title("Free cooling: DSMC vs Haff's law")
     ax.legend(loc="best")
-    axr.plot(t, T / haff, **SIM)
-    if haff_a2 is not None:
+    axr.plot(t, T / ref, **SIM)
+    if haff is not None:
         axr.plot(t, haff_a2 / haff, **theory_style("sonine", label="with a₂ correction"))
-    axr.axhline(1, **theory_style("haff", lw=1.2))
+    axr.axhline(1, **theory_style("haff" if haff is not None else "sonine", lw=1.2))
     axr.set_xlabel(TIME_LABEL)
-    axr.set_ylabel("T / T_Haff")
+    axr.set_ylabel("T / T_Haff (Maxwellian)" if haff is not None else "T / T_Haff (with a₂)")
     s.figure(ctx.save(fig, "temperature"),
-             "Free cooling: T(t) from DSMC (black) beside Haff's law T₀/(1 + ζ₀√T₀ t/2)² (dashed) and with "
-             "the Sonine correction of the cooling rate (dotted); lower panel: ratio to Haff's law.")
-    t_end_th = run.num("theory.haff.temperature_at_t_end")
-    rows = [["T(t_end), DSMC", fmt(float(T[-1])), ""],
-            ["T(t_end), Haff (`theory.haff.temperature_at_t_end`)", fmt(t_end_th), deviation(float(T[-1]), None, t_end_th)]]
-    if haff_a2 is not None:
-        rows.append(["T(t_end), Haff with a₂ correction", fmt(float(haff_a2[-1])),
-                     deviation(float(T[-1]), None, float(haff_a2[-1]))])
+             "Free cooling: T(t) from DSMC (black) beside Haff's law T₀/(1 + ζ√T₀ t/2)² with the Maxwellian "
+             "cooling rate ζ = ζ₀ = 4n(1 − e²)/(3√(πm)) (dashed) and with the homogeneous cooling state's rate "
+             "ζ = ζ₀(1 + 3a₂/16), a₂ of van Noije and Ernst (dotted); lower panel: ratio to "
+             + ("the Maxwellian Haff's law." if haff is not None else "Haff's law with a₂."))
+    rows = [["T(t_end), DSMC", fmt(float(T[-1])), ""]]
+    for label, key, curve in [("Haff, Maxwellian cooling rate", "theory.haff.temperature_at_t_end_no_a2", haff),
+                              ("Haff with the van Noije-Ernst a₂", "theory.haff.temperature_at_t_end", haff_a2)]:
+        v = run.num(key)
+        if v is not None:
+            rows.append([f"T(t_end), {label} (`{key}`)", fmt(v), deviation(float(T[-1]), None, v)])
+        elif curve is not None:
+            rows.append([f"T(t_end), {label}", fmt(float(curve[-1])), deviation(float(T[-1]), None, float(curve[-1]))])
     s.table(["quantity", "value", "theory − DSMC"], rows)
     return s
 
@@ -534,10 +538,15 @@ def pressure(run, ctx):
         axq.axhline(0, color="0.5", lw=0.8)
         axq.set_xlabel(TIME_LABEL)
         axq.set_ylabel("q_i / (n T √(T/m))  [dimensionless]")
-        axq.set_title("Heat flux (zero in equilibrium)")
+        # zero in a homogeneous steady state; a homogeneous cooling gas has none either
+        # (isotropy), but it is not in equilibrium
+        axq.set_title("Heat flux (zero in a homogeneous gas)" if free_cooling(run) else "Heat flux (zero in equilibrium)")
         axq.legend(loc="best", fontsize=7)
     s.figure(ctx.save(fig, "pressure"),
              "Kinetic pressure tensor over nT minus the identity (left: diagonal in black, off-diagonal in blue) and reduced "
-             "heat flux (right). Both are isotropic/zero in a homogeneous steady state; deviations during "
-             "relaxation show the anisotropy that the closures carry or neglect.")
+             "heat flux (right). " +
+             ("Both are isotropic/zero in a homogeneous gas, cooling or not (this run cools freely: no steady "
+              "state); deviations show noise or inhomogeneity." if free_cooling(run) else
+              "Both are isotropic/zero in a homogeneous steady state; deviations during relaxation show the "
+              "anisotropy that the closures carry or neglect."))
     return s

@@ -250,7 +250,8 @@ std::vector<std::uint64_t> grains_per_block(const H5File& h, const Config& c, co
 }  // namespace
 
 std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, std::string& warning,
-                                            const Config& c, Decomposition& dec, std::uint64_t& bytes_read) {
+                                            const Config& c, Decomposition& dec, std::uint64_t& bytes_read,
+                                            std::string* saved_t_end) {
   State s;
   Scalars k;
   std::vector<std::uint64_t> bs;
@@ -303,6 +304,13 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
       },
       warning, dec.size() > 1 ? &part : nullptr, &bytes_read);
   if (loaded.empty()) return std::nullopt;
+  if (saved_t_end) {  // only for the message of a t_end before the checkpoint (driver.cpp)
+    saved_t_end->clear();
+    try {
+      *saved_t_end = H5File(loaded.string(), H5File::Mode::read).read_attribute("/parameters", "dsmc.t_end");
+    } catch (const std::exception&) {
+    }
+  }
   return s;
 }
 

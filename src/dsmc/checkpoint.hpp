@@ -32,9 +32,10 @@ void write_checkpoint(const std::filesystem::path& dir, const State& s, const Ru
 // verify the file's checksum together, passing its state along in rank order (each byte of
 // a per-grain array read by one rank); then Decomposition::distribute(s, c, true).
 // `bytes_read` is increased by the dataset bytes this rank read (docs/OUTPUT.md,
-// performance.checkpoint_read_bytes_*).
+// performance.checkpoint_read_bytes_*). `saved_t_end`, if given, receives the dsmc.t_end the
+// loaded checkpoint was written with (its /parameters; empty if unreadable), for messages.
 std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx,
                                             std::string& warning, const Config& c, Decomposition& dec,
-                                            std::uint64_t& bytes_read);
+                                            std::uint64_t& bytes_read, std::string* saved_t_end = nullptr);
 
 }  // namespace grainbath::dsmc

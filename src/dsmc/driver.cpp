@@ -357,11 +357,49 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   if (ctx.resume) {
     std::string warning;
     // MPI: this rank's grains
-    auto restored = read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec, checkpoint_read_bytes);
+    std::string saved_t_end;
+    auto restored =
+        read_newest_checkpoint(ctx.checkpoint_dir, ctx, warning, c, dec, checkpoint_read_bytes, &saved_t_end);
     if (!warning.empty() && dec.root()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!restored) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
     s = std::move(*restored);
     resumed = true;
+    // dsmc.t_end may change on --resume (to extend a run), but not to before the checkpoint:
+    // the run would do no step and report the checkpoint's state as the one at t_end. A
+    // checkpoint at the new last step finishes with no step if its state was sampled there
+    // (a sample point, or the last step of the run that wrote it, interrupted there);
+    // otherwise the end sample (and, with a medium, the bath's second half step) is missing.
+    // std::invalid_argument: bad input, the checkpoints stay (src/cli/commands.cpp).
+    bool sampled_at_checkpoint = s.step % c.sample_every_steps == 0;
+    if (!saved_t_end.empty()) {
+      try {  // the run that wrote it ended at the checkpoint's step (interrupted at its last step)
+        sampled_at_checkpoint |= std::ceil(std::stod(saved_t_end) / c.dt - 1e-9) == static_cast<double>(s.step);
+      } catch (const std::exception&) {
+      }
+    }
+    if (s.step > c.steps || (s.step == c.steps && !sampled_at_checkpoint)) {
+      const double t_ck = static_cast<double>(s.step) * c.dt;
+      const bool at_end = s.step == c.steps;
+      std::string least;  // the shortest printed t_end that reaches the checkpoint's step
+      for (int digits = 6; digits <= 17; ++digits) {
+        char b[40];
+        std::snprintf(b, sizeof b, "%.*g", digits, t_ck);
+        least = b;
+        if (std::ceil(std::stod(least) / c.dt - 1e-9) >= static_cast<double>(s.step)) break;
+      }
+      char now[40];
+      std::snprintf(now, sizeof now, "%.10g", c.t_end);
+      throw std::invalid_argument(
+          "--resume: dsmc.t_end = " + std::string(now) +
+          (at_end ? " ends at the checkpoint (t = " + least + ", step " + std::to_string(s.step) +
+                        "), which is not a sample point: give dsmc.t_end > " + least
+                  : " is before the checkpoint (t = " + least + ", step " + std::to_string(s.step) +
+                        "): give dsmc.t_end " + (sampled_at_checkpoint ? ">= " : "> ") + least) +
+          (saved_t_end.empty() ? std::string()
+                               : " (the run that wrote the checkpoint had dsmc.t_end = " + saved_t_end +
+                                     ": --set dsmc.t_end=" + saved_t_end + " continues it)") +
+          "; the checkpoints in " + ctx.checkpoint_dir.string() + " are kept");
+    }
     if (bath_on && s.particles.bath_hazard.size() != s.particles.size())
       throw std::runtime_error("--resume: the checkpoint has no particles/bath_hazard for its " +
                                std::to_string(s.particles.size()) + " grains (written before the carried bath residual)");

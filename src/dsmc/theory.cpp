@@ -97,8 +97,11 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     if (auto e = constant_e(c.restitution)) {
       out.emplace_back("haff.zeta0", haff_zeta0(*e, c.grains.density, c.grains.mass));
       out.emplace_back("haff.a2_van_noije_ernst", vne_a2(*e));
+      // with the homogeneous cooling state's a2, and the Maxwellian cooling rate alone
       out.emplace_back("haff.temperature_at_t_end",
-                       haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass));
+                       haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass, true));
+      out.emplace_back("haff.temperature_at_t_end_no_a2",
+                       haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass, false));
     }
   }
   return out;
@@ -129,9 +132,13 @@ std::vector<std::pair<std::string, std::vector<double>>> relaxation_series(const
     }
   } else if (!c.background.present()) {
     if (auto e = constant_e(c.restitution)) {
-      std::vector<double> T;
-      for (double t : times) T.push_back(haff_temperature(t, c.grains.temperature, *e, c.grains.density, c.grains.mass));
+      std::vector<double> T, T_no_a2;
+      for (double t : times) {
+        T.push_back(haff_temperature(t, c.grains.temperature, *e, c.grains.density, c.grains.mass, true));
+        T_no_a2.push_back(haff_temperature(t, c.grains.temperature, *e, c.grains.density, c.grains.mass, false));
+      }
       out.emplace_back("haff/temperature", T);
+      out.emplace_back("haff/temperature_no_a2", T_no_a2);
     }
   }
   return out;

@@ -298,7 +298,7 @@ void write_checkpoint(const fs::path& dir, const Engine& engine, const RunState&
 }
 
 bool read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, Engine& engine, RunState& run,
-                            std::string& warning) {
+                            std::string& warning, std::string* saved_collisions) {
   const RunState fresh = run;  // bin layouts of the measurements, from the case
   Staging g;
   const fs::path loaded = read_newest_checkpoint_file(
@@ -324,6 +324,13 @@ bool read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, Engine& 
   if (loaded.empty()) {
     run = fresh;
     return false;
+  }
+  if (saved_collisions) {  // only for the message of collisions before the checkpoint (driver.cpp)
+    saved_collisions->clear();
+    try {
+      *saved_collisions = H5File(loaded.string(), H5File::Mode::read).read_attribute("/parameters", "edmd.collisions");
+    } catch (const std::exception&) {
+    }
   }
   return true;
 }

@@ -66,8 +66,9 @@ void write_checkpoint(const std::filesystem::path& dir, const Engine& engine, co
 // `run` (whose pairs / vhist must be initialised from the case: their bin layout is
 // checked). Returns false if there is none; `warning` lists checkpoints skipped as corrupt.
 // Throws std::invalid_argument if the case changed in anything but edmd.collisions,
-// [checkpoint] and run.threads.
+// [checkpoint] and run.threads. `saved_collisions`, if given, receives the edmd.collisions the
+// loaded checkpoint was written with (its /parameters; empty if unreadable), for messages.
 bool read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx, Engine& engine, RunState& run,
-                            std::string& warning);
+                            std::string& warning, std::string* saved_collisions = nullptr);
 
 }  // namespace grainbath::edmd

@@ -494,9 +494,43 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   if (ctx.resume) {
     std::string warning;
-    const bool ok = read_newest_checkpoint(ctx.checkpoint_dir, ctx, eng, rs, warning);
+    std::string saved_collisions;
+    const bool ok = read_newest_checkpoint(ctx.checkpoint_dir, ctx, eng, rs, warning, &saved_collisions);
     if (!warning.empty()) std::fprintf(stderr, "warning: %s\n", warning.c_str());
     if (!ok) throw std::runtime_error("--resume: no valid checkpoint in " + ctx.checkpoint_dir.string());
+    // edmd.collisions may change on --resume (to extend a run), but not to before the
+    // checkpoint: the run would do no collision and report the checkpoint's state as the
+    // end. A checkpoint exactly at the new end finishes if the last sample was taken there
+    // (otherwise the last sample interval would be missing). Measuring collisions count
+    // from the end of the equilibration (edmd.equilibrate, which may not change).
+    // std::invalid_argument: bad input, the checkpoints stay (src/cli/commands.cpp).
+    const std::uint64_t measured = rs.phase == RunState::measuring ? eng.counters().collisions : 0;
+    const std::uint64_t n_end = static_cast<std::uint64_t>(c.collisions * N);
+    if (measured > n_end || (measured == n_end && measured > 0 && rs.prev.collisions != measured)) {
+      const bool at_end = measured == n_end;
+      std::string least;  // the shortest printed edmd.collisions that reaches the checkpoint
+      for (int digits = 6; digits <= 17; ++digits) {
+        char b[40];
+        std::snprintf(b, sizeof b, "%.*g", digits, static_cast<double>(measured) / N);
+        least = b;
+        if (static_cast<std::uint64_t>(std::stod(least) * N) >= measured) break;
+      }
+      char now[40], total[64];
+      std::snprintf(now, sizeof now, "%.10g", c.collisions);
+      std::snprintf(total, sizeof total, "%.6g collisions per particle, %s",
+                    static_cast<double>(eng.total_collisions()) / N, least.c_str());
+      throw std::invalid_argument(
+          "--resume: edmd.collisions = " + std::string(now) +
+          (at_end ? " ends at the checkpoint (" + std::string(total) +
+                        " of them after the equilibration), between two samples: give edmd.collisions > " + least
+                  : " is before the checkpoint (" + std::string(total) +
+                        " of them after the equilibration): give edmd.collisions " +
+                        (rs.prev.collisions == measured ? ">= " : "> ") + least) +
+          (saved_collisions.empty() ? std::string()
+                                    : " (the run that wrote the checkpoint had edmd.collisions = " + saved_collisions +
+                                          ": --set edmd.collisions=" + saved_collisions + " continues it)") +
+          "; the checkpoints in " + ctx.checkpoint_dir.string() + " are kept");
+    }
     std::fprintf(stderr, "resuming at %.6g collisions per particle (%s, t = %.6g)\n",
                  static_cast<double>(eng.total_collisions()) / N,
                  rs.phase == RunState::equilibrating ? "equilibrating" : "measuring", eng.time());

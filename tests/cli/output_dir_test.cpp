@@ -250,6 +250,32 @@ TEST_F(OutputDir, ResumeWithoutACheckpointOrWithAChangedCaseIsBadInput) {
   EXPECT_EQ(listing(tmp / "out.checkpoints"), before);
 }
 
+// Review 2, A1: --resume with an end before the checkpoint used to do no step, exit 0 with the
+// checkpoint's state reported as t_end, and delete the checkpoints. Now bad input (exit 2),
+// the checkpoints kept; the end checkpoint (keep = true) resumed with the same t_end finishes.
+TEST_F(OutputDir, ResumeWithAnEndBeforeTheCheckpointIsBadInputAndKeepsIt) {
+  const fs::path out = tmp / "out";
+  const std::vector<std::string> common = {"--quiet", "--set", "sampling.steady_from=0.05", "--set",
+                                           "checkpoint.every=0.15", "--set", "checkpoint.keep=true"};
+  auto with = [&](std::vector<std::string> args) {
+    args.insert(args.end(), common.begin(), common.end());
+    return grainbath(args);
+  };
+  RunResult r = with({"run", case_dir().string(), "--out", out.string()});  // checkpoints at steps 15, 20
+  ASSERT_EQ(r.code, 0) << r.describe();
+  const auto before = listing(tmp / "out.checkpoints");
+  r = with({"run", case_dir().string(), "--out", out.string(), "--resume", "--set", "dsmc.t_end=0.12"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("dsmc.t_end = 0.12 is before the checkpoint (t = 0.2, step 20): give dsmc.t_end >= 0.2 "
+                       "(the run that wrote the checkpoint had dsmc.t_end = 0.2"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(listing(tmp / "out.checkpoints"), before);
+  r = with({"run", case_dir().string(), "--out", out.string(), "--resume"});
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming from step 20"), std::string::npos) << r.err;
+}
+
 // SIGHUP (a closed terminal) is a stop request like SIGINT: checkpoint, exit 130, said at
 // once; the same signal again stops at once, without a checkpoint, and the temporary output
 // it leaves is removed by the next run into the same --out.

@@ -267,3 +267,107 @@ TEST(DsmcRestart, CheckpointWithoutCollisionGroupKeyResumesAsOneCell) {
   EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
   fs::remove_all(ck);
 }
+
+// dsmc.t_end may change on --resume, but not to before the checkpoint (review 2, A1): that
+// run did no step, reported the checkpoint's state as the one at t_end and then lost its
+// checkpoints. Refused with std::invalid_argument (bad input: the CLI keeps the checkpoints),
+// naming the key, both times and the remedy. A t_end exactly at a checkpoint taken at a
+// sample point finishes (no step), equal to a run that ends there: the end checkpoint that
+// keep = true writes, resumed with the same t_end, and an earlier one with t_end moved to
+// it. One between two samples is refused (its end sample, and the medium's second half
+// step, would be missing).
+namespace {
+std::string with_t_end(std::string toml, const std::string& t_end) {
+  toml.replace(toml.find("t_end = 1.0"), 11, "t_end = " + t_end);
+  return toml;
+}
+std::vector<fs::path> checkpoint_files(const fs::path& ck) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+}  // namespace
+
+TEST(DsmcRestart, ResumeWithTEndBeforeTheCheckpointIsRefusedAndKeepsIt) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-tend-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const auto full = run_dsmc(kHomogeneous, 5, 0, "tend-full", ck);  // keeps t = 0.75 and the end, 1.0
+  auto files = checkpoint_files(ck);
+  ASSERT_EQ(files.size(), 2u);
+  ASSERT_EQ(files.back().filename().string(), "checkpoint-000000000100.h5");
+  // the end checkpoint resumed with the same t_end: no step, the same results
+  const auto again = run_dsmc(kHomogeneous, 5, 0, "tend-again", ck, true);
+  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(again.dir / "results.h5"));
+  expect_same_physics(full.summary, again.summary);
+  EXPECT_EQ(checkpoint_files(ck), files);
+  try {
+    run_dsmc(with_t_end(kHomogeneous, "0.6"), 5, 0, "tend-early", ck, true);
+    ADD_FAILURE() << "a t_end before the checkpoint was accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dsmc.t_end = 0.6 is before the checkpoint (t = 1, step 100): give dsmc.t_end >= 1 "),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("the run that wrote the checkpoint had dsmc.t_end = 1"), std::string::npos) << what;
+    EXPECT_NE(what.find("are kept"), std::string::npos) << what;
+  }
+  EXPECT_EQ(checkpoint_files(ck), files);  // nothing removed or added
+  // from t = 0.75 (a sample point, sampling every 5 steps)
+  fs::remove(files.back());
+  files.pop_back();
+  try {
+    run_dsmc(with_t_end(kHomogeneous, "0.6"), 5, 0, "tend-early", ck, true);
+    ADD_FAILURE() << "a t_end before the checkpoint was accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dsmc.t_end = 0.6 is before the checkpoint (t = 0.75, step 75): give dsmc.t_end >= 0.75"),
+              std::string::npos)
+        << what;
+  }
+  EXPECT_EQ(checkpoint_files(ck), files);
+  // t_end moved to the checkpoint: no step, the same results as a run of that length
+  const fs::path short_ck = fs::temp_directory_path() / ("grainbath-ck-tend-short-" + std::to_string(::getpid()));
+  const auto at_end = run_dsmc(with_t_end(kHomogeneous, "0.75"), 5, 0, "tend-at", ck, true);
+  const auto short_run = run_dsmc(with_t_end(kHomogeneous, "0.75"), 5, 0, "tend-short", short_ck);
+  EXPECT_EQ(file_bytes(short_run.dir / "results.h5"), file_bytes(at_end.dir / "results.h5"));
+  expect_same_physics(short_run.summary, at_end.summary);
+  // a later t_end extends the run
+  const auto longer = run_dsmc(with_t_end(kHomogeneous, "1.2"), 5, 0, "tend-longer", ck, true);
+  const auto t = longer.series("/timeseries/t");
+  ASSERT_FALSE(t.empty());
+  EXPECT_NEAR(t.back(), 1.2, 1e-9);
+  fs::remove_all(ck);
+  fs::remove_all(short_ck);
+}
+
+TEST(DsmcRestart, ResumeWithTEndAtACheckpointBetweenSamplesIsRefused) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-tend-between-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  std::string toml = kHomogeneous;
+  toml.replace(toml.find("every = 0.05"), 12, "every = 0.1");  // samples every 10 steps: not at 75
+  run_dsmc(toml, 5, 0, "between-full", ck);
+  auto files = checkpoint_files(ck);
+  ASSERT_EQ(files.size(), 2u);  // t = 0.75 and the end
+  fs::remove(files.back());
+  files.pop_back();
+  try {
+    run_dsmc(with_t_end(toml, "0.75"), 5, 0, "between-at", ck, true);
+    ADD_FAILURE() << "a t_end at a checkpoint between two samples was accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dsmc.t_end = 0.75 ends at the checkpoint (t = 0.75, step 75), which is not a sample point: "
+                        "give dsmc.t_end > 0.75"),
+              std::string::npos)
+        << what;
+  }
+  try {
+    run_dsmc(with_t_end(toml, "0.65"), 5, 0, "between-early", ck, true);
+    ADD_FAILURE() << "a t_end before the checkpoint was accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("give dsmc.t_end > 0.75"), std::string::npos) << what;
+  }
+  EXPECT_EQ(checkpoint_files(ck), files);
+  fs::remove_all(ck);
+}

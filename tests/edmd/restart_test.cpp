@@ -396,3 +396,86 @@ TEST(EdmdRestart, ChangedCaseIsRefused) {
   EXPECT_NO_THROW(run_edmd(other, "changed-extended", ck, true));
   fs::remove_all(ck);
 }
+
+// edmd.collisions may change on --resume, but not to before the checkpoint (review 2, A1):
+// that run did no collision, reported the checkpoint's state as the end and then lost its
+// checkpoints. Refused with std::invalid_argument (bad input: the CLI keeps the
+// checkpoints), naming the key, the values and the remedy. Free cooling samples by
+// collisions (every 0.5 per particle), so the checkpoints (at rebuilds, every 10 per
+// particle) are at sample points: edmd.collisions exactly at the checkpoint finishes with
+// the checkpoint's collision count; a later value extends the run.
+TEST(EdmdRestart, ResumeWithCollisionsBeforeTheCheckpointIsRefusedAndKeepsIt) {
+  const char* kCooling = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.1
+equilibrate = 2
+collisions = 30
+[restitution]
+law = "constant"
+e = 0.9
+[sampling]
+interval = 0.5
+free_cooling = true
+[checkpoint]
+every = 10
+keep = true
+)";
+  auto with_collisions = [&](const std::string& n) {
+    std::string t = kCooling;
+    t.replace(t.find("collisions = 30"), 15, "collisions = " + n);
+    return t;
+  };
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-end-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  run_edmd(kCooling, "end-full", ck, false);
+  const auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);
+  // checkpoint-<total collisions>.h5: the measured collisions per particle at the newest one
+  const std::string name = files.back().stem().string();
+  const std::uint64_t total = std::stoull(name.substr(name.find('-') + 1));
+  ASSERT_GT(total, 2u * 900u);
+  const std::uint64_t measured = total - 2 * 900;
+  ASSERT_EQ(measured % 900, 0u) << total;
+  const std::string per_particle = std::to_string(measured / 900);
+  const std::string fewer = std::to_string(measured / 900 - 5);
+  try {
+    run_edmd(with_collisions(fewer), "end-early", ck, true);
+    FAIL() << "collisions before the checkpoint were accepted";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("edmd.collisions = " + fewer + " is before the checkpoint (" +
+                        std::to_string(total / 900) + " collisions per particle, " + per_particle +
+                        " of them after the equilibration): give edmd.collisions >= " + per_particle),
+              std::string::npos)
+        << what;
+    EXPECT_NE(what.find("the run that wrote the checkpoint had edmd.collisions = 30"), std::string::npos) << what;
+    EXPECT_NE(what.find("are kept"), std::string::npos) << what;
+  }
+  EXPECT_EQ(checkpoints(ck), files);  // nothing removed or added
+  const EdmdRun at_end = run_edmd(with_collisions(per_particle), "end-at", ck, true);
+  EXPECT_EQ(at_end.summary.number("collision.count"), static_cast<double>(measured));
+  {  // the same as a run of that length (state.hash included), but for the rounding of the
+     // summed momentum: the resumed engine was rebuilt at the checkpoint, the straight one not
+    const EdmdRun straight = run_edmd(with_collisions(per_particle), "end-straight", {}, false);
+    std::size_t compared = 0;
+    for (const auto& [k, v] : straight.summary.entries()) {
+      if (k.rfind("performance.", 0) == 0) continue;
+      ASSERT_NE(at_end.summary.get(k), nullptr) << k;
+      if (k == "conservation.momentum_change")
+        EXPECT_NEAR(straight.summary.number(k), at_end.summary.number(k), 1e-13);
+      else
+        EXPECT_EQ(v, *at_end.summary.get(k)) << k;
+      ++compared;
+    }
+    EXPECT_GT(compared, 20u);
+    EXPECT_NE(at_end.summary.get("state.hash"), nullptr);
+    fs::remove_all(straight.dir);
+  }
+  const EdmdRun longer = run_edmd(with_collisions("35"), "end-longer", ck, true);
+  EXPECT_EQ(longer.summary.number("collision.count"), 35.0 * 900);
+  fs::remove_all(ck);
+  fs::remove_all(at_end.dir);
+  fs::remove_all(longer.dir);
+}

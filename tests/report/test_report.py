@@ -34,7 +34,8 @@ CASES = [
       "theory.expansion.second_order_grad.T"]),
     ("free-cooling", ["dsmc.particles=3000", "dsmc.t_end=3", "dsmc.dt=0.02", "sampling.steady_from=1"],
      ["overview", "temperature", "a2", "distribution", "appendix"],
-     ["temperature.final", "a2.mean", "theory.haff.temperature_at_t_end", "theory.haff.a2_van_noije_ernst"]),
+     ["temperature.final", "a2.mean", "theory.haff.temperature_at_t_end", "theory.haff.temperature_at_t_end_no_a2",
+      "theory.haff.a2_van_noije_ernst"]),
     ("@mode", [],  # spatial DSMC: a decaying density mode (case written below)
      ["overview", "temperature", "mode", "profiles", "appendix"],
      ["mode.decay_rate", "mode.decay_rate_stderr", "theory.hydro.decay_rate", "theory.hydro.decay_rate_kinetic"]),
@@ -227,6 +228,14 @@ def main():
         for k, v in leaves("", summary):
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
+        if case == "free-cooling":  # review 2, A3 and B10
+            haff = summary["theory"]["haff"]
+            check(haff["temperature_at_t_end"] != haff["temperature_at_t_end_no_a2"],
+                  f"{case}: Haff's law with and without a2 coincide")
+            check("Haff's law, Maxwellian cooling rate" in md and "Haff's law with the van Noije-Ernst a₂" in md,
+                  f"{case}: report.md does not name both Haff laws")
+            check("steady temperature T (window mean)" not in md and "homogeneous steady state" not in md,
+                  f"{case}: report.md calls the cooling gas steady")
         if case_dir == edmd_dir:  # the trajectory's layout as the report checks it against H5MD 1.1
             check("The snapshot layout conforms to H5MD 1.1" in md, f"{case}: H5MD layout problems (see report.md)")
             check_edmd_series(a.grainbath, out, env)

@@ -1,0 +1,127 @@
+// Haff's law for DSMC free cooling (review 2, A3): theory_values() and relaxation_series()
+// give it both with the Maxwellian cooling rate (..._no_a2) and with the van Noije-Ernst
+// correction of the homogeneous cooling state (theory.haff.temperature_at_t_end,
+// /theory/haff/temperature). Checked here against the law built from the collision rule
+// itself (docs/dsmc.md "Rates and rules": a grain meets grains at rate n|g|, total
+// cross-section 1; the apse line n has density |g.n|/(2 pi |g|) on the unit sphere; a
+// collision loses (m/4)(1 - e^2)(g.n)^2): the energy loss of Maxwellian grains is integrated
+// numerically over g and the apse angle, and dT/dt is integrated by RK4, without the
+// closed forms of src/dsmc/theory.cpp.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <numbers>
+#include <string>
+
+#include "core/case_file.hpp"
+#include "dsmc/dsmc.hpp"
+#include "dsmc/theory.hpp"
+
+namespace {
+
+using namespace grainbath;
+
+// Simpson's rule on [a, b] with k (even) intervals.
+double simpson(const std::function<double(double)>& f, double a, double b, int k) {
+  const double h = (b - a) / k;
+  double s = f(a) + f(b);
+  for (int i = 1; i < k; ++i) s += (i % 2 ? 4.0 : 2.0) * f(a + i * h);
+  return s * h / 3.0;
+}
+
+// Energy lost per grain per unit time by Maxwellian grains at temperature T (density n,
+// mass m, restitution e): each grain collides at rate n <|g|> with the others, each
+// collision involving two grains, so the loss per grain is (n/2) < |g| dE(g) >, with
+// dE = (m/4)(1 - e^2) <(g.n)^2> averaged over the apse density: mu = g^.n has density
+// 2 mu on [0, 1]. g = v - w of two Maxwellian grains: Gaussian, variance 2T/m per component.
+double loss_per_grain(double T, double n, double m, double e) {
+  const double apse = simpson([](double mu) { return mu * mu * 2.0 * mu; }, 0.0, 1.0, 200);  // <(g^.n)^2> = 1/2
+  const double s2 = 2.0 * T / m;                                                                 // per component
+  const double norm = std::pow(2.0 * std::numbers::pi * s2, -1.5);
+  const double g3 = simpson(
+      [&](double g) { return 4.0 * std::numbers::pi * g * g * norm * std::exp(-g * g / (2.0 * s2)) * g * g * g; }, 0.0,
+      12.0 * std::sqrt(s2), 600);
+  return 0.5 * n * (m / 4.0) * (1.0 - e * e) * apse * g3;
+}
+
+// T(t) from dT/dt = -(2/3) loss(T) x factor (d = 3: E = (3/2) T per grain), RK4.
+double cooled(double T0, double t, double n, double m, double e, double factor) {
+  const int steps = 2000;
+  const double h = t / steps;
+  auto rate = [&](double T) { return -(2.0 / 3.0) * loss_per_grain(T, n, m, e) * factor; };
+  double T = T0;
+  for (int i = 0; i < steps; ++i) {
+    const double k1 = rate(T), k2 = rate(T + 0.5 * h * k1), k3 = rate(T + 0.5 * h * k2), k4 = rate(T + h * k3);
+    T += h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4);
+  }
+  return T;
+}
+
+double value(const std::vector<std::pair<std::string, double>>& v, const std::string& key) {
+  for (const auto& [k, x] : v)
+    if (k == key) return x;
+  ADD_FAILURE() << key << " missing";
+  return std::nan("");
+}
+
+}  // namespace
+
+TEST(DsmcTheory, HaffLawWithAndWithoutA2FromTheCollisionRule) {
+  struct Case {
+    double e, n, m, T0, t_end;
+  };
+  for (const Case& k : {Case{0.8, 1.0, 1.0, 1.0, 20.0}, Case{0.6, 0.7, 2.5, 1.7, 9.0}, Case{0.95, 1.3, 0.5, 0.4, 30.0}}) {
+    char toml[512];
+    std::snprintf(toml, sizeof toml, R"(
+[grains]
+density = %.17g
+mass = %.17g
+temperature = %.17g
+[restitution]
+law = "constant"
+e = %.17g
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = %.17g
+)",
+                  k.n, k.m, k.T0, k.e, k.t_end);
+    CaseReader reader(toml, "/tmp/test.toml");
+    reader.accept("run", "solver");
+    const dsmc::Config c = dsmc::read_config(reader);
+    reader.finish();
+    const auto th = dsmc::theory_values(c);
+    // van Noije & Ernst (1998), d = 3, typed from the paper; the cooling rate is multiplied
+    // by 1 + 3 a2 / 16
+    const double e = k.e;
+    const double a2 = 16 * (1 - e) * (1 - 2 * e * e) / (81 - 17 * e + 30 * e * e * (1 - e));
+    const double plain = cooled(k.T0, k.t_end, k.n, k.m, e, 1.0);
+    const double corrected = cooled(k.T0, k.t_end, k.n, k.m, e, 1.0 + 3.0 * a2 / 16.0);
+    // zeta0 in dT/dt = -zeta0 T^(3/2): the Maxwellian rate at T = 1
+    EXPECT_NEAR(value(th, "haff.zeta0"), (2.0 / 3.0) * loss_per_grain(1.0, k.n, k.m, e), 1e-9) << e;
+    EXPECT_NEAR(value(th, "haff.a2_van_noije_ernst"), a2, 1e-14) << e;
+    EXPECT_NEAR(value(th, "haff.temperature_at_t_end_no_a2") / plain, 1.0, 1e-8) << e;
+    EXPECT_NEAR(value(th, "haff.temperature_at_t_end") / corrected, 1.0, 1e-8) << e;
+    // the two are different curves (3 a2 / 16 is 0.24 % of the rate at e = 0.8)
+    EXPECT_GT(std::abs(plain / corrected - 1.0), 1e-4) << e;
+    // the same on the time grid: /theory/haff/temperature (with a2) and ..._no_a2
+    const std::vector<double> times = {0.0, 0.3 * k.t_end, k.t_end};
+    const auto series = dsmc::relaxation_series(c, times);
+    const std::vector<double>*with = nullptr, *without = nullptr;
+    for (const auto& [name, v] : series) {
+      if (name == "haff/temperature") with = &v;
+      if (name == "haff/temperature_no_a2") without = &v;
+    }
+    ASSERT_NE(with, nullptr);
+    ASSERT_NE(without, nullptr);
+    ASSERT_EQ(with->size(), times.size());
+    ASSERT_EQ(without->size(), times.size());
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      EXPECT_NEAR((*without)[i] / cooled(k.T0, times[i], k.n, k.m, e, 1.0), 1.0, 1e-8) << times[i];
+      EXPECT_NEAR((*with)[i] / cooled(k.T0, times[i], k.n, k.m, e, 1.0 + 3.0 * a2 / 16.0), 1.0, 1e-8) << times[i];
+    }
+    std::printf("e = %.2f: T(t_end) Haff %.7g, with a2 %.7g (a2 = %.5f)\n", e, plain, corrected, a2);
+  }
+}
