@@ -163,7 +163,8 @@ void print_table(const Summary& s) {
   row("theory: T# Grad", "theory.equilibrium.grad.T", "");
   row("theory: T# Sonine", "theory.equilibrium.sonine.T", "");
   row("theory: a2 Sonine", "theory.equilibrium.sonine.a2", "");
-  row("theory: Haff T(t_end)", "theory.haff.temperature_at_t_end", "");
+  row("theory: Haff T(t_end), Maxwellian", "theory.haff.temperature_at_t_end_no_a2", "");
+  row("theory: Haff T(t_end), with a2", "theory.haff.temperature_at_t_end", "");
   row("theory: a2 van Noije-Ernst", "theory.haff.a2_van_noije_ernst", "");
   row("energy budget residual (rel.)", "energy.budget_relative_residual", "");
   row("wall time [s]", "performance.wall_seconds", "");
@@ -358,7 +359,9 @@ int command_run(const RunArgs& a) {
                    e.what(), out.string().c_str());
     // after a failure (a full disk, a fault): say what survived, and leave no empty
     // checkpoint directory behind
-    if (writer && !interrupted && !bad_input) {
+    // (not after "no valid checkpoint": then none of them can be continued from)
+    const bool none_valid = std::string(e.what()).rfind("--resume: no valid checkpoint", 0) == 0;
+    if (writer && !interrupted && !bad_input && !none_valid) {
       std::error_code ec;
       if (count_checkpoints(ctx.checkpoint_dir) > 0)
         std::fprintf(stderr, "(the checkpoints in %s remain: once the cause is fixed, %s continues from the newest)\n",
