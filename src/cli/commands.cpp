@@ -196,6 +196,17 @@ std::vector<std::string> case_problems(const RunArgs& a) {
   return problems;
 }
 
+std::vector<std::string> case_file_checksums(const RunArgs& a) {
+  std::vector<std::string> sums;
+  try {
+    const LoadedCase lc = load_case(a);
+    for (const auto& [key, value] : lc.reader.resolved())
+      if (key.ends_with("_checksum")) sums.push_back(key + "=" + value);
+  } catch (const CaseError&) {
+  }
+  return sums;
+}
+
 int command_check_quiet(const RunArgs& a) {
   const auto problems = case_problems(a);
   for (const auto& p : problems) std::fprintf(stderr, "error: %s\n", p.c_str());

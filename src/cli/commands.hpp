@@ -33,6 +33,9 @@ int command_check(const RunArgs&);
 int command_check_quiet(const RunArgs&);  // like check, messages only on problems
 // The case-file problems of a case with its overrides, one message each (none: valid).
 std::vector<std::string> case_problems(const RunArgs&);
+// "key=value" for every checksum of a file the case names (CaseReader::record_file_checksum),
+// empty when the case has problems: part of what a sweep is (sweep.identity).
+std::vector<std::string> case_file_checksums(const RunArgs&);
 int command_sweep(const SweepArgs&);
 int command_theory(const RunArgs&);
 int command_list_models();

@@ -260,6 +260,14 @@ int command_sweep(const SweepArgs& a) {
   // so that --resume continues the same sweep and nothing else
   std::string identity = "case.toml:\n" + read_case_text(a.case_dir) + "\n--set:\n";
   for (const auto& o : a.overrides) identity += o + "\n";
+  // ... and what the files the variants name held (a background grid changed in place under
+  // its name would otherwise mix two media in one table)
+  for (std::size_t k = 0; k < variants.size(); ++k) {
+    RunArgs ra;
+    ra.case_dir = a.case_dir;
+    ra.overrides = overrides_of(k);
+    for (const std::string& sum : case_file_checksums(ra)) identity += "variant " + std::to_string(k + 1) + ": " + sum + "\n";
+  }
   const std::string identity_file = "sweep.identity";
   if (mpi::world_rank() == 0) {
     try {
@@ -270,7 +278,7 @@ int command_sweep(const SweepArgs& a) {
           throw std::runtime_error(out.string() + ": no sweep to resume here (no " + identity_file +
                                    "; it is written by sweeps from 2026-11-27 on): run the sweep without --resume");
         if (read_text_file(checked / identity_file) != identity)
-          throw std::runtime_error(out.string() + ": the case file or the --set list differ from the sweep's (" +
+          throw std::runtime_error(out.string() + ": the case file, the files it names or the --set list differ from the sweep's (" +
                                    (checked / identity_file).string() +
                                    " holds them): --resume continues the same sweep only");
       }

@@ -898,6 +898,12 @@ std::vector<std::string> CaseReader::texts(std::string_view section, std::string
 
 bool CaseReader::ok() const { return problems_.empty(); }
 
+void CaseReader::record_file_checksum(std::string_view section, std::string_view key, std::uint64_t checksum) {
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(checksum));
+  resolved_[std::string(section) + "." + std::string(key)] = "\"fnv1a-" + std::string(hex) + "\"";
+}
+
 void CaseReader::finish() {
   // A note said once per process: a sweep validates every variant in this process, and the
   // file's ignored keys are the same for all of them.

@@ -125,6 +125,11 @@ class CaseReader {
 
   // The parameters as resolved (file, overrides, defaults), "section.key" -> TOML value text.
   const std::map<std::string, std::string>& resolved() const { return resolved_; }
+  // Records what a file the case names contained (a checksum of the values read from it), as
+  // the resolved parameter "section.key": not a key of the case file, but part of what the
+  // run used, so that --resume and `sweep --resume` notice a file changed in place and
+  // results.h5 /parameters records it. The key must end in "_checksum".
+  void record_file_checksum(std::string_view section, std::string_view key, std::uint64_t checksum);
   const std::string& file() const { return file_; }
   const std::string& source_text() const { return text_; }
 

@@ -238,6 +238,9 @@ void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, co
     try {
       old = h.read_attribute("/parameters", key);
     } catch (const std::runtime_error&) {
+      // a file's checksum (CaseReader::record_file_checksum) that a checkpoint written before
+      // 2026-12-04 does not hold: what its file contained is unknown, so it is not compared
+      if (key.ends_with("_checksum")) continue;
       old = "(absent)";
       for (const AddedKey& a : kAddedLater)
         if (key == a.key) {
@@ -245,6 +248,10 @@ void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, co
           hint = "; the checkpoint predates this key: --set " + key + "=" + a.value + " continues it exactly";
         }
     }
+    if (old != value && key.ends_with("_checksum"))
+      throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " +
+                                  key.substr(0, key.size() - 9) + " names a file whose contents changed (" + key +
+                                  " was " + old + ", now " + value + "); restore the file, or start afresh without --resume");
     if (old != value)
       throw std::invalid_argument(path.string() + ": the case changed since the checkpoint: " + key + " was " + old +
                                   ", now " + value + " (only " + may_change_text + " may change on --resume" + hint +

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/checkpoint.hpp"
 #include "core/h5.hpp"
 #include "dsmc/collision_groups.hpp"
 #include "dsmc/dsmc.hpp"
@@ -219,8 +220,9 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
       f.grid_temperature = h.read_doubles("temperature", &dt);
       f.grid_velocity = h.read_doubles("velocity", &dv);
       const std::size_t cells = c.domain.cell_count();
+      bool usable = true;
       if (f.grid_density.size() != cells || f.grid_temperature.size() != cells || f.grid_velocity.size() != 3 * cells)
-        r.problem("background", "file",
+        usable = false, r.problem("background", "file",
                   path + ": expected density and temperature with " + std::to_string(cells) +
                       " values and velocity with " + std::to_string(3 * cells) + " (the [domain] cells), found " +
                       std::to_string(f.grid_density.size()) + ", " + std::to_string(f.grid_temperature.size()) +
@@ -229,8 +231,19 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
         if (!(f.grid_density[i] >= 0) || !(f.grid_temperature[i] > 0)) {
           r.problem("background", "file", path + ": cell " + std::to_string(i) +
                                               ": expected density >= 0 and temperature > 0");
+          usable = false;
           break;
         }
+      if (usable) {
+        // what the run takes from the file, so that a grid changed in place under the same
+        // name is noticed on --resume and by `sweep --resume` (CaseReader::record_file_checksum)
+        Fnv1a sum;
+        for (const std::vector<double>* a : {&f.grid_density, &f.grid_temperature, &f.grid_velocity}) {
+          sum.add_length(a->size());
+          sum.add_elements(*a);
+        }
+        r.record_file_checksum("background", "file_checksum", sum.h);
+      }
     } catch (const std::exception& e) {
       r.problem("background", "file", std::string(e.what()) + " (expected datasets density, temperature, velocity)");
     }

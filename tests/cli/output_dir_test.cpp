@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/h5.hpp"
 #include "tests/cli/cli_harness.hpp"
 
 using namespace grainbath::testing;
@@ -450,4 +451,91 @@ TEST_F(OutputDir, ASecondRunIntoAnOutThatALiveRunWritesIsRefused) {
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_FALSE(fs::exists(live));
   EXPECT_NE(r.err.find("note: removed " + live.string()), std::string::npos) << r.err;
+}
+
+// A background grid changed in place under its name (profile = "file"): the run records a
+// checksum of the values it read (results.h5 /parameters background.file_checksum), so
+// --resume and `sweep --resume` refuse to continue with another medium (exit 2, the
+// checkpoints and the finished variants kept); the unchanged grid resumes as before.
+TEST_F(OutputDir, BackgroundFileChangedInPlaceIsNoticedOnResume) {
+  const std::size_t cells = 8;
+  auto write_grid = [&](double density) {
+    grainbath::H5File f((case_dir() / "grid.h5").string(), grainbath::H5File::Mode::create);
+    f.write("density", std::vector<double>(cells, density));
+    f.write("temperature", std::vector<double>(cells, 1.0));
+    f.write("velocity", std::vector<double>(3 * cells, 0.0));
+  };
+  write_grid(1.0);
+  write_text(case_dir() / "case.toml", R"([run]
+solver = "dsmc"
+seed = 1
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [8]
+[grains]
+temperature = 1.0
+[background]
+profile = "file"
+file = "grid.h5"
+mass_ratio = 0.4
+knudsen = 0.2
+[restitution]
+law = "constant"
+e = 0.9
+[dsmc]
+particles = 2000
+dt = 0.01
+t_end = 0.2
+[sampling]
+every = 0.05
+steady_from = 0.1
+)");
+  const fs::path out = tmp / "out";
+  const std::vector<std::string> keep = {"--quiet", "--set", "checkpoint.every=0.1", "--set", "checkpoint.keep=true"};
+  auto run_case = [&](std::vector<std::string> args) {
+    args.insert(args.end(), keep.begin(), keep.end());
+    return grainbath(args);
+  };
+  RunResult r = run_case({"run", case_dir().string(), "--out", out.string()});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  std::string recorded;
+  {
+    grainbath::H5File h((out / "results.h5").string(), grainbath::H5File::Mode::read);
+    recorded = h.read_attribute("/parameters", "background.file_checksum");
+  }
+  EXPECT_EQ(recorded.rfind("\"fnv1a-", 0), 0u) << recorded;
+  const auto before = listing(tmp / "out.checkpoints");
+  write_grid(1.25);  // the same name, another medium
+  r = run_case({"run", case_dir().string(), "--out", out.string(), "--resume"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("background.file names a file whose contents changed (background.file_checksum was " +
+                       recorded + ", now"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(listing(tmp / "out.checkpoints"), before);
+  write_grid(1.0);  // the grid back as it was: the run resumes from its end checkpoint
+  r = run_case({"run", case_dir().string(), "--out", out.string(), "--resume"});
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming from step 20"), std::string::npos) << r.err;
+
+  // a sweep: finished, then its grid changed: --resume is not the same sweep
+  const fs::path sweep_out = tmp / "sweep";
+  const std::vector<std::string> sweep = {"sweep", case_dir().string(), "--out", sweep_out.string(), "-j", "1",
+                                          "--set", "run.seed=1,2"};
+  r = grainbath(sweep);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  const std::string first = read_text(sweep_out / "variant-0_seed_1" / "results.h5");
+  std::vector<std::string> resume = sweep;
+  resume.push_back("--resume");
+  write_grid(1.25);
+  r = grainbath(resume);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("the case file, the files it names or the --set list differ from the sweep's"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_text(sweep_out / "variant-0_seed_1" / "results.h5"), first);
+  write_grid(1.0);
+  r = grainbath(resume);
+  EXPECT_EQ(r.code, 0) << r.describe();
 }
