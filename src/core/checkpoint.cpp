@@ -62,14 +62,10 @@ void Fnv1a::add(const void* data, std::size_t bytes) {
 
 std::uint64_t CheckpointArrays::checksum() const {
   Fnv1a c;
-  for (const auto& [name, v] : real) {
-    c.add_length(v->size());
-    c.add_elements(*v);
-  }
-  for (const auto& [name, v] : integer) {
-    c.add_length(v->size());
-    c.add_elements(*v);
-  }
+  for_each([&](const std::string&, const auto& v) {
+    c.add_length(v.size());
+    c.add_elements(v);
+  });
   return c.h;
 }
 
@@ -96,14 +92,12 @@ fs::path begin_checkpoint_file(const fs::path& dir, std::uint64_t index, const C
   const fs::path tmp = partial_checkpoint_path(dir, index);
   H5File h(tmp.string(), H5File::Mode::create);
   // the datasets in list order, whether whole or a part: the same file at any process count
-  auto put = [&](const std::string& n, const auto& v) {
+  arrays.for_each([&](const std::string& n, const auto& v) {
     if (const CheckpointSlab* slab = slab_of(slabs, n))
-      h.write_slab("/" + n, *v, slab->total, slab->offset);
+      h.write_slab("/" + n, v, slab->total, slab->offset);
     else
-      h.write("/" + n, *v);
-  };
-  for (const auto& [n, v] : arrays.real) put(n, v);
-  for (const auto& [n, v] : arrays.integer) put(n, v);
+      h.write("/" + n, v);
+  });
   h.write_string("/case/case.toml", ctx.case_text);
   for (const auto& [key, value] : ctx.resolved) h.attribute("/parameters", key, value);
   h.attribute("/", "checksum", hex(checksum));
@@ -116,10 +110,9 @@ fs::path begin_checkpoint_file(const fs::path& dir, std::uint64_t index, const C
 
 void add_checkpoint_slabs(const fs::path& partial, const CheckpointArrays& arrays, const CheckpointSlabs& slabs) {
   H5File h(partial.string(), H5File::Mode::update);
-  for (const auto& [n, v] : arrays.real)
-    if (const CheckpointSlab* slab = slab_of(slabs, n); slab && !v->empty()) h.write_slab("/" + n, *v, slab->total, slab->offset);
-  for (const auto& [n, v] : arrays.integer)
-    if (const CheckpointSlab* slab = slab_of(slabs, n); slab && !v->empty()) h.write_slab("/" + n, *v, slab->total, slab->offset);
+  arrays.for_each([&](const std::string& n, const auto& v) {
+    if (const CheckpointSlab* slab = slab_of(slabs, n); slab && !v.empty()) h.write_slab("/" + n, v, slab->total, slab->offset);
+  });
   h.close();
 }
 
@@ -266,6 +259,15 @@ void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, co
   }
 }
 
+// v = read (a plain vector or a DSMC particle array: core/no_fill_vector.hpp)
+template <class T, class A>
+void assign(std::vector<T, A>& v, std::vector<T>&& read) {
+  if constexpr (std::is_same_v<A, std::allocator<T>>)
+    v = std::move(read);
+  else
+    v.assign(read.begin(), read.end());
+}
+
 template <class T>
 std::vector<T> read_whole(const H5File& h, const std::string& path) {
   if constexpr (std::is_same_v<T, double>)
@@ -293,15 +295,13 @@ std::string checksum_verdict(const H5File& h, std::uint64_t computed) {
 // One process: every array whole, in list order, each into the checksum as it is read.
 void load_whole(const H5File& h, const CheckpointArrays& a, std::uint64_t* bytes_read) {
   Fnv1a sum;  // CheckpointArrays::checksum, as the arrays are read
-  auto read = [&](const std::string& name, auto& v) {
+  a.for_each([&](const std::string& name, auto& v) {
     using T = typename std::decay_t<decltype(v)>::value_type;
-    v = read_whole<T>(h, "/" + name);
+    assign(v, read_whole<T>(h, "/" + name));
     if (bytes_read) *bytes_read += v.size() * sizeof(T);
     sum.add_length(v.size());
     sum.add_elements(v);
-  };
-  for (const auto& [n, v] : a.real) read(n, *v);
-  for (const auto& [n, v] : a.integer) read(n, *v);
+  });
   if (const std::string verdict = checksum_verdict(h, sum.h); !verdict.empty()) throw std::runtime_error(verdict);
 }
 
@@ -312,14 +312,14 @@ struct ReadPart {
   std::uint64_t lo = 0;    // the first element read (spread arrays)
 };
 
-template <class T>
-ReadPart read_part(const H5File& h, const std::string& name, std::vector<T>& v, const CheckpointPart& part,
+template <class T, class A>
+ReadPart read_part(const H5File& h, const std::string& name, std::vector<T, A>& v, const CheckpointPart& part,
                    std::uint64_t* bytes_read) {
   const std::string path = "/" + name;
   ReadPart r;
   std::uint64_t lo = 0, hi = 0;
   if (!part.range(name, lo, hi)) {
-    v = read_whole<T>(h, path);
+    assign(v, read_whole<T>(h, path));
     r.total = v.size();
   } else {
     r.spread = true;
@@ -329,14 +329,14 @@ ReadPart read_part(const H5File& h, const std::string& name, std::vector<T>& v, 
     const CheckpointPart::Held* held = nullptr;
     if constexpr (std::is_same_v<T, double>) held = part.held ? part.held(name) : nullptr;
     if (!held) {
-      v = read_slab<T>(h, path, r.lo, hi - r.lo);
+      assign(v, read_slab<T>(h, path, r.lo, hi - r.lo));
       if (bytes_read) *bytes_read += v.size() * sizeof(T);
       return r;
     }
     // [a, b): the overlap with what is held; before and after it from the file
     const std::uint64_t a = std::clamp(held->offset, r.lo, hi);
     const std::uint64_t b = std::clamp(held->offset + held->values.size(), a, hi);
-    v = read_slab<T>(h, path, r.lo, a - r.lo);
+    assign(v, read_slab<T>(h, path, r.lo, a - r.lo));
     const std::vector<T> after = read_slab<T>(h, path, b, hi - b);
     if (bytes_read) *bytes_read += (v.size() + after.size()) * sizeof(T);
     if constexpr (std::is_same_v<T, double>)
@@ -355,8 +355,8 @@ ReadPart read_part(const H5File& h, const std::string& name, std::vector<T>& v, 
 // so far (`at`), so that the bytes go in as the file holds them. A gap or an overlap between
 // the parts leaves the sum unverifiable: `verdict` (first process) says so.
 constexpr std::uint64_t kNotInOrder = ~std::uint64_t{0};
-template <class T>
-void add_part(const std::string& name, const std::vector<T>& v, const ReadPart& r, const CheckpointPart& part,
+template <class T, class A>
+void add_part(const std::string& name, const std::vector<T, A>& v, const ReadPart& r, const CheckpointPart& part,
               ChecksumToken& sum, std::string& verdict) {
   Fnv1a f{sum.h};
   if (!r.spread) {
@@ -420,8 +420,7 @@ void load_in_parts(const fs::path& path, const RunContext& ctx, const std::strin
   if (part.plan) part.plan(*h);  // collective; throws alike on every process
   std::vector<ReadPart> reads;
   try {
-    for (const auto& [n, v] : a.real) reads.push_back(read_part(*h, n, *v, part, bytes_read));
-    for (const auto& [n, v] : a.integer) reads.push_back(read_part(*h, n, *v, part, bytes_read));
+    a.for_each([&](const std::string& n, auto& v) { reads.push_back(read_part(*h, n, v, part, bytes_read)); });
   } catch (const std::exception& e) {
     failed = e.what();
   }
@@ -430,8 +429,7 @@ void load_in_parts(const fs::path& path, const RunContext& ctx, const std::strin
   ChecksumToken sum{Fnv1a{}.h, 0};
   std::string verdict;
   std::size_t i = 0;
-  for (const auto& [n, v] : a.real) add_part(n, *v, reads[i++], part, sum, verdict);
-  for (const auto& [n, v] : a.integer) add_part(n, *v, reads[i++], part, sum, verdict);
+  a.for_each([&](const std::string& n, const auto& v) { add_part(n, v, reads[i++], part, sum, verdict); });
   if (part.first && verdict.empty()) {
     try {
       verdict = checksum_verdict(*h, sum.h);

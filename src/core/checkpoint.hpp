@@ -12,7 +12,10 @@
 #include <functional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
+
+#include "core/no_fill_vector.hpp"
 
 #include "core/case_file.hpp"
 #include "core/h5.hpp"
@@ -51,17 +54,28 @@ struct Fnv1a {
   std::uint64_t h = 1469598103934665603ull;
   void add(const void* data, std::size_t bytes);
   void add_length(std::uint64_t n) { add(&n, sizeof n); }
-  template <class T>
-  void add_elements(const std::vector<T>& v) {
+  template <class T, class A>
+  void add_elements(const std::vector<T, A>& v) {
     if (!v.empty()) add(v.data(), v.size() * sizeof(T));
   }
 };
 
 struct CheckpointArrays {
-  std::vector<std::pair<std::string, std::vector<double>*>> real;
-  std::vector<std::pair<std::string, std::vector<std::uint64_t>*>> integer;
+  // an array of the state: a plain vector, or one of the DSMC particle arrays
+  // (core/no_fill_vector.hpp); the file holds the same dataset either way
+  using Real = std::variant<std::vector<double>*, NoFillVector<double>*>;
+  using Integer = std::variant<std::vector<std::uint64_t>*, NoFillVector<std::uint64_t>*>;
+  std::vector<std::pair<std::string, Real>> real;
+  std::vector<std::pair<std::string, Integer>> integer;
   void add(std::string name, std::vector<double>& v) { real.emplace_back(std::move(name), &v); }
   void add(std::string name, std::vector<std::uint64_t>& v) { integer.emplace_back(std::move(name), &v); }
+  // f(name, array) for every array in list order (the real ones, then the integer ones):
+  // the order of the file, of the checksum and of the reads
+  template <class F>
+  void for_each(F&& f) const {
+    for (const auto& [n, v] : real) std::visit([&](auto* a) { f(n, *a); }, v);
+    for (const auto& [n, v] : integer) std::visit([&](auto* a) { f(n, *a); }, v);
+  }
   std::uint64_t checksum() const;
 };
 

@@ -112,8 +112,8 @@ void H5File::ensure_parents(const std::string& name) {
   }
 }
 
-template <class T>
-static void write_array(H5File& f, hid_t file, const std::string& name, const std::vector<T>& data,
+template <class T, class A>
+static void write_array(H5File& f, hid_t file, const std::string& name, const std::vector<T, A>& data,
                         std::vector<hsize_t> dims, hid_t type) {
   if (dims.empty()) dims = {static_cast<hsize_t>(data.size())};
   Handle space{H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose};
@@ -127,8 +127,8 @@ static void write_array(H5File& f, hid_t file, const std::string& name, const st
   if (H5Dclose(id) < 0) throw std::runtime_error(f.path() + ": cannot write dataset " + name + " (disk full?)");
 }
 
-template <class T>
-static void write_slab_of(H5File& f, hid_t file, const std::string& name, const std::vector<T>& data, hsize_t total,
+template <class T, class A>
+static void write_slab_of(H5File& f, hid_t file, const std::string& name, const std::vector<T, A>& data, hsize_t total,
                           hsize_t offset, hid_t type) {
   if (offset + data.size() > total)
     throw std::logic_error(f.path() + ": slab of " + name + " beyond the dataset's " + std::to_string(total) + " elements");
@@ -166,11 +166,28 @@ void H5File::write_slab(const std::string& name, const std::vector<std::uint64_t
   write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_UINT64);
 }
 
+void H5File::write_slab(const std::string& name, const NoFillVector<double>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_DOUBLE);
+}
+void H5File::write_slab(const std::string& name, const NoFillVector<std::uint64_t>& data, hsize_t total, hsize_t offset) {
+  ensure_parents(name);
+  write_slab_of(*this, file_, name, data, total, offset, H5T_NATIVE_UINT64);
+}
+
 void H5File::write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims) {
   ensure_parents(name);
   write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_DOUBLE);
 }
 void H5File::write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims) {
+  ensure_parents(name);
+  write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_UINT64);
+}
+void H5File::write(const std::string& name, const NoFillVector<double>& data, std::vector<hsize_t> dims) {
+  ensure_parents(name);
+  write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_DOUBLE);
+}
+void H5File::write(const std::string& name, const NoFillVector<std::uint64_t>& data, std::vector<hsize_t> dims) {
   ensure_parents(name);
   write_array(*this, file_, name, data, std::move(dims), H5T_NATIVE_UINT64);
 }

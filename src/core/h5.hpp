@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "core/no_fill_vector.hpp"
+
 namespace grainbath {
 
 class H5File {
@@ -24,11 +26,16 @@ class H5File {
   void write(const std::string& name, const std::vector<double>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
   void write(const std::string& name, const std::vector<std::int64_t>& data, std::vector<hsize_t> dims = {});
+  // the DSMC particle arrays (core/no_fill_vector.hpp): the same datasets
+  void write(const std::string& name, const NoFillVector<double>& data, std::vector<hsize_t> dims = {});
+  void write(const std::string& name, const NoFillVector<std::uint64_t>& data, std::vector<hsize_t> dims = {});
   // One rank's part [offset, offset + data.size()) of a 1D dataset of `total` elements: the
   // dataset is created if missing, its storage where write() would put it (the file does
   // not depend on how the array was split); an empty part writes nothing.
   void write_slab(const std::string& name, const std::vector<double>& data, hsize_t total, hsize_t offset);
   void write_slab(const std::string& name, const std::vector<std::uint64_t>& data, hsize_t total, hsize_t offset);
+  void write_slab(const std::string& name, const NoFillVector<double>& data, hsize_t total, hsize_t offset);
+  void write_slab(const std::string& name, const NoFillVector<std::uint64_t>& data, hsize_t total, hsize_t offset);
   void write_string(const std::string& name, const std::string& value);
   void write_scalar(const std::string& name, double value);
   void write_scalar(const std::string& name, std::uint64_t value);

@@ -109,10 +109,9 @@ bool per_grain(const std::string& name) { return name.rfind("particles/", 0) == 
 CheckpointSlabs slabs_of(const CheckpointArrays& a, const Decomposition& dec) {
   std::vector<std::string> names;
   std::vector<std::uint64_t> local;
-  for (const auto& [n, v] : a.real)
-    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
-  for (const auto& [n, v] : a.integer)
-    if (per_grain(n)) names.push_back(n), local.push_back(v->size());
+  a.for_each([&](const std::string& n, const auto& v) {
+    if (per_grain(n)) names.push_back(n), local.push_back(v.size());
+  });
   std::vector<std::uint64_t> offset, total;
   dec.offsets(local, offset, total);
   CheckpointSlabs slabs;
@@ -140,8 +139,7 @@ std::uint64_t distributed_checksum(const CheckpointArrays& a, const CheckpointSl
       h = part.h;
     });
   };
-  for (const auto& [n, v] : a.real) add(n, *v);
-  for (const auto& [n, v] : a.integer) add(n, *v);
+  a.for_each(add);
   return sum.h;
 }
 

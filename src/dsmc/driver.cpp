@@ -63,6 +63,8 @@ void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on, con
     end = 0;
   const std::size_t n = end - first;
   const Domain& d = c.domain;
+  // not zero-filled (core/no_fill_vector.hpp): the parallel loop below writes every element,
+  // and its threads take the page faults of the fresh arrays
   p.resize(n, false);
   if (bath_on) p.bath_hazard.resize(n);
   if (c.spatial()) {
@@ -97,7 +99,8 @@ void initialise(State& s, const Config& c, std::uint64_t seed, bool bath_on, con
   id_blocks.push_back(n);
   const Moments m = dec.moments(p, id_blocks, c.grains.mass, false);
   const double scale = std::sqrt(c.grains.temperature / m.temperature);
-  for (std::size_t i = 0; i < n; ++i)
+#pragma omp parallel for schedule(static)
+  for (std::size_t i = 0; i < n; ++i)  // grain by grain: the same bits on any number of threads
     p.set_velocity(i, scale * (p.velocity(i) - m.mean_velocity) + c.grains.drift);
   s.remainder.assign(c.spatial() ? d.cell_count() : 1, 0.0);
   s.initial_kinetic_energy = dec.moments(p, id_blocks, c.grains.mass, false).kinetic_energy;

@@ -342,7 +342,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const std::size_t first_blk = ranks ? dec.first_block() : 0;
   if (n0 >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
   SortScratch& w = s.sort;
-  std::vector<double>().swap(w.gather);  // not used here
+  NoFillVector<double>().swap(w.gather);  // not used here
   // The cells of this step's streaming, if the previous fused step predicted them
   // (SortScratch::next_cell): it did so for this step number, and the arrays are still the
   // ones it left (no reorder, no resize since). Then the streaming pass below only counts,
@@ -354,7 +354,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const bool predict = !medium_present(c);
   if (predicted) w.cell.swap(w.next_cell);
   // the state before the step moves to the scratch arrays; Particles receives the new order
-  std::vector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
+  NoFillVector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
   bool active[7] = {};
   for (int a = 0; a < 7; ++a) {
     if (state_arrays[a]->empty()) continue;

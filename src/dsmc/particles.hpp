@@ -5,17 +5,19 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/no_fill_vector.hpp"
 #include "operators/vec3.hpp"
 
 namespace grainbath::dsmc {
 
 struct Particles {
-  std::vector<double> vx, vy, vz;
-  std::vector<double> x, y, z;  // empty for homogeneous runs
-  std::vector<std::uint64_t> id;
+  // resize() does not zero-fill (core/no_fill_vector.hpp): whoever grows them writes them
+  NoFillVector<double> vx, vy, vz;
+  NoFillVector<double> x, y, z;  // empty for homogeneous runs
+  NoFillVector<std::uint64_t> id;
   // runs with a medium: the unit-exponential residual of each grain's background candidate
   // process, carried from one bath substep to the next (operators/background.hpp)
-  std::vector<double> bath_hazard;
+  NoFillVector<double> bath_hazard;
 
   std::size_t size() const { return id.size(); }
   // Stored state per particle: velocities (3 doubles), positions (one per dimension; none

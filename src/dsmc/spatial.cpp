@@ -210,7 +210,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   const std::size_t kept = start[cells];
   w.gather.resize(n);
   double* __restrict buf = w.gather.data();
-  auto apply = [&](std::vector<double>& arr) {
+  auto apply = [&](NoFillVector<double>& arr) {
     if (arr.empty()) return;
     const double* __restrict src = arr.data();
 #pragma omp parallel for schedule(static)

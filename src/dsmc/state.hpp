@@ -47,14 +47,14 @@ struct SortScratch {
   std::vector<std::uint32_t> cell;        // cell of each particle (kRemoved: left the box)
   bool cell_fresh = false;                // `cell` was filled by the streaming pass
   std::vector<std::uint32_t> perm;        // new slot -> old index
-  std::vector<double> gather;             // one array at a time is gathered through this
-  std::vector<std::uint64_t> id;          // ids in the new order (swapped with Particles::id)
+  NoFillVector<double> gather;            // one array at a time is gathered through this (no zero fill)
+  NoFillVector<std::uint64_t> id;         // ids in the new order (swapped with Particles::id; no zero fill)
   std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
   static constexpr std::size_t bytes_per_particle = 2 * sizeof(std::uint32_t) + sizeof(double) + sizeof(std::uint64_t);
   // fully periodic boxes (src/dsmc/fused.cpp): the state before the step, swapped out of
   // Particles so that the gather into cell order writes the new arrays while it reads these
   // (replaces `gather`): x, y, z, vx, vy, vz, bath residual
-  std::vector<double> previous[7];
+  NoFillVector<double> previous[7];  // (no zero fill: swapped with Particles' arrays)
   // fused step: the stable counting-sort order (new slot -> old index) and the ids as
   // 32-bit keys in that order (id ^ 2^31), from which each cell is put in id order into
   // `perm` and `id` (order_cell_by_key32, src/dsmc/cell_order.hpp)
