@@ -138,6 +138,7 @@ struct MigrantRecord {
   // append the records in `in` to the particles, and their cells to `cells`
   void append(const std::vector<double>& in, const CellGrid& grid, Particles& p, std::vector<std::uint32_t>& cells) const {
     const std::size_t n = p.size(), arrived = in.size() / width;
+    // not zero-filled (core/no_fill_vector.hpp): the loop below writes every arrival's entries
     p.resize(n + arrived, false);
     p.x.resize(n + arrived);
     if (dims > 1) p.y.resize(n + arrived);

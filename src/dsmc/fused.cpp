@@ -359,6 +359,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   for (int a = 0; a < 7; ++a) {
     if (state_arrays[a]->empty()) continue;
     active[a] = true;
+    // not zero-filled (core/no_fill_vector.hpp): after the swap Particles holds the unfilled
+    // array, and the gather below writes each of its n slots
     w.previous[a].resize(n0);
     state_arrays[a]->swap(w.previous[a]);
   }
@@ -514,7 +516,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     const std::size_t total = n0 + arrived;
     if (total >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
     for (int a = 0; a < 7; ++a)
-      if (active[a]) w.previous[a].resize(total);
+      if (active[a]) w.previous[a].resize(total);  // not zero-filled: the arrivals are unpacked below
     p.id.resize(total);
     w.cell.resize(total);
     std::uint32_t* last = counts + static_cast<std::size_t>(threads_used - 1) * cells;
@@ -534,7 +536,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const std::size_t total = n0 + arrived, n = total - left;  // indices of the previous arrays; slots
   for (int a = 0; a < 7; ++a)
     if (active[a]) state_arrays[a]->resize(n);
-  w.id.resize(n);
+  w.id.resize(n);  // not zero-filled: the in-cell ordering writes every slot of every cell
   if (predict) w.next_cell.resize(n);
   w.perm.resize(n);
   w.stable.resize(n + kKey32Padding);  // order_cell_by_key32(_avx2) reads up to 7 slots past a cell

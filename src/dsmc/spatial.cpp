@@ -182,7 +182,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   const std::uint32_t* __restrict cell = w.cell.data();
   std::uint32_t* __restrict perm = w.perm.data();
   const std::uint64_t* __restrict id = p.id.data();
-  w.id.resize(n);
+  w.id.resize(n);  // not zero-filled: the scatter writes the kept slots, the rest is cut below
   std::uint64_t* __restrict id_out = w.id.data();
 #pragma omp parallel
   {
@@ -208,7 +208,7 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
     for (std::size_t k = 0; k < cells; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
   }
   const std::size_t kept = start[cells];
-  w.gather.resize(n);
+  w.gather.resize(n);  // not zero-filled: apply() writes the kept slots and cuts the array to them
   double* __restrict buf = w.gather.data();
   auto apply = [&](NoFillVector<double>& arr) {
     if (arr.empty()) return;
