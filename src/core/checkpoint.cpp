@@ -223,6 +223,7 @@ void check_case(const H5File& h, const fs::path& path, const RunContext& ctx, co
   };
   static constexpr AddedKey kAddedLater[] = {
       {"dsmc.collision_group", "0"},  // homogeneous DSMC collision groups (2026-11-26); 0 = one cell as before
+      {"dsmc.bound", "\"bird\""},     // the exact NTC bound (2026-12-05); "bird" = the start-of-step bound as before
   };
   for (const auto& [key, value] : ctx.resolved) {
     if (may_change(key)) continue;

@@ -23,7 +23,9 @@ struct GrainCounters {
   std::uint64_t candidates = 0;
   std::uint64_t collisions = 0;
   std::uint64_t clamped = 0;         // power law gave e < 0: clamped to 0
-  std::uint64_t bound_exceeded = 0;  // a candidate had g > g_max (bound raised)
+  // times a pair became faster than the step's bound g_max: the bound was raised and the
+  // candidates still to come rescaled (BoundGuard; summary counters.majorant_exceeded)
+  std::uint64_t bound_exceeded = 0;
   double energy_loss = 0.0;          // kinetic energy dissipated
   void add(const GrainCounters& o) {
     candidates += o.candidates;
@@ -34,10 +36,19 @@ struct GrainCounters {
   }
 };
 
+// What a pair-speed bound was computed from: a reference point a (any point serves:
+// |v_i - v_j| <= |v_i - a| + |v_j - a|) and the largest |v - a|^2 over the grains. The
+// candidate loop keeps the bound valid after each collision from these (BoundGuard below).
+struct BoundReference {
+  double ax = 0.0, ay = 0.0, az = 0.0;
+  double max_deviation2 = 0.0;
+};
+
 // Upper bound on |v_i - v_j| in a cell: |c_i - c_j| <= |c_i| + |c_j| <= 2 max|c| with c
 // relative to the cell mean. Exact at the start of the substep; post-collision speeds can
-// exceed it (|c'| <= 2 max|c|), hence the exceedance check in collide_cell.
-inline double relative_speed_bound(const Particles& p, std::size_t begin, std::size_t end) {
+// exceed it (|c'| <= 2 max|c|), hence the BoundGuard of the candidate loops.
+inline double relative_speed_bound(const Particles& p, std::size_t begin, std::size_t end,
+                                   BoundReference* ref = nullptr) {
   const double inv = 1.0 / static_cast<double>(end - begin);
   double mx = 0, my = 0, mz = 0;
   for (std::size_t i = begin; i < end; ++i) {
@@ -53,6 +64,7 @@ inline double relative_speed_bound(const Particles& p, std::size_t begin, std::s
     const double cx = p.vx[i] - mx, cy = p.vy[i] - my, cz = p.vz[i] - mz;
     c2max = std::max(c2max, cx * cx + cy * cy + cz * cz);
   }
+  if (ref) *ref = {mx, my, mz, c2max};
   return 2.0 * std::sqrt(c2max);
 }
 
@@ -62,10 +74,10 @@ inline double relative_speed_bound(const Particles& p, std::size_t begin, std::s
 // The NTC acceptance |g| / g_max rises by the ratio 2 c_(1) / (c_(1) + c_(2)), ~8 % fewer
 // candidates at 16 grains per cell, same collision statistics (Bird 1994, sec. 11.1: any
 // bound >= max |g| gives the exact rate). Post-collision speeds can exceed it, hence the
-// exceedance check in collide_cell. The mean is summed in two interleaved partial sums,
+// BoundGuard of the candidate loop. The mean is summed in two interleaved partial sums,
 // even and odd slots (fixed order, so the bound is a function of the cell's velocities alone).
 inline double pair_speed_bound(const double* __restrict vx, const double* __restrict vy, const double* __restrict vz,
-                               std::size_t count) {
+                               std::size_t count, BoundReference* ref = nullptr) {
   // two particles per SSE2 vector: lane 0 the even, lane 1 the odd slots (the two partial
   // sums above); the top two |c|^2 are kept per lane, then merged (max and min are exact,
   // so the bound does not depend on how the values are split)
@@ -114,6 +126,7 @@ inline double pair_speed_bound(const double* __restrict vx, const double* __rest
     const double cx = vx[k] - mx, cy = vy[k] - my, cz = vz[k] - mz;
     push(cx * cx + cy * cy + cz * cz);
   }
+  if (ref) *ref = {mx, my, mz, first};
   return std::sqrt(first) + std::sqrt(second);
 }
 
@@ -143,7 +156,8 @@ namespace detail {
 }
 [[gnu::target("avx512f,avx512vl")]] inline double pair_speed_bound_24(const double* __restrict vx,
                                                                             const double* __restrict vy,
-                                                                            const double* __restrict vz, std::size_t count) {
+                                                                            const double* __restrict vz, std::size_t count,
+                                                                            BoundReference* ref = nullptr) {
   const std::uint32_t valid = (std::uint32_t{1} << count) - 1;  // bit s: slot s of the cell
   __m128d sx = _mm_setzero_pd(), sy = _mm_setzero_pd(), sz = _mm_setzero_pd();
   for (int q = 0; q < 12; ++q) {  // pair q: lane 0 the even slot 2q, lane 1 the odd slot 2q + 1
@@ -176,6 +190,7 @@ namespace detail {
   const __m128d f2h = _mm_unpackhi_pd(f2, f2), s2h = _mm_unpackhi_pd(s2, s2);
   const double first = _mm_cvtsd_f64(_mm_max_sd(f2, f2h));
   const double second = _mm_cvtsd_f64(_mm_max_sd(_mm_max_sd(s2, s2h), _mm_min_sd(f2, f2h)));
+  if (ref) *ref = {mx, my, mz, first};
   return std::sqrt(first) + std::sqrt(second);
 }
 
@@ -216,15 +231,121 @@ using CellCollisionRng = Philox4x32Words;
 template <class Law>
 inline constexpr bool uses_normal_speed = !std::is_same_v<Law, ElasticRestitution> && !std::is_same_v<Law, ConstantRestitution>;
 
+// Candidates still to come after a step's bound was raised from g_old to g_new. The step's
+// candidate count was N n g_old dt / 2: each candidate stands for an equal slice of dt at the
+// bound g_old. The `remaining` slices, tested at g_new from now on (acceptance |g| / g_new),
+// need remaining * g_new / g_old candidates to keep every pair's rate (n / (N - 1)) |g|;
+// without them the rest of the step is under-sampled by g_old / g_new. The fraction is
+// rounded up with its probability (one uniform, drawn only where the bound was raised:
+// other steps draw what they drew).
+template <class Rng>
+inline std::uint64_t candidates_after_raise(std::uint64_t remaining, double g_old, double g_new, Rng& rng) {
+  if (remaining == 0) return 0;
+  const double expected = static_cast<double>(remaining) * (g_new / g_old);
+  auto whole = static_cast<std::uint64_t>(expected);
+  if (rng.uniform() < expected - static_cast<double>(whole)) ++whole;
+  return whole;
+}
+
+// Keeps a step's pair-speed bound g_max above every pair's |g| while the step's collisions
+// change velocities. NTC gives each pair its exact rate (n / (N - 1)) |g| only while
+// g_max >= |g| for every pair (Bird 1994, sec. 11.1), and a collision can make a pair faster
+// than the start-of-step bound (|c'| <= 2 max|c|). Found only when drawn as a candidate, such
+// a pair has been under-sampled since the collision that made it (every candidate slot gave
+// it probability 1 instead of |g| / g_max > 1): with 3 grains per cell and one mean free
+// time per step that left 0.27 % too few collisions, 0.54 % before the remaining candidates
+// were also rescaled (docs/dsmc.md, "Grain-grain collisions"). So every collision is
+// checked at once: a pair with grain i is at most |v_i - a| + D apart, D an upper bound of
+// |v - a| over the grains (the bound's largest deviation, raised as collisions exceed it);
+// only where that may exceed g_max (a few per cent of collisions at 16 grains per cell) are
+// the pairs of the two grains computed exactly (max_pair_speed2_with, O(N)), and the bound is
+// raised if one of them exceeds it. A step without such a pair draws what it drew before.
+class BoundGuard {
+ public:
+  BoundGuard(const BoundReference& r, double g_max)
+      : a_{r.ax, r.ay, r.az}, deviation_(std::sqrt(r.max_deviation2)) {
+    raised(g_max);
+  }
+  // After a collision left two grains at v and w: whether a pair with either may exceed
+  // g_max, i.e. |v - a| > slack with slack = g_max - D. The test alone (two norms, one
+  // compare) runs at every collision; D needs no update when it passes, since slack <= D
+  // (g_max <= 2 D: every pair is within 2 D).
+  bool may_exceed(const Vec3& v, const Vec3& w) const {
+    return std::max(norm2(v - a_), norm2(w - a_)) > threshold2_;
+  }
+  // where may_exceed held: D raised to cover the two grains (before the exact check)
+  void cover(const Vec3& v, const Vec3& w) {
+    const double d2 = std::max(norm2(v - a_), norm2(w - a_));
+    if (d2 > deviation_ * deviation_) deviation_ = std::sqrt(d2);
+    raised(g_max_);
+  }
+  // g_max changed (or D did). g_max is taken 1e-12 short, so that a pair within rounding of
+  // the bound is computed exactly rather than let through; a negative slack checks every
+  // collision (threshold -1).
+  void raised(double g_max) {
+    g_max_ = g_max;
+    const double slack = g_max * (1.0 - 1e-12) - deviation_;
+    threshold2_ = slack >= 0.0 ? slack * slack : -1.0;
+  }
+
+ private:
+  Vec3 a_;
+  double deviation_;
+  double g_max_ = 0.0, threshold2_ = 0.0;
+};
+
+// The slot map of a cell: its grains are the contiguous range the arrays start at.
+struct CellSlots {
+  std::size_t operator()(std::uint32_t slot) const { return slot; }
+};
+
+// max over the n32 grains k of |v - v_k|^2 and |w - v_k|^2 (the grains just collided at v and w,
+// whose own entries are v and w), each as a candidate computes it: norm2 of the difference,
+// ((dx dx + dy dy) + dz dz), the same bits in either order. A cell's contiguous grains two
+// at a time in SSE2 lanes (the same correctly rounded operations per lane), in two maxima.
+template <class Slot>
+[[gnu::always_inline]] inline double max_pair_speed2_with(const double* vx, const double* vy, const double* vz, Slot slot,
+                                   std::uint32_t n32, const Vec3& v, const Vec3& w) {
+  double m = 0.0;
+  std::uint32_t s = 0;
+  if constexpr (std::is_same_v<Slot, CellSlots>) {
+    const __m128d ax = _mm_set1_pd(v.x), ay = _mm_set1_pd(v.y), az = _mm_set1_pd(v.z);
+    const __m128d bx = _mm_set1_pd(w.x), by = _mm_set1_pd(w.y), bz = _mm_set1_pd(w.z);
+    __m128d mv = _mm_setzero_pd(), mw = _mm_setzero_pd();
+    for (; s + 1 < n32; s += 2) {
+      const __m128d ux = _mm_loadu_pd(vx + s), uy = _mm_loadu_pd(vy + s), uz = _mm_loadu_pd(vz + s);
+      const __m128d px = _mm_sub_pd(ax, ux), py = _mm_sub_pd(ay, uy), pz = _mm_sub_pd(az, uz);
+      const __m128d qx = _mm_sub_pd(bx, ux), qy = _mm_sub_pd(by, uy), qz = _mm_sub_pd(bz, uz);
+      mv = _mm_max_pd(mv, _mm_add_pd(_mm_add_pd(_mm_mul_pd(px, px), _mm_mul_pd(py, py)), _mm_mul_pd(pz, pz)));
+      mw = _mm_max_pd(mw, _mm_add_pd(_mm_add_pd(_mm_mul_pd(qx, qx), _mm_mul_pd(qy, qy)), _mm_mul_pd(qz, qz)));
+    }
+    const __m128d both = _mm_max_pd(mv, mw);
+    m = std::max(_mm_cvtsd_f64(both), _mm_cvtsd_f64(_mm_unpackhi_pd(both, both)));
+  }
+  for (; s < n32; ++s) {
+    const std::size_t k = slot(s);
+    const Vec3 u{vx[k], vy[k], vz[k]};
+    m = std::max(m, std::max(norm2(v - u), norm2(w - u)));
+  }
+  return m;
+}
+
 // The NTC candidate loop shared by a cell (collide_cell) and a collision group of a homogeneous
 // run (collide_group, src/dsmc/collision_groups.hpp): `candidates` ordered pairs of distinct
 // slots drawn uniformly from [0, n32), each accepted with |g| / g_max; `slot` maps a drawn slot
-// to the index of its grain in vx, vy, vz (the identity for a cell's contiguous range).
-template <class Law, class Draws, class Slot>
+// to the index of its grain in vx, vy, vz (the identity for a cell's contiguous range). `ref`:
+// what g_max was computed from (BoundGuard); `candidates` grows where the bound is raised.
+// Exact = false: Bird's scheme (`[dsmc] bound = "bird"`, the code before 2026-12-05 draw for
+// draw): no guard; a drawn pair above g_max is accepted and g_max raised for the rest of the
+// step, the candidates not rescaled.
+template <bool Exact, class Law, class Draws, class Slot>
 [[gnu::always_inline]] inline void collide_candidates(double* vx, double* vy,
                                                       double* vz, Slot slot, std::uint32_t n32,
-                                                      std::uint64_t candidates, double g_max, double mass,
+                                                      std::uint64_t candidates, double g_max,
+                                                      const BoundReference& ref, double mass,
                                                       const Law& law, Draws& draws, GrainCounters& counters) {
+  BoundGuard guard(ref, g_max);
+  (void)guard;
   for (std::uint64_t k = 0; k < candidates; ++k) {
     const std::uint64_t word = draws.bits64();
     const std::uint32_t si = below_from(static_cast<std::uint32_t>(word), n32, draws);
@@ -235,9 +356,14 @@ template <class Law, class Draws, class Slot>
     const Vec3 g = v - w;
     const double g2 = norm2(g);
     ++counters.candidates;
-    if (g2 > g_max * g_max) {  // bound exceeded: accept, and raise the bound for the rest of the step
+    if (g2 > g_max * g_max) {  // exact: not reached (BoundGuard), a safety net; Bird: raise
       ++counters.bound_exceeded;
-      g_max = std::sqrt(g2);
+      const double raised = std::sqrt(g2);
+      if constexpr (Exact) {
+        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, draws);
+        guard.raised(raised);
+      }
+      g_max = raised;
     } else {
       // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
       // the rejected candidates
@@ -258,6 +384,17 @@ template <class Law, class Draws, class Slot>
     v -= dv;
     w += dv;
     counters.energy_loss += 0.25 * mass * (1.0 - out.e * out.e) * gn2;  // (m/4)(1 - e^2)(g.n)^2
+    // The bound check reads the arrays before the two grains are stored (a 16-byte load of a
+    // just-stored 8-byte value would wait for the store): their entries still hold the
+    // pre-collision velocities, and |v' - v|, |v' - w|, |w' - v|, |w' - w| are |dv| or
+    // |g - dv|, at most |g| <= g_max, so they cannot raise it; the pair itself has
+    // |v' - w'| <= |g|.
+    double m2 = 0.0;
+    const bool check = Exact && guard.may_exceed(v, w);
+    if (check) {
+      guard.cover(v, w);
+      m2 = max_pair_speed2_with(vx, vy, vz, slot, n32, v, w);
+    }
     vx[i] = v.x;
     vy[i] = v.y;
     vz[i] = v.z;
@@ -265,6 +402,15 @@ template <class Law, class Draws, class Slot>
     vy[j] = w.y;
     vz[j] = w.z;
     ++counters.collisions;
+    if (Exact && check) {
+      if (m2 > g_max * g_max) {  // a pair is now faster than the bound: raise it (BoundGuard)
+        ++counters.bound_exceeded;
+        const double raised = std::sqrt(m2);
+        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, draws);
+        g_max = raised;
+        guard.raised(g_max);
+      }
+    }
   }
 }
 
@@ -280,7 +426,7 @@ template <class Law, class Draws, class Slot>
 template <class Law, class Rng>
 inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, double density, double dt,
                          double mass, const Law& law, Rng& rng, double& remainder,
-                         GrainCounters& counters) {
+                         GrainCounters& counters, bool exact_bound) {
   const std::size_t count = end - begin;
   if (count < 2 || density <= 0.0) return;
   if (count > 0xffffffffu) throw std::length_error("collide_cell: more than 2^32 - 1 grains in one cell");
@@ -288,8 +434,9 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
   double* __restrict vy = p.vy.data() + begin;
   double* __restrict vz = p.vz.data() + begin;
   // the same bound either way (detail::pair_speed_bound_24)
-  double g_max = count <= 24 && detail::have_masked_bound() ? detail::pair_speed_bound_24(vx, vy, vz, count)
-                                                            : pair_speed_bound(vx, vy, vz, count);
+  BoundReference ref;
+  double g_max = count <= 24 && detail::have_masked_bound() ? detail::pair_speed_bound_24(vx, vy, vz, count, &ref)
+                                                            : pair_speed_bound(vx, vy, vz, count, &ref);
   if (g_max <= 0.0) return;
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * dt + remainder;
   const auto candidates = static_cast<std::uint64_t>(expected);
@@ -305,8 +452,10 @@ inline void collide_cell(Particles& p, std::size_t begin, std::size_t end, doubl
       return (rng);
   };
   decltype(auto) draws = words();
-  collide_candidates(vx, vy, vz, [](std::uint32_t slot) { return static_cast<std::size_t>(slot); }, n32, candidates,
-                     g_max, mass, law, draws, counters);
+  if (exact_bound)
+    collide_candidates<true>(vx, vy, vz, CellSlots{}, n32, candidates, g_max, ref, mass, law, draws, counters);
+  else
+    collide_candidates<false>(vx, vy, vz, CellSlots{}, n32, candidates, g_max, ref, mass, law, draws, counters);
 }
 
 }  // namespace grainbath::dsmc

@@ -132,7 +132,7 @@ class CollisionGroups {
 // BM_GroupBound in bench/bench_dsmc.cpp.)
 template <int Ahead = 1, int Hint = _MM_HINT_T0>
 inline double group_pair_speed_bound(const double* vx, const double* vy, const double* vz, const std::uint32_t* tiles,
-                                     std::size_t tile_count, std::size_t grains) {
+                                     std::size_t tile_count, std::size_t grains, BoundReference* ref = nullptr) {
   auto tile_size = [&](std::size_t t) { return t + 1 < tile_count ? kGroupTile : grains - (tile_count - 1) * kGroupTile; };
   double ax = 0, ay = 0, az = 0;
   {
@@ -181,6 +181,7 @@ inline double group_pair_speed_bound(const double* vx, const double* vy, const d
   _mm_store_pd(f, first2);
   _mm_store_pd(s, second2);
   for (double c2 : {f[0], s[0], f[1], s[1]}) push(c2);
+  if (ref) *ref = {ax, ay, az, first};
   return std::sqrt(first) + std::sqrt(second);
 }
 
@@ -191,17 +192,21 @@ inline double group_pair_speed_bound(const double* vx, const double* vy, const d
 template <class Law>
 inline void collide_group(Particles& p, const std::uint32_t* tiles, std::size_t tile_count, std::size_t grains,
                           double density, double dt, double mass, const Law& law, CellCollisionRng& rng,
-                          GrainCounters& counters) {
+                          GrainCounters& counters, bool exact_bound) {
   if (grains < 2 || density <= 0.0) return;
   double* vx = p.vx.data();
   double* vy = p.vy.data();
   double* vz = p.vz.data();
-  const double g_max = group_pair_speed_bound(vx, vy, vz, tiles, tile_count, grains);
+  BoundReference ref;
+  const double g_max = group_pair_speed_bound(vx, vy, vz, tiles, tile_count, grains, &ref);
   if (g_max <= 0.0) return;
   CellCollisionRng::Cursor draws(rng);
   const std::uint64_t candidates = group_candidates(grains, density, g_max, dt, draws.uniform());
-  collide_candidates(vx, vy, vz, TileSlots{tiles}, static_cast<std::uint32_t>(grains), candidates, g_max, mass, law,
-                     draws, counters);
+  const auto n32 = static_cast<std::uint32_t>(grains);
+  if (exact_bound)
+    collide_candidates<true>(vx, vy, vz, TileSlots{tiles}, n32, candidates, g_max, ref, mass, law, draws, counters);
+  else
+    collide_candidates<false>(vx, vy, vz, TileSlots{tiles}, n32, candidates, g_max, ref, mass, law, draws, counters);
 }
 
 }  // namespace grainbath::dsmc

@@ -288,6 +288,7 @@ Config read_config(CaseReader& r) {
   c.dt = r.real("dsmc", "dt", 0.01, Bounds::positive(), "time");
   c.t_end = r.real("dsmc", "t_end", 10.0, Bounds::positive(), "time");
   c.rebalance_every = r.integer("dsmc", "rebalance_every", 50, 0, 1'000'000'000);
+  c.exact_bound = r.choice("dsmc", "bound", "exact", {"exact", "bird"}) == "exact";
   if (!c.spatial()) {
     c.collision_group = r.integer("dsmc", "collision_group", 4096, 0, 1'000'000'000);
     if (c.collision_group > 0 && c.collision_group < static_cast<std::int64_t>(kMinCollisionGroup))

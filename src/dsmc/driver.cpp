@@ -215,7 +215,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
               CellCollisionRng rng(seed, Stream::grain_collisions, g, step);
               GrainCounters cnt;  // local: neighbouring groups' counters share cache lines
               collide_group(s.particles, grouped.groups.tiles(g), grouped.groups.tile_count(g), grouped.groups.grains(g),
-                            c.grains.density, c.dt, c.grains.mass, law, rng, cnt);
+                            c.grains.density, c.dt, c.grains.mass, law, rng, cnt, c.exact_bound);
               grouped.per_group[g] = cnt;
             }
           },
@@ -234,7 +234,7 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
               // homogeneous: the case density; spatial: the cell's simulated density
               const double density = c.spatial() ? static_cast<double>(e - b) * weight / cell_volume : c.grains.density;
               CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
-              collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], cnt);
+              collide_cell(s.particles, b, e, density, c.dt, c.grains.mass, law, rng, s.remainder[k], cnt, c.exact_bound);
             }
             per_block[blk] = cnt;
           }

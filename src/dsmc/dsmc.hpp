@@ -90,6 +90,10 @@ struct Config {
   // homogeneous runs: grains per collision group, dealt afresh every step (0: all grains in
   // one cell; src/dsmc/collision_groups.hpp, docs/dsmc.md "Collision groups")
   std::int64_t collision_group = 4096;
+  // grain-grain NTC bound: kept above every pair's |g| through the step's collisions (true,
+  // `[dsmc] bound = "exact"`), or Bird's start-of-step bound, raised only when a drawn pair
+  // exceeds it ("bird"; docs/dsmc.md "Grain-grain collisions")
+  bool exact_bound = true;
   std::int64_t rebalance_every = 50;  // MPI: steps between load balances of the cell ranges (0: never)
   bool spatial() const { return domain.dimensions > 0; }
   double wavenumber() const;        // k of the grain mode (2 pi index / Lx)

@@ -686,7 +686,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         if (b1 - b0 < 2) continue;
         const double density = static_cast<double>(b1 - b0) * weight / cell_volume;
         CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
-        collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters);
+        collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters, c.exact_bound);
       }
       if (predict) {  // the block's cells for the next step, while its x and v are in cache
         std::size_t j = start[k0];

@@ -49,9 +49,11 @@ namespace {
 // slot to its grain (the identity for the one cell, the tiles for a collision group).
 template <class Slot>
 void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, std::uint64_t candidates, double g_max,
-                      CounterRng& rng, GrainCounters& counters) {
+                      const BoundReference& ref, CounterRng& rng, GrainCounters& counters) {
   Particles& p = s.particles;
   const RoughParameters& r = *c.rough;
+  BoundGuard guard(ref, g_max);  // Walton's rule can speed grains up too (spin into translation)
+  const bool exact = c.exact_bound;  // false: Bird's scheme as before 2026-12-05 (collide_candidates)
   for (std::uint64_t k = 0; k < candidates; ++k) {
     const std::uint32_t si = rng.below(n32);
     std::uint32_t sj = rng.below(n32 - 1);
@@ -60,8 +62,12 @@ void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, s
     Vec3 v = p.velocity(i), w = p.velocity(j);
     const double gmod = norm(v - w);
     ++counters.candidates;
-    if (gmod > g_max) {
+    if (gmod > g_max) {  // exact: a safety net, as in collide_candidates (collide.hpp); Bird: raise
       ++counters.bound_exceeded;
+      if (exact) {
+        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, gmod, rng);
+        guard.raised(gmod);
+      }
       g_max = gmod;
     } else if (rng.uniform() * g_max >= gmod) {
       continue;
@@ -75,6 +81,17 @@ void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, s
     s.wx[i] = si_spin.x, s.wy[i] = si_spin.y, s.wz[i] = si_spin.z;
     s.wx[j] = sj_spin.x, s.wy[j] = sj_spin.y, s.wz[j] = sj_spin.z;
     ++counters.collisions;
+    if (exact && guard.may_exceed(v, w)) {  // keep g_max a bound of every pair (BoundGuard, collide.hpp)
+      guard.cover(v, w);
+      const double m2 = max_pair_speed2_with(p.vx.data(), p.vy.data(), p.vz.data(), slot, n32, v, w);
+      if (m2 > g_max * g_max) {
+        ++counters.bound_exceeded;
+        const double raised = std::sqrt(m2);
+        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, rng);
+        g_max = raised;
+        guard.raised(g_max);
+      }
+    }
   }
 }
 }  // namespace
@@ -97,13 +114,14 @@ void rough_grain_step(State& s, const Config& c, std::uint64_t seed, CollisionGr
     for (std::size_t g = 0; g < n_groups; ++g) {
       const std::uint32_t* tiles = groups.tiles(g);
       const std::size_t grains = groups.grains(g);
+      BoundReference ref;
       const double g_max =
-          group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), tiles, groups.tile_count(g), grains);
+          group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), tiles, groups.tile_count(g), grains, &ref);
       if (g_max <= 0.0) continue;
       CounterRng rng(seed, Stream::grain_collisions, g, step);
       const std::uint64_t candidates = group_candidates(grains, density, g_max, c.dt, rng.uniform());
       GrainCounters cnt;
-      rough_candidates(s, c, TileSlots{tiles}, static_cast<std::uint32_t>(grains), candidates, g_max, rng, cnt);
+      rough_candidates(s, c, TileSlots{tiles}, static_cast<std::uint32_t>(grains), candidates, g_max, ref, rng, cnt);
       per_group[g] = cnt;
     }
     for (const auto& g : per_group) s.counters.grain.add(g);
@@ -111,14 +129,15 @@ void rough_grain_step(State& s, const Config& c, std::uint64_t seed, CollisionGr
   }
   // one cell (collision_group = 0 or too few grains): the scheme before collision groups, draw for draw
   CounterRng rng(seed, Stream::grain_collisions, 0, step);
-  double g_max = relative_speed_bound(p, 0, count);
+  BoundReference ref;
+  double g_max = relative_speed_bound(p, 0, count, &ref);
   if (g_max <= 0.0) return;
   // NTC as in collide_cell (collide.hpp): candidates N n g_max dt / 2 + carried fraction
   const double expected = 0.5 * static_cast<double>(count) * density * g_max * c.dt + s.remainder[0];
   const auto candidates = static_cast<std::uint64_t>(expected);
   s.remainder[0] = expected - static_cast<double>(candidates);
   rough_candidates(s, c, [](std::uint32_t sl) { return static_cast<std::size_t>(sl); }, static_cast<std::uint32_t>(count),
-                   candidates, g_max, rng, s.counters.grain);
+                   candidates, g_max, ref, rng, s.counters.grain);
 }
 
 closures::rough::Parameters rough_parameters(const Config& c) {

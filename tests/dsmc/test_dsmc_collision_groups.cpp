@@ -170,11 +170,11 @@ double relaxed_fraction(std::size_t group, bool contiguous, std::uint64_t seed, 
       deal.deal(n, group, seed, step);
       for (std::size_t g = 0; g < deal.count(); ++g) {
         CellCollisionRng rng(seed, Stream::grain_collisions, g, step);
-        collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters);
+        collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters, true);
       }
     } else {
       CellCollisionRng rng(seed, Stream::grain_collisions, 0, step);
-      collide_cell(p, 0, n, 1.0, dt, 1.0, law, rng, remainder, counters);
+      collide_cell(p, 0, n, 1.0, dt, 1.0, law, rng, remainder, counters, true);
     }
   }
   double ta, tb;
@@ -242,7 +242,7 @@ TEST(CollisionGroups, FractionalCandidatesAreRoundedWithoutBias) {
     ASSERT_EQ(deal.count(), 2u);
     for (std::size_t g = 0; g < deal.count(); ++g) {
       CellCollisionRng rng(5, Stream::grain_collisions, g, step);
-      collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters);
+      collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, dt, 1.0, law, rng, counters, true);
     }
   }
   const double expected = 0.5 * n * 4.0 / std::sqrt(std::numbers::pi) * dt * steps;

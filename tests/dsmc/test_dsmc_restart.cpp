@@ -268,6 +268,39 @@ TEST(DsmcRestart, CheckpointWithoutCollisionGroupKeyResumesAsOneCell) {
   fs::remove_all(ck);
 }
 
+// A checkpoint written before `[dsmc] bound` existed (2026-12-05) ran Bird's bound: the key's
+// absence stands for "bird". Resumed with bound = "bird" it continues bitwise; with the
+// default ("exact") it is refused with a message that names the fix.
+TEST(DsmcRestart, CheckpointWithoutBoundKeyResumesWithBirdsBound) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-oldbound-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  std::string bird = kHomogeneous;
+  bird.replace(bird.find("[dsmc]\n"), 7, "[dsmc]\nbound = \"bird\"\n");
+  const auto full = run_dsmc(bird, 5, 0, "oldbound-full", ck);
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_EQ(files.size(), 2u);
+  fs::remove(files.back());
+  {  // make it an old checkpoint: no dsmc.bound among its parameters
+    const hid_t f = H5Fopen(files.front().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    ASSERT_GE(H5Adelete_by_name(f, "/parameters", "dsmc.bound", H5P_DEFAULT), 0);
+    H5Fclose(f);
+  }
+  try {
+    run_dsmc(kHomogeneous, 5, 0, "oldbound-default", ck, true);
+    ADD_FAILURE() << "the exact bound resumed a checkpoint of Bird's";
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("dsmc.bound was \"bird\", now \"exact\""), std::string::npos) << what;
+    EXPECT_NE(what.find("--set dsmc.bound=\"bird\" continues it exactly"), std::string::npos) << what;
+  }
+  const auto resumed = run_dsmc(bird, 5, 0, "oldbound-resumed", ck, true);
+  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
+  fs::remove_all(ck);
+}
+
 // dsmc.t_end may change on --resume, but not to before the checkpoint (review 2, A1): that
 // run did no step, reported the checkpoint's state as the one at t_end and then lost its
 // checkpoints. Refused with std::invalid_argument (bad input: the CLI keeps the checkpoints),
