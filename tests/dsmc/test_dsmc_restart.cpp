@@ -235,70 +235,56 @@ TEST(DsmcRestart, ChangedCaseIsRefused) {
   fs::remove_all(ck);
 }
 
-// A checkpoint written before `[dsmc] collision_group` existed has no such parameter: it was
-// one cell, so the key's absence stands for 0. Resumed with collision_group = 0 it continues
-// bitwise; with the default (4096) it is refused with a message that names the fix.
-TEST(DsmcRestart, CheckpointWithoutCollisionGroupKeyResumesAsOneCell) {
-  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-oldkey-" + std::to_string(::getpid()));
+// A checkpoint written before a key existed has no such parameter: its absence stands for the
+// value that continues it exactly (core/checkpoint.cpp, kAddedLater). `with_old` is the case
+// with that value, written by run 1; the key is then deleted from the first checkpoint. The
+// default case is refused with a message that holds `refusal` and names the fix `hint`; the
+// case with the old value resumes bitwise.
+namespace {
+void expect_old_checkpoint_resumes(const std::string& name, const std::string& with_old, const char* key,
+                                   const std::string& refusal, const std::string& hint) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
-  std::string one_cell = kHomogeneous;
-  one_cell.replace(one_cell.find("[dsmc]\n"), 7, "[dsmc]\ncollision_group = 0\n");
-  const auto full = run_dsmc(one_cell, 5, 0, "oldkey-full", ck);
+  const auto full = run_dsmc(with_old, 5, 0, name + "-full", ck);
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
   std::sort(files.begin(), files.end());
   ASSERT_EQ(files.size(), 2u);
   fs::remove(files.back());
-  {  // make it an old checkpoint: no dsmc.collision_group among its parameters
+  {  // make it an old checkpoint: the key absent from its parameters
     const hid_t f = H5Fopen(files.front().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
     ASSERT_GE(f, 0);
-    ASSERT_GE(H5Adelete_by_name(f, "/parameters", "dsmc.collision_group", H5P_DEFAULT), 0);
+    ASSERT_GE(H5Adelete_by_name(f, "/parameters", key, H5P_DEFAULT), 0);
     H5Fclose(f);
   }
   try {
-    run_dsmc(kHomogeneous, 5, 0, "oldkey-default", ck, true);
-    ADD_FAILURE() << "the default collision_group resumed a one-cell checkpoint";
+    run_dsmc(kHomogeneous, 5, 0, name + "-default", ck, true);
+    ADD_FAILURE() << "the default " << key << " resumed an older checkpoint";
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
-    EXPECT_NE(what.find("dsmc.collision_group was 0, now 4096"), std::string::npos) << what;
-    EXPECT_NE(what.find("--set dsmc.collision_group=0 continues it exactly"), std::string::npos) << what;
+    EXPECT_NE(what.find(refusal), std::string::npos) << what;
+    EXPECT_NE(what.find(hint), std::string::npos) << what;
   }
-  const auto resumed = run_dsmc(one_cell, 5, 0, "oldkey-resumed", ck, true);
+  const auto resumed = run_dsmc(with_old, 5, 0, name + "-resumed", ck, true);
   EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
   fs::remove_all(ck);
 }
+}  // namespace
 
-// A checkpoint written before `[dsmc] bound` existed (2026-12-05) ran Bird's bound: the key's
-// absence stands for "bird". Resumed with bound = "bird" it continues bitwise; with the
-// default ("exact") it is refused with a message that names the fix.
+// `[dsmc] collision_group` (2026-11-26): an older checkpoint was one cell, collision_group = 0.
+TEST(DsmcRestart, CheckpointWithoutCollisionGroupKeyResumesAsOneCell) {
+  std::string one_cell = kHomogeneous;
+  one_cell.replace(one_cell.find("[dsmc]\n"), 7, "[dsmc]\ncollision_group = 0\n");
+  expect_old_checkpoint_resumes("oldkey", one_cell, "dsmc.collision_group", "dsmc.collision_group was 0, now 4096",
+                                "--set dsmc.collision_group=0 continues it exactly");
+}
+
+// `[dsmc] bound` (2026-12-05): an older checkpoint ran Bird's bound, "bird".
 TEST(DsmcRestart, CheckpointWithoutBoundKeyResumesWithBirdsBound) {
-  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-oldbound-" + std::to_string(::getpid()));
-  fs::remove_all(ck);
   std::string bird = kHomogeneous;
   bird.replace(bird.find("[dsmc]\n"), 7, "[dsmc]\nbound = \"bird\"\n");
-  const auto full = run_dsmc(bird, 5, 0, "oldbound-full", ck);
-  std::vector<fs::path> files;
-  for (const auto& e : fs::directory_iterator(ck)) files.push_back(e.path());
-  std::sort(files.begin(), files.end());
-  ASSERT_EQ(files.size(), 2u);
-  fs::remove(files.back());
-  {  // make it an old checkpoint: no dsmc.bound among its parameters
-    const hid_t f = H5Fopen(files.front().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
-    ASSERT_GE(f, 0);
-    ASSERT_GE(H5Adelete_by_name(f, "/parameters", "dsmc.bound", H5P_DEFAULT), 0);
-    H5Fclose(f);
-  }
-  try {
-    run_dsmc(kHomogeneous, 5, 0, "oldbound-default", ck, true);
-    ADD_FAILURE() << "the exact bound resumed a checkpoint of Bird's";
-  } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("dsmc.bound was \"bird\", now \"exact\""), std::string::npos) << what;
-    EXPECT_NE(what.find("--set dsmc.bound=\"bird\" continues it exactly"), std::string::npos) << what;
-  }
-  const auto resumed = run_dsmc(bird, 5, 0, "oldbound-resumed", ck, true);
-  EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5"));
-  fs::remove_all(ck);
+  expect_old_checkpoint_resumes("oldbound", bird, "dsmc.bound", "dsmc.bound was \"bird\", now \"exact\"",
+                                "--set dsmc.bound=\"bird\" continues it exactly");
 }
 
 // dsmc.t_end may change on --resume, but not to before the checkpoint (review 2, A1): that
