@@ -19,6 +19,7 @@ struct SweepArgs {
   std::string out_dir;
   int jobs = 0;                        // 0: number of cores
   bool resume = false;                 // continue an interrupted sweep in out_dir
+  bool quiet = false;                  // no progress lines (failures, warnings, errors still)
 };
 
 // Stop requests (SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU; commands.cpp on_signal): installs

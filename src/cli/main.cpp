@@ -63,6 +63,8 @@ int cli_main(int argc, char** argv) {
   sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
   sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
   sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once (default: number of cores)");
+  sweep->add_flag("--quiet,-q", sweep_args.quiet,
+                  "No progress lines (a failed variant, warnings and errors are still reported)");
   sweep->add_flag("--resume", sweep_args.resume,
                   "Continue an interrupted sweep in its directory: finished variants are kept, stopped ones resume "
                   "from their checkpoints");

@@ -323,7 +323,7 @@ int command_sweep(const SweepArgs& a) {
     for (const auto& kv : variants[k]) name += "_" + sanitize(kv.substr(kv.find('.') + 1));
     dirs.push_back(out / name);
   }
-  if (mpi::world_rank() == 0)
+  if (mpi::world_rank() == 0 && !a.quiet)
     std::fprintf(stderr, "sweep: %zu variants, %d at a time, into %s\n", variants.size(),
                  mpi::active() ? mpi::world_size() : jobs, out.string().c_str());
   std::size_t next = 0, done = 0;
@@ -336,7 +336,7 @@ int command_sweep(const SweepArgs& a) {
   if (a.resume) {
     std::size_t earlier = 0;
     for (std::size_t k = 0; k < variants.size(); ++k) earlier += skip[k] = finished(k);
-    if (mpi::world_rank() == 0)
+    if (mpi::world_rank() == 0 && !a.quiet)
       std::fprintf(stderr, "sweep: resuming: %zu of %zu variants finished earlier\n", earlier, variants.size());
   }
   auto log_of = [&](std::size_t k) { return dirs[k].string() + ".log"; };
@@ -374,9 +374,10 @@ int command_sweep(const SweepArgs& a) {
       close(saved_err);
       if (log) std::fclose(log);
       if (code != 0 && code != 130) ++failed;
-      std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank,
-                   code == 0 ? "done  " : code == 130 ? "stopped" : "FAILED",
-                   dirs[k].filename().string().c_str(), wall_seconds_since(start));
+      if (!a.quiet || code != 0)
+        std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank,
+                     code == 0 ? "done  " : code == 130 ? "stopped" : "FAILED",
+                     dirs[k].filename().string().c_str(), wall_seconds_since(start));
     }
     failed = static_cast<int>(mpi::sum(failed));
     stopped = mpi::sum(stop_requested() ? 1 : 0) > 0;
@@ -479,9 +480,10 @@ int command_sweep(const SweepArgs& a) {
     const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
     const bool interrupted = WIFEXITED(status) && WEXITSTATUS(status) == 130;
     if (!ok && !interrupted) ++failed;
-    std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(),
-                 ok ? "done  " : interrupted ? "stopped" : "FAILED", dirs[k].filename().string().c_str(),
-                 wall_seconds_since(start));
+    if (!a.quiet || !ok)
+      std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(),
+                   ok ? "done  " : interrupted ? "stopped" : "FAILED", dirs[k].filename().string().c_str(),
+                   wall_seconds_since(start));
   }
   if (!mpi::active()) stopped = g_sweep_signals.load() > 0;
   if (stopped) {

@@ -129,6 +129,7 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   // run.threads has one value: a setting of every run, not an axis, so this is an ensemble
   EXPECT_TRUE(fs::exists(out / "variant-0_seed_1" / "summary.json"));
   EXPECT_TRUE(fs::exists(out / "ensemble.json"));
+  EXPECT_NE(r.err.find("sweep: 2/2 done"), std::string::npos) << r.err;  // the progress lines
   r = sweep("3,4,5");
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_NE(r.err.find("moved to"), std::string::npos) << r.err;
@@ -157,6 +158,18 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_EQ(r.code, 2) << r.describe();
   EXPECT_NE(r.err.find("does not hold grainbath output"), std::string::npos) << r.err;
   EXPECT_EQ(listing(tmp.path()), before);
+}
+
+// `sweep --quiet`: no progress lines on stderr, the same sweep and its table on stdout (a failed
+// variant would still be reported: the progress line is skipped only for a finished one).
+TEST_F(OutputDir, QuietSweepPrintsNoProgressButTheTable) {
+  const fs::path out = tmp / "quiet";
+  RunResult r = grainbath({"sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set",
+                           "run.seed=1,2", "--set", "run.threads=1"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_EQ(r.err.find("sweep:"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("table:"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(out / "variant-1_seed_2" / "summary.json"));
 }
 
 // Review of 2026-11-26: names alone do not make grainbath output (a user's variant-calls.vcf,
