@@ -366,6 +366,7 @@ int command_sweep(const SweepArgs& a) {
         dup2(fileno(log), STDOUT_FILENO);
         dup2(fileno(log), STDERR_FILENO);
       }
+      CaseReader::forget_said_notes();  // this variant's notes into its log too (review 3)
       const int code = command_run(ra);
       std::fflush(nullptr);
       dup2(saved_out, STDOUT_FILENO);

@@ -904,14 +904,24 @@ void CaseReader::record_file_checksum(std::string_view section, std::string_view
   resolved_[std::string(section) + "." + std::string(key)] = "\"fnv1a-" + std::string(hex) + "\"";
 }
 
+namespace {
+// The notes said so far: a sweep validates every variant in its own process, and the file's
+// ignored keys are mostly the same for all of them, so each is said once there. An MPI sweep
+// also runs its variants in that process, each into its own log: it forgets them before
+// each run (CaseReader::forget_said_notes), so that every log holds its variant's notes.
+std::mutex g_said_mutex;
+std::set<std::string> g_said;
+}  // namespace
+
+void CaseReader::forget_said_notes() {
+  const std::lock_guard<std::mutex> lock(g_said_mutex);
+  g_said.clear();
+}
+
 void CaseReader::finish() {
-  // A note said once per process: a sweep validates every variant in this process, and the
-  // file's ignored keys are the same for all of them.
-  static std::mutex printed_mutex;
-  static std::set<std::string> printed;
   for (const auto& [_, note] : impl_->ignored) {
-    const std::lock_guard<std::mutex> lock(printed_mutex);
-    if (printed.insert(note).second) std::fprintf(stderr, "note: %s\n", note.c_str());
+    const std::lock_guard<std::mutex> lock(g_said_mutex);
+    if (g_said.insert(note).second) std::fprintf(stderr, "note: %s\n", note.c_str());
   }
   std::set<std::string> known_sections;
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);

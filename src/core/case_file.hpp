@@ -121,6 +121,9 @@ class CaseReader {
 
   // Reports unknown sections/keys, then throws CaseError if any problem was recorded.
   void finish();
+  // Notes (ignored keys) are printed once per process by finish(); this makes the next
+  // finish() print them again (the MPI sweep, before each variant it runs into its log).
+  static void forget_said_notes();
   bool ok() const;
 
   // The parameters as resolved (file, overrides, defaults), "section.key" -> TOML value text.

@@ -36,3 +36,14 @@ if t[2] != 5 or not t[1] > 0:
     print("FAIL: merged temperature", t); sys.exit(1)
 print("ok   MPI ensemble of %d replicas: T = %.6g +- %.2g, identical to the process-parallel sweep" % (t[2], t[0], t[1]))
 PY
+
+# The notes of an MPI sweep's variants (review 3): the ranks run the variants in-process,
+# each into its .log, after the sweep has validated them all in that process; a note
+# (here: the file's restitution.e, which --set restitution.law=elastic drops) must be in the
+# log of the variant it concerns, not only on the sweep's stderr.
+mpi 2 sweep "$case_dir" --set restitution.law=elastic,constant --set dsmc.t_end=0.2 --set sampling.steady_from=0.1 \
+  --out "$work/notes" > /dev/null 2>&1
+log=$(ls "$work"/notes/variant-0_*.log)
+grep -q "note: .*restitution.e: ignored" "$log" || { echo "FAIL: the elastic variant's log lacks its note ($log):"; cat "$log"; exit 1; }
+if grep -q "note:" "$(ls "$work"/notes/variant-1_*.log)"; then echo "FAIL: the constant-e variant's log has a note"; exit 1; fi
+echo "ok   MPI sweep: each variant's notes in its own log"
