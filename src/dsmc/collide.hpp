@@ -257,7 +257,7 @@ inline std::uint64_t candidates_after_raise(std::uint64_t remaining, double g_ol
 // were also rescaled (docs/dsmc.md, "Grain-grain collisions"). So every collision is
 // checked at once: a pair with grain i is at most |v_i - a| + D apart, D an upper bound of
 // |v - a| over the grains (the bound's largest deviation, raised as collisions exceed it);
-// only where that may exceed g_max (a few per cent of collisions at 16 grains per cell) are
+// only where that may exceed g_max (about a quarter of the collisions at 16 grains per cell) are
 // the pairs of the two grains computed exactly (max_pair_speed2_with, O(N)), and the bound is
 // raised if one of them exceeds it. A step without such a pair draws what it drew before.
 class BoundGuard {
@@ -268,8 +268,8 @@ class BoundGuard {
   }
   // After a collision left two grains at v and w: whether a pair with either may exceed
   // g_max, i.e. |v - a| > slack with slack = g_max - D. The test alone (two norms, one
-  // compare) runs at every collision; D needs no update when it passes, since slack <= D
-  // (g_max <= 2 D: every pair is within 2 D).
+  // compare) runs at every collision; where it is false both grains lie within slack <= D
+  // of a (g_max <= 2 D: every pair is within 2 D), so D needs no update.
   bool may_exceed(const Vec3& v, const Vec3& w) const {
     return std::max(norm2(v - a_), norm2(w - a_)) > threshold2_;
   }
@@ -299,13 +299,14 @@ struct CellSlots {
   std::size_t operator()(std::uint32_t slot) const { return slot; }
 };
 
-// max over the n32 grains k of |v - v_k|^2 and |w - v_k|^2 (the grains just collided at v and w,
-// whose own entries are v and w), each as a candidate computes it: norm2 of the difference,
+// max over the n32 grains k of |v - v_k|^2 and |w - v_k|^2 (the grains just collided at v and w;
+// their own entries may still hold their velocities before the collision, see
+// collide_candidates), each as a candidate computes it: norm2 of the difference,
 // ((dx dx + dy dy) + dz dz), the same bits in either order. A cell's contiguous grains two
 // at a time in SSE2 lanes (the same correctly rounded operations per lane), in two maxima.
 template <class Slot>
-[[gnu::always_inline]] inline double max_pair_speed2_with(const double* vx, const double* vy, const double* vz, Slot slot,
-                                   std::uint32_t n32, const Vec3& v, const Vec3& w) {
+[[gnu::always_inline]] inline double max_pair_speed2_with(const double* vx, const double* vy, const double* vz,
+                                                          Slot slot, std::uint32_t n32, const Vec3& v, const Vec3& w) {
   double m = 0.0;
   std::uint32_t s = 0;
   if constexpr (std::is_same_v<Slot, CellSlots>) {
