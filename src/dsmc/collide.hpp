@@ -294,6 +294,17 @@ class BoundGuard {
   double g_max_ = 0.0, threshold2_ = 0.0;
 };
 
+// Raise a step's bound g_max to g_new > g_max after candidate k (of `candidates`, which grows
+// by candidates_after_raise), counted, and tell the guard.
+template <class Rng>
+inline void raise_bound(double g_new, std::uint64_t k, std::uint64_t& candidates, double& g_max, BoundGuard& guard,
+                        Rng& rng, GrainCounters& counters) {
+  ++counters.bound_exceeded;
+  candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, g_new, rng);
+  g_max = g_new;
+  guard.raised(g_max);
+}
+
 // The slot map of a cell: its grains are the contiguous range the arrays start at.
 struct CellSlots {
   std::size_t operator()(std::uint32_t slot) const { return slot; }
@@ -358,13 +369,12 @@ template <bool Exact, class Law, class Draws, class Slot>
     const double g2 = norm2(g);
     ++counters.candidates;
     if (g2 > g_max * g_max) {  // exact: not reached (BoundGuard), a safety net; Bird: raise
-      ++counters.bound_exceeded;
-      const double raised = std::sqrt(g2);
       if constexpr (Exact) {
-        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, draws);
-        guard.raised(raised);
+        raise_bound(std::sqrt(g2), k, candidates, g_max, guard, draws, counters);
+      } else {
+        ++counters.bound_exceeded;
+        g_max = std::sqrt(g2);
       }
-      g_max = raised;
     } else {
       // accept with |g| / g_max, compared on squares (both sides >= 0): no square root for
       // the rejected candidates
@@ -403,15 +413,8 @@ template <bool Exact, class Law, class Draws, class Slot>
     vy[j] = w.y;
     vz[j] = w.z;
     ++counters.collisions;
-    if (Exact && check) {
-      if (m2 > g_max * g_max) {  // a pair is now faster than the bound: raise it (BoundGuard)
-        ++counters.bound_exceeded;
-        const double raised = std::sqrt(m2);
-        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, draws);
-        g_max = raised;
-        guard.raised(g_max);
-      }
-    }
+    if (Exact && check && m2 > g_max * g_max)  // a pair is now faster than the bound (BoundGuard)
+      raise_bound(std::sqrt(m2), k, candidates, g_max, guard, draws, counters);
   }
 }
 

@@ -63,12 +63,12 @@ void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, s
     const double gmod = norm(v - w);
     ++counters.candidates;
     if (gmod > g_max) {  // exact: a safety net, as in collide_candidates (collide.hpp); Bird: raise
-      ++counters.bound_exceeded;
       if (exact) {
-        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, gmod, rng);
-        guard.raised(gmod);
+        raise_bound(gmod, k, candidates, g_max, guard, rng, counters);
+      } else {
+        ++counters.bound_exceeded;
+        g_max = gmod;
       }
-      g_max = gmod;
     } else if (rng.uniform() * g_max >= gmod) {
       continue;
     }
@@ -84,13 +84,7 @@ void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, s
     if (exact && guard.may_exceed(v, w)) {  // keep g_max a bound of every pair (BoundGuard, collide.hpp)
       guard.cover(v, w);
       const double m2 = max_pair_speed2_with(p.vx.data(), p.vy.data(), p.vz.data(), slot, n32, v, w);
-      if (m2 > g_max * g_max) {
-        ++counters.bound_exceeded;
-        const double raised = std::sqrt(m2);
-        candidates = k + 1 + candidates_after_raise(candidates - k - 1, g_max, raised, rng);
-        g_max = raised;
-        guard.raised(g_max);
-      }
+      if (m2 > g_max * g_max) raise_bound(std::sqrt(m2), k, candidates, g_max, guard, rng, counters);
     }
   }
 }
