@@ -310,9 +310,8 @@ struct CellSlots {
   std::size_t operator()(std::uint32_t slot) const { return slot; }
 };
 
-// max over the n32 grains k of |v - v_k|^2 and |w - v_k|^2 (the grains just collided at v and w;
-// their own entries may still hold their velocities before the collision, see
-// collide_candidates), each as a candidate computes it: norm2 of the difference,
+// max over the n32 grains k of |v - v_k|^2 and |w - v_k|^2 (v and w: the velocities two grains
+// leave a collision with), each as a candidate computes it: norm2 of the difference,
 // ((dx dx + dy dy) + dz dz), the same bits in either order. A cell's contiguous grains two
 // at a time in SSE2 lanes (the same correctly rounded operations per lane), in two maxima.
 template <class Slot>
@@ -395,16 +394,20 @@ template <bool Exact, class Law, class Draws, class Slot>
     v -= dv;
     w += dv;
     counters.energy_loss += 0.25 * mass * (1.0 - out.e * out.e) * gn2;  // (m/4)(1 - e^2)(g.n)^2
-    // The bound check reads the arrays before the two grains are stored (a 16-byte load of a
-    // just-stored 8-byte value would wait for the store): their entries still hold the
-    // pre-collision velocities, and |v' - v|, |v' - w|, |w' - v|, |w' - w| are |dv| or
-    // |g - dv|, at most |g| <= g_max, so they cannot raise it; the pair itself has
-    // |v' - w'| <= |g|.
+    // Keep g_max above every pair's |g| (BoundGuard): the pairs of the two grains, computed
+    // where the guard's cheap test says they may exceed it, raise it if one does. Computed
+    // before the two grains are stored, so their own entries still hold v and w: the pair
+    // itself, |v' - w'| <= |g| <= g_max, is then not compared (it cannot exceed the bound, but
+    // its rounded value could by an ulp and raise it for nothing), and |v' - v|, |w' - w|
+    // (= |dv|), |v' - w|, |w' - v| (= |g - dv|) are at most |g| too.
+    bool raise = false;
     double m2 = 0.0;
-    const bool check = Exact && guard.may_exceed(v, w);
-    if (check) {
-      guard.cover(v, w);
-      m2 = max_pair_speed2_with(vx, vy, vz, slot, n32, v, w);
+    if constexpr (Exact) {
+      if (guard.may_exceed(v, w)) {
+        guard.cover(v, w);
+        m2 = max_pair_speed2_with(vx, vy, vz, slot, n32, v, w);
+        raise = m2 > g_max * g_max;
+      }
     }
     vx[i] = v.x;
     vy[i] = v.y;
@@ -413,8 +416,7 @@ template <bool Exact, class Law, class Draws, class Slot>
     vy[j] = w.y;
     vz[j] = w.z;
     ++counters.collisions;
-    if (Exact && check && m2 > g_max * g_max)  // a pair is now faster than the bound (BoundGuard)
-      raise_bound(std::sqrt(m2), k, candidates, g_max, guard, draws, counters);
+    if (raise) raise_bound(std::sqrt(m2), k, candidates, g_max, guard, draws, counters);
   }
 }
 

@@ -81,7 +81,9 @@ void rough_candidates(State& s, const Config& c, Slot slot, std::uint32_t n32, s
     s.wx[i] = si_spin.x, s.wy[i] = si_spin.y, s.wz[i] = si_spin.z;
     s.wx[j] = sj_spin.x, s.wy[j] = sj_spin.y, s.wz[j] = sj_spin.z;
     ++counters.collisions;
-    if (exact && guard.may_exceed(v, w)) {  // keep g_max a bound of every pair (BoundGuard, collide.hpp)
+    // keep g_max a bound of every pair (BoundGuard, collide.hpp); after the store, unlike the
+    // smooth grains' loop: Walton's rule can make the pair's own |g'| exceed |g|
+    if (exact && guard.may_exceed(v, w)) {
       guard.cover(v, w);
       const double m2 = max_pair_speed2_with(p.vx.data(), p.vy.data(), p.vz.data(), slot, n32, v, w);
       if (m2 > g_max * g_max) raise_bound(std::sqrt(m2), k, candidates, g_max, guard, rng, counters);
