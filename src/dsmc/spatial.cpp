@@ -17,14 +17,6 @@ std::uint32_t cell_index(const Domain& d, double x, double y, double z) { return
 
 namespace {
 
-// Diffuse re-emission from a wall at temperature Tw: tangential components Gaussian, the
-// normal one from the flux-weighted half-Maxwellian, |v_n| = sqrt(-2 (Tw/m) log U).
-double diffuse_normal_speed(CounterRng& rng, double sigma) { return sigma * std::sqrt(-2.0 * std::log(rng.uniform())); }
-
-}  // namespace
-
-namespace {
-
 // Fully periodic box: no wall can be hit, so streaming is x += v dt with a wrap, and the
 // new cell index is computed in the same pass while the position is in a register (the
 // sort then needs no second pass over the positions).
@@ -89,6 +81,7 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
   const double dt = c.dt;
   const double sigma_wall = std::sqrt(d.wall_temperature / c.grains.mass);
   const double m = c.grains.mass;
+  const WallAxes axes(d);
   const std::uint64_t step = static_cast<std::uint64_t>(s.step);
   const std::size_t blocks = bounds.size() - 1;
   partial.assign(blocks, StreamCounters{});
@@ -96,55 +89,20 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
   for (std::size_t b = 0; b < blocks; ++b) {
     const std::size_t lo = bounds[b], hi = bounds[b + 1];
     StreamCounters& cnt = partial[b];
+    struct Sink {
+      StreamCounters& cnt;
+      void wall(double energy) { cnt.wall_energy += energy; }
+      void left(double energy) {
+        cnt.removed_energy += energy;
+        cnt.removed += 1;
+      }
+    } sink{cnt};
     for (std::size_t i = lo; i < hi; ++i) {
-      double* pos[3] = {&p.x[i], d.dimensions > 1 ? &p.y[i] : nullptr, d.dimensions > 2 ? &p.z[i] : nullptr};
-      double* vel[3] = {&p.vx[i], &p.vy[i], &p.vz[i]};
+      double* const pos[3] = {&p.x[i], d.dimensions > 1 ? &p.y[i] : nullptr, d.dimensions > 2 ? &p.z[i] : nullptr};
+      double* const vel[3] = {&p.vx[i], &p.vy[i], &p.vz[i]};
       // constructing the generator is free: Philox runs only if a diffuse wall draws from it
       CounterRng rng(seed, Stream::wall_collisions, p.id[i], step);
-      double remaining = dt;
-      // advance; on a wall hit (non-periodic face) stop at the wall, apply the rule, continue
-      for (int guard = 0; guard < 1000 && remaining > 0; ++guard) {
-        double t_hit = remaining;
-        int axis_hit = -1, face_hit = -1;
-        for (int a = 0; a < d.dimensions; ++a) {
-          const double v = *vel[a];
-          if (v == 0) continue;
-          const double L = d.length[a];
-          const double x = *pos[a];
-          const int face = v < 0 ? 2 * a : 2 * a + 1;
-          if (d.faces[face] == Boundary::periodic) continue;
-          const double t = v < 0 ? (0.0 - x) / v : (L - x) / v;
-          if (t < t_hit) {
-            t_hit = std::max(0.0, t);
-            axis_hit = a;
-            face_hit = face;
-          }
-        }
-        for (int a = 0; a < d.dimensions; ++a) *pos[a] += *vel[a] * t_hit;
-        remaining -= t_hit;
-        if (axis_hit < 0) break;
-        // place exactly on the wall
-        *pos[axis_hit] = (face_hit % 2 == 0) ? 0.0 : d.length[axis_hit];
-        const Boundary rule = d.faces[face_hit];
-        if (rule == Boundary::specular) {
-          *vel[axis_hit] = -*vel[axis_hit];
-        } else if (rule == Boundary::diffuse) {
-          const double e0 = p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
-          for (int a = 0; a < 3; ++a) *vel[a] = sigma_wall * rng.normal();
-          const double vn = diffuse_normal_speed(rng, sigma_wall);
-          *vel[axis_hit] = (face_hit % 2 == 0) ? vn : -vn;
-          const double e1 = p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
-          cnt.wall_energy += 0.5 * m * (e1 - e0);
-        } else {  // open: leave the box
-          removed[i] = 1;
-          cnt.removed_energy += 0.5 * m * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
-          cnt.removed += 1;
-          remaining = 0;
-          break;
-        }
-      }
-      // periodic wrap
-      for (int a = 0; a < d.dimensions; ++a) *pos[a] = wrap_periodic(*pos[a], d.length[a]);
+      if (!stream_through_walls(pos, vel, d, axes, dt, sigma_wall, m, rng, sink)) removed[i] = 1;
     }
   }
 }
