@@ -462,6 +462,15 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
   Progress progress("dsmc", static_cast<double>(c.steps), ctx.quiet || !dec.root());
   std::vector<StreamCounters> walls;
   const bool walls_counted = c.spatial() && !fully_periodic(c.domain);
+  // the step's wall exchanges, per block, combined in block order over the ranks
+  auto add_wall_counters = [&] {
+    dec.combine_in_order(walls, true);
+    for (const auto& w : walls) {
+      s.counters.wall_energy += w.wall_energy;
+      s.counters.removed_energy += w.removed_energy;
+      s.counters.removed += w.removed;
+    }
+  };
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
   const std::int64_t checkpoint_steps =
       c.checkpoint.every > 0 ? std::max<std::int64_t>(1, std::llround(c.checkpoint.every / c.dt)) : 0;
@@ -488,20 +497,14 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (fused) {
       // stream, sort and collide in one pass (MPI: with the migration inside); counters per
       // block of dec.block_cells() cells, combined as grain_step combines them (bitwise the
-      // same at any rank count)
-      fused_periodic_step(s, c, ctx.seed, per_cell, dec);
+      // same at any rank count); the wall exchanges as the separate pass gives them
+      fused_spatial_step(s, c, ctx.seed, per_cell, dec, bounds, walls);
+      if (walls_counted) add_wall_counters();
     } else {
       if (c.spatial()) {
         dec.block_bounds(s, c, bounds);
         stream(s, c, ctx.seed, removed, bounds, walls);
-        if (walls_counted) {
-          dec.combine_in_order(walls, true);
-          for (const auto& w : walls) {
-            s.counters.wall_energy += w.wall_energy;
-            s.counters.removed_energy += w.removed_energy;
-            s.counters.removed += w.removed;
-          }
-        }
+        if (walls_counted) add_wall_counters();
         dec.migrate(s, c, removed);  // MPI: particles that left this rank's cells
         sort_by_cell(s, c, removed);
       }

@@ -17,8 +17,9 @@ namespace grainbath::dsmc {
 
 bool fused_step_applies(const Config& c) {
   if (!c.spatial()) return false;
-  for (int f = 0; f < 2 * c.domain.dimensions; ++f)
-    if (c.domain.faces[f] != Boundary::periodic) return false;
+  // walls: the grains that met one this step are marked by the top bit of their cell index
+  // (kStreamedBit), which the grid's cells must leave free
+  if (!fully_periodic(c.domain) && c.domain.cell_count() >= kStreamedBit) return false;
   return std::getenv("GRAINBATH_DSMC_UNFUSED") == nullptr;
 }
 
@@ -97,7 +98,9 @@ struct WindowFetch {
 // ahead (the last kAhead slots of the block have none: a loop of their own, no test per slot).
 // MPI ranks (kArrivals): the grains that arrived from other ranks this step sit at the old
 // indices >= `fresh`, already streamed (their owner streamed them before sending): copied as
-// they are. One process, or a step without arrivals: kArrivals = false, the code as before.
+// they are. So are the grains that met a wall (boxes with walls): their flight was flown by
+// stream_through_walls in the streaming pass, and their old index carries kStreamedBit
+// (>= fresh). Otherwise (kArrivals = false) the code as before.
 template <int Dim, bool kHazard, bool kArrivals = false>
 void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict perm, std::size_t j0, std::size_t j1,
                   std::size_t n, const WindowFetch& window, double dt, const double* length, std::size_t fresh = 0) {
@@ -118,6 +121,7 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
   const double Lx = length[0], Ly = length[1], Lz = length[2];
   auto copy = [=](std::size_t j, std::uint32_t i) __attribute__((always_inline)) {
     if (kArrivals && i >= fresh) {
+      i &= kIndexMask;  // a grain that met a wall carries kStreamedBit
       x[j] = ox[i];
       if constexpr (Dim > 1) y[j] = oy[i];
       if constexpr (Dim > 2) z[j] = oz[i];
@@ -149,7 +153,7 @@ void gather_slots(const GatherArrays& arrays, const std::uint32_t* __restrict pe
       }
     }
     for (const std::size_t ep = std::min(e, jp); j < ep; ++j) {
-      const std::uint32_t f = perm[j + kAhead];
+      const std::uint32_t f = kArrivals ? perm[j + kAhead] & kIndexMask : perm[j + kAhead];
       __builtin_prefetch(ox + f);
       if constexpr (Dim > 1) __builtin_prefetch(oy + f);
       if constexpr (Dim > 2) __builtin_prefetch(oz + f);
@@ -247,15 +251,16 @@ template <int Dim, bool kHazard, bool kArrivals = false>
         if constexpr (kHazard) __builtin_prefetch(hz + d, 1, 1);
       }
     }
-    for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q) fetch(perm[j + q + kAhead]);
+    for (std::size_t q = 0; q < 4 && j + q + kAhead < j1; ++q)
+      fetch(kArrivals ? perm[j + q + kAhead] & kIndexMask : perm[j + q + kAhead]);
     const std::uint32_t i0 = perm[j], i1 = perm[j + 1], i2 = perm[j + 2], i3 = perm[j + 3];
     if constexpr (kArrivals) {
       // a group with a grain that arrived from another rank (already streamed): slot by slot,
       // the others streamed by the scalar expression (bitwise the vector's, see above)
       if (std::max(std::max(i0, i1), std::max(i2, i3)) >= fresh) [[unlikely]] {
         for (std::size_t q = j; q < j + 4; ++q) {
-          const std::uint32_t i = perm[q];
-          const bool own = i < fresh;  // this rank's grain, not yet streamed
+          const std::uint32_t i = perm[q] & kIndexMask;  // (kStreamedBit: met a wall, streamed)
+          const bool own = perm[q] < fresh;  // not yet streamed
           x[q] = own ? wrap_periodic(ox[i] + ovx[i] * dt, length[0]) : ox[i];
           if constexpr (Dim > 1) y[q] = own ? wrap_periodic(oy[i] + ovy[i] * dt, length[1]) : oy[i];
           if constexpr (Dim > 2) z[q] = own ? wrap_periodic(oz[i] + ovz[i] * dt, length[2]) : oz[i];
@@ -283,8 +288,8 @@ template <int Dim, bool kHazard, bool kArrivals = false>
     if constexpr (kHazard) _mm256_storeu_pd(hz + j, lanes(ohz, i0, i1, i2, i3));
   }
   for (; j < j1; ++j) {  // the last 0-3 slots of the block, as gather_slots
-    const std::uint32_t i = perm[j];
-    if (kArrivals && i >= fresh) {
+    const std::uint32_t i = kArrivals ? perm[j] & kIndexMask : perm[j];
+    if (kArrivals && perm[j] >= fresh) {
       x[j] = ox[i];
       if constexpr (Dim > 1) y[j] = oy[i];
       if constexpr (Dim > 2) z[j] = oz[i];
@@ -332,7 +337,7 @@ template <int Dim, bool kHazard, bool kArrivals = false>
 // cell and step) and the per-block counters (combined in block order by the caller).
 template <int Dim, class Law>
 void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                Decomposition& dec) {
+                Decomposition& dec, std::vector<std::size_t>& bounds, std::vector<StreamCounters>& walls) {
   Particles& p = s.particles;
   const std::size_t kCellBlock = dec.block_cells();
   const bool ranks = dec.size() > 1;
@@ -340,8 +345,21 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   const auto cell_lo = static_cast<std::uint32_t>(ranks ? dec.first_cell(dec.rank()) : 0);
   const auto cell_hi = static_cast<std::uint32_t>(ranks ? dec.end_cell(dec.rank()) : cells);
   const std::size_t first_blk = ranks ? dec.first_block() : 0;
-  if (n0 >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
+  // (the old indices leave kStreamedBit free: grains that met a wall carry it)
+  if (n0 >= kStreamedBit) throw std::runtime_error("fused_spatial_step: more than 2^31 - 1 particles in one process");
   SortScratch& w = s.sort;
+  // Boxes with walls: a grain whose flight x + v dt crosses a wall on some axis
+  // (WallAxes::crosses) flies by stream_through_walls in the streaming pass, in place in
+  // the previous arrays, and is marked as streamed (kStreamedBit); the gather copies it as it
+  // is. Its wall events go to the per-block StreamCounters of the separate pass's blocks
+  // (Decomposition::block_bounds of the order before the step), added in particle order.
+  const WallAxes axes(c.domain);
+  const bool walled = axes.any();
+  walls.clear();
+  if (walled) {
+    dec.block_bounds(s, c, bounds);
+    walls.assign(bounds.size() - 1, StreamCounters{});
+  }
   NoFillVector<double>().swap(w.gather);  // not used here
   // The cells of this step's streaming, if the previous fused step predicted them
   // (SortScratch::next_cell): it did so for this step number, and the arrays are still the
@@ -351,7 +369,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // with one (bath_substep kicks v in place) no prediction is made.
   const bool predicted = w.next_cell_step == s.step && w.next_cell.size() == n0 && w.next_cell_x == p.x.data() &&
                          w.next_cell_vx == p.vx.data();
-  const bool predict = !medium_present(c);
+  // (walls: a predicted cell would not say whether the grain meets a wall)
+  const bool predict = !medium_present(c) && !walled;
   if (predicted) w.cell.swap(w.next_cell);
   // the state before the step moves to the scratch arrays; Particles receives the new order
   NoFillVector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
@@ -440,6 +459,12 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // MPI ranks: per thread, the (increasing) indices of the grains that streamed into
   // another rank's cells
   std::vector<std::vector<std::uint32_t>> leavers(ranks ? static_cast<std::size_t>(max_threads) : 0);
+  // boxes with walls: per thread, the grains that left through an open face, and those
+  // that met a wall and stay (marked kStreamedBit)
+  std::vector<std::size_t> gone(static_cast<std::size_t>(max_threads), 0), met_wall(static_cast<std::size_t>(max_threads), 0);
+  if (walled && w.wall_events.size() < static_cast<std::size_t>(max_threads))
+    w.wall_events.resize(static_cast<std::size_t>(max_threads));
+  const double sigma_wall = std::sqrt(c.domain.wall_temperature / c.grains.mass);
   int threads_used = 1;
   {
     std::uint32_t* __restrict cell = w.cell.data();
@@ -451,6 +476,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     const double* __restrict ovz = w.previous[5].data();
     // the cell index kernels' arguments for this step's streaming (previous arrays)
     const detail::StreamCellsArgs stream_args = stream_cells_args(grid, {Lx, Ly, Lz}, dt, {ox, oy, oz}, {ovx, ovy, ovz});
+    detail::StreamCellsArgs walled_args = stream_args;
+    for (int a = 0; a < 3; ++a) walled_args.walled[a] = axes.walled[a];
 #pragma omp parallel
     {
       const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -470,9 +497,49 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         cell[i] = k;
         ++cnt[k];
       };
+      // boxes with walls: a grain that crosses a wall flies by stream_through_walls, in place
+      // (through the previous arrays' own pointers), with its wall events logged in order
+      std::vector<WallEvent>* events = walled ? &w.wall_events[static_cast<std::size_t>(t)] : nullptr;
+      if (events != nullptr) events->clear();
+      std::size_t& gone_here = gone[static_cast<std::size_t>(t)];
+      std::size_t& met_here = met_wall[static_cast<std::size_t>(t)];
+      auto stream_one_walled = [&](std::size_t i) {
+        bool crosses = axes.crosses(0, ox[i] + ovx[i] * dt);
+        if constexpr (Dim > 1) crosses = crosses || axes.crosses(1, oy[i] + ovy[i] * dt);
+        if constexpr (Dim > 2) crosses = crosses || axes.crosses(2, oz[i] + ovz[i] * dt);
+        if (!crosses) {
+          stream_one(i);
+          return;
+        }
+        double* const pos[3] = {const_cast<double*>(ox) + i, Dim > 1 ? const_cast<double*>(oy) + i : nullptr,
+                                Dim > 2 ? const_cast<double*>(oz) + i : nullptr};
+        double* const vel[3] = {const_cast<double*>(ovx) + i, const_cast<double*>(ovy) + i, const_cast<double*>(ovz) + i};
+        struct Sink {
+          std::vector<WallEvent>& log;
+          std::uint32_t index;
+          void wall(double energy) { log.push_back({index, 0, energy}); }
+          void left(double energy) { log.push_back({index, 1, energy}); }
+        } sink{*events, static_cast<std::uint32_t>(i)};
+        CounterRng rng(seed, Stream::wall_collisions, p.id[i], step);
+        if (!stream_through_walls(pos, vel, c.domain, axes, dt, sigma_wall, c.grains.mass, rng, sink)) {
+          cell[i] = kRemoved;  // left through an open face
+          ++gone_here;
+          return;
+        }
+        const std::uint32_t k = grid(*pos[0], Dim > 1 ? *pos[1] : 0.0, Dim > 2 ? *pos[2] : 0.0);
+        cell[i] = k | kStreamedBit;
+        ++cnt[k];
+        ++met_here;
+      };
       std::size_t i = lo;
       if (predicted) {
         for (; i < hi; ++i) ++cnt[cell[i]];  // the cells are known: the counts only
+      } else if (walled) {
+        // the groups inside the box cross no wall: their cells in SIMD as below, the others
+        // grain by grain
+        i = avx2 ? detail::stream_cells_avx2<Dim, true, true>(walled_args, i, hi, cell, cnt, stream_one_walled)
+                 : detail::stream_cells_sse2<Dim>(walled_args, i, hi, cell, cnt, stream_one_walled);
+        for (; i < hi; ++i) stream_one_walled(i);
       } else if (simd_cells) {
         // the cells of the groups inside the box in SIMD (detail::stream_cells_*, fused.hpp):
         // AVX2 where the CPU has it, else SSE2; the same cells on both
@@ -483,8 +550,10 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       if (ranks) {  // the leavers: not counted here (a pass over the 4-byte cells)
         std::vector<std::uint32_t>& mine = leavers[static_cast<std::size_t>(t)];
         mine.clear();
+        const std::uint32_t cell_mask = walled ? kIndexMask : kRemoved;
         for (std::size_t j = lo; j < hi; ++j) {
-          const std::uint32_t k = cell[j];
+          if (walled && cell[j] == kRemoved) continue;  // left the box
+          const std::uint32_t k = cell[j] & cell_mask;
           if (k < cell_lo || k >= cell_hi) {
             --cnt[k];
             mine.push_back(static_cast<std::uint32_t>(j));
@@ -493,8 +562,28 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       }
     }
   }
+  // the wall events into the blocks' counters, in particle order (the threads' ranges are
+  // consecutive), as the separate streaming pass adds them
+  std::size_t gone_all = 0, met_all = 0;
+  if (walled) {
+    std::size_t b = 0;
+    for (int t = 0; t < threads_used; ++t) {
+      gone_all += gone[static_cast<std::size_t>(t)];
+      met_all += met_wall[static_cast<std::size_t>(t)];
+      for (const WallEvent& e : w.wall_events[static_cast<std::size_t>(t)]) {
+        while (e.index >= bounds[b + 1]) ++b;
+        StreamCounters& cnt = walls[b];
+        if (e.left != 0) {
+          cnt.removed_energy += e.energy;
+          cnt.removed += 1;
+        } else {
+          cnt.wall_energy += e.energy;
+        }
+      }
+    }
+  }
   // MPI ranks: the leavers go to their owners (their streamed positions by the scalar
-  // expression, bitwise the gather's), the arrivals are appended to the previous arrays
+  // expression, bitwise the gather's; a grain that met a wall as it is), the arrivals are appended to the previous arrays
   // (already streamed: indices >= n0) and counted with the last thread's grains
   std::size_t arrived = 0, left = 0;
   if (ranks) {
@@ -505,16 +594,18 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     for (const auto& mine : leavers)
       for (std::uint32_t i : mine) {
         const double v[3] = {w.previous[3][i], w.previous[4][i], w.previous[5][i]};
-        double r[3] = {wrap_periodic(w.previous[0][i] + v[0] * dt, Lx), 0.0, 0.0};
-        if constexpr (Dim > 1) r[1] = wrap_periodic(w.previous[1][i] + v[1] * dt, Ly);
-        if constexpr (Dim > 2) r[2] = wrap_periodic(w.previous[2][i] + v[2] * dt, Lz);
+        double r[3] = {w.previous[0][i], 0.0, 0.0};
+        if constexpr (Dim > 1) r[1] = w.previous[1][i];
+        if constexpr (Dim > 2) r[2] = w.previous[2][i];
+        if (!walled || (w.cell[i] & kStreamedBit) == 0)  // (met a wall: streamed already)
+          for (int a = 0; a < Dim; ++a) r[a] = wrap_periodic(r[a] + v[a] * dt, length[a]);
         Decomposition::pack_migrant(c, p.id[i], v, r, hazard ? w.previous[6][i] : 0.0, leaving);
         w.cell[i] = kRemoved;  // not scattered here
       }
     const std::vector<double> in = dec.migrate_records(c, leaving, n0 - left);
     arrived = in.size() / width;
     const std::size_t total = n0 + arrived;
-    if (total >= kRemoved) throw std::runtime_error("fused_periodic_step: more than 2^32 - 1 particles in one process");
+    if (total >= kStreamedBit) throw std::runtime_error("fused_spatial_step: more than 2^31 - 1 particles in one process");
     for (int a = 0; a < 7; ++a)
       if (active[a]) w.previous[a].resize(total);  // not zero-filled: the arrivals are unpacked below
     p.id.resize(total);
@@ -533,7 +624,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     }
     dec.note_particles(total);
   }
-  const std::size_t total = n0 + arrived, n = total - left;  // indices of the previous arrays; slots
+  const std::size_t total = n0 + arrived, n = total - left - gone_all;  // indices of the previous arrays; slots
   for (int a = 0; a < 7; ++a)
     if (active[a]) state_arrays[a]->resize(n);
   w.id.resize(n);  // not zero-filled: the in-cell ordering writes every slot of every cell
@@ -573,7 +664,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     next_cell[j] = grid(xj, yj, zj);
   };
   const std::size_t fresh = n0;  // previous-array indices from here on arrived already streamed
-  const bool with_arrivals = arrived > 0;
+  const bool with_arrivals = arrived > 0 || met_all > 0;
   // per range: an id of the range's particles has a bit above 31 (then the cells are
   // ordered through the 64-bit ids, order_cell_by_id)
   std::vector<unsigned char> wide_ranges(static_cast<std::size_t>(threads_used), 0);
@@ -590,6 +681,9 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
       // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
       std::uint64_t any_id = 0;
+      // (walls: the cell's kStreamedBit moves to the old index; the mask keeps the plain
+      // loop's operations otherwise)
+      const std::uint32_t cell_mask = walled ? kIndexMask : kRemoved;
       for (std::size_t i = lo; i < hi; ++i) {
         // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
         // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
@@ -601,10 +695,10 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
           __builtin_prefetch(stable + f, 1, 1);
           __builtin_prefetch(key32 + f, 1, 1);
         }
-        const std::uint32_t k = cell[i];
-        if (k == kRemoved) continue;  // MPI: left for another rank
+        if (cell[i] == kRemoved) continue;  // MPI: left for another rank; or out of an open face
+        const std::uint32_t k = cell[i] & cell_mask;
         const std::uint32_t slot = cnt[k]++;
-        stable[slot] = static_cast<std::uint32_t>(i);
+        stable[slot] = static_cast<std::uint32_t>(i) | (cell[i] & ~cell_mask);
         const std::uint64_t d = id[i];
         any_id |= d;
         key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
@@ -653,14 +747,15 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         else
           for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
       } else {
+        const std::uint32_t index_mask = walled ? kIndexMask : kRemoved;
         for (std::size_t j = start[k0]; j < start[k1]; ++j) {
           perm[j] = stable[j];
-          id_out[j] = id[stable[j]];
+          id_out[j] = id[stable[j] & index_mask];
         }
         for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
       }
       const std::size_t j0 = start[k0], j1 = start[k1];
-      if (with_arrivals) {  // MPI ranks: some old indices >= fresh are copied as they are
+      if (with_arrivals) {  // MPI ranks, walls: some old indices >= fresh are copied as they are
         if (avx2) {
           if (hazard)
             gather_slots_avx2<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
@@ -709,14 +804,14 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
 
 }  // namespace
 
-void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                         Decomposition& dec) {
+void fused_spatial_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
+                        Decomposition& dec, std::vector<std::size_t>& bounds, std::vector<StreamCounters>& walls) {
   std::visit(
       [&](const auto& law) {
         switch (c.domain.dimensions) {
-          case 1: fused_step<1>(s, c, law, seed, per_block, dec); break;
-          case 2: fused_step<2>(s, c, law, seed, per_block, dec); break;
-          default: fused_step<3>(s, c, law, seed, per_block, dec); break;
+          case 1: fused_step<1>(s, c, law, seed, per_block, dec, bounds, walls); break;
+          case 2: fused_step<2>(s, c, law, seed, per_block, dec, bounds, walls); break;
+          default: fused_step<3>(s, c, law, seed, per_block, dec, bounds, walls); break;
         }
       },
       c.restitution);

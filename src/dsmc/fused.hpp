@@ -1,5 +1,5 @@
 #pragma once
-// The DSMC step of a fully periodic box in one parallel region (Issue #7 performance):
+// The DSMC step of a spatial box in one parallel region (Issue #7 performance):
 // streaming, cell index and counting-sort counts in one pass over the particles, the
 // scatter, then per cell the order by id, the gather into the new order and the grain-grain
 // collisions while the cell is in L1. The same particle order, random streams and counter
@@ -14,25 +14,31 @@
 
 #include "dsmc/collide.hpp"
 #include "dsmc/dsmc.hpp"
+#include "dsmc/spatial.hpp"
 #include "dsmc/state.hpp"
 
 namespace grainbath::dsmc {
 
 class Decomposition;
 
-// True for spatial runs whose faces are all periodic, unless the environment variable
-// GRAINBATH_DSMC_UNFUSED is set (the separate passes, for comparisons and tests).
+// True for spatial runs (periodic faces or walls: specular, diffuse, open), unless the
+// environment variable GRAINBATH_DSMC_UNFUSED is set (the separate passes, for comparisons
+// and tests) or a box with walls has 2^31 cells or more (kStreamedBit).
 bool fused_step_applies(const Config& c);
 
 // Streams over dt, orders by (cell, id), fills s.cell_start and collides in every cell;
 // `per_block` receives the counters of each block of dec.block_cells() cells (summed in
 // block order: the decomposition's reduction blocks, fixed by the case, so the sums are the
 // same at any thread or rank count).
+// Walls: the grains whose flight crosses one fly by stream_through_walls (spatial.hpp) in
+// the streaming pass; `walls` receives the wall exchanges per block of the order before the
+// step (Decomposition::block_bounds, into `bounds`), as the separate pass `stream` gives
+// them, for the caller to combine; empty in a fully periodic box.
 // MPI ranks: the rank's own cells, with the migration of the grains that cross into other
 // ranks' cells inside the step (fused.cpp, fused_step); per_block then holds this rank's
 // blocks, combined over the ranks in block order here.
-void fused_periodic_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
-                         Decomposition& dec);
+void fused_spatial_step(State& s, const Config& c, std::uint64_t seed, std::vector<GrainCounters>& per_block,
+                        Decomposition& dec, std::vector<std::size_t>& bounds, std::vector<StreamCounters>& walls);
 
 namespace detail {
 
@@ -62,6 +68,7 @@ struct StreamCellsArgs {
   double inv_size[3];  // CellGrid::inv_size
   double top[3];       // cells per axis - 1
   double nx, ny;       // cells along x and y
+  bool walled[3] = {false, false, false};  // WallAxes::walled (stream_cells_avx2 with kWalls)
 };
 
 template <int Dim, bool kCount = true, class Scalar>
@@ -113,10 +120,11 @@ inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, st
 // The same with AVX2, four particles per vector and three-operand instructions: ~40 % of the
 // SSE2 path's instructions per particle (docs/performance/dsmc1.md). A group with a
 // coordinate to wrap is wrapped in the vector (wrap_periodic's operations), not handed to
-// `scalar` (kept in the signature for symmetry with the SSE2 path; never called): the
-// scalar lambda cost ~3 % of the DSMC-1 step (8 % of the groups of four have a particle
-// crossing a face).
-template <int Dim, bool kCount = true, class Scalar>
+// `scalar`: the scalar lambda cost ~3 % of the DSMC-1 step (8 % of the groups of four have
+// a particle crossing a face). With kWalls, a group with a coordinate outside [0, L) on a
+// walled axis (g.walled) is handed to `scalar` particle by particle (the wall's flight),
+// before anything of it is stored or counted.
+template <int Dim, bool kCount = true, bool kWalls = false, class Scalar>
 [[gnu::target("avx2")]] inline std::size_t stream_cells_avx2(const StreamCellsArgs& g, std::size_t i, std::size_t hi,
                                                              std::uint32_t* cell, std::uint32_t* cnt, [[maybe_unused]] Scalar&& scalar) {
   const __m256d dt4 = _mm256_set1_pd(g.dt), zero = _mm256_setzero_pd();
@@ -129,15 +137,28 @@ template <int Dim, bool kCount = true, class Scalar>
   const __m256d nx = _mm256_set1_pd(g.nx), ny = _mm256_set1_pd(g.ny);
   for (; i + 4 <= hi; i += 4) {
     __m256d k[3];
+    [[maybe_unused]] bool at_wall = false;
     for (int a = 0; a < Dim; ++a) {
       __m256d xa = _mm256_add_pd(_mm256_loadu_pd(g.pos[a] + i), _mm256_mul_pd(_mm256_loadu_pd(g.vel[a] + i), dt4));
       // ordered, quiet compares: false for NaN, as SSE2's cmplt/cmpge (and wrap_periodic's)
       const __m256d outside = _mm256_or_pd(_mm256_cmp_pd(xa, zero, _CMP_LT_OQ), _mm256_cmp_pd(xa, len[a], _CMP_GE_OQ));
       if (_mm256_movemask_pd(outside) != 0) [[unlikely]] {
+        if constexpr (kWalls) {
+          if (g.walled[a]) {
+            at_wall = true;
+            break;
+          }
+        }
         xa = wrap_periodic_avx2(xa, len[a], outside);
       }
       const __m256d f = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xa, inv[a]), zero), top[a]);
       k[a] = _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(f));
+    }
+    if constexpr (kWalls) {
+      if (at_wall) [[unlikely]] {
+        for (std::size_t q = i; q < i + 4; ++q) scalar(q);
+        continue;
+      }
     }
     __m256d linear = k[0];
     if constexpr (Dim == 2) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, k[1]));

@@ -13,6 +13,10 @@
 namespace grainbath::dsmc {
 
 inline constexpr std::uint32_t kRemoved = 0xffffffffu;
+// The fused step in a box with walls (src/dsmc/fused.cpp) marks a grain that met a wall in
+// the step (streamed already, in place) by this bit of its cell index and of its old index
+// in the sort's order; the bits below it are the index.
+inline constexpr std::uint32_t kStreamedBit = 0x80000000u, kIndexMask = 0x7fffffffu;
 
 // Cell of a position (x-fastest linear index). Positions are inside the box; round-off at
 // the upper face is clamped into the last cell.

@@ -40,6 +40,16 @@ struct FieldAccumulator {
   std::vector<std::int64_t> batch_samples;
 };
 
+// What a wall did to one grain in a fused step's streaming (src/dsmc/fused.cpp), logged per
+// thread in the order it happened and added to the per-block StreamCounters afterwards in
+// particle order, as the separate streaming pass adds them: a diffuse wall's energy input
+// (left = 0) or the kinetic energy carried out of an open face (left = 1).
+struct WallEvent {
+  std::uint32_t index;  // the grain's index in the arrays before the step
+  std::uint32_t left;
+  double energy;
+};
+
 // Work arrays of the cell sort (src/dsmc/spatial.cpp), kept between steps so the hot loop
 // allocates nothing: 24 bytes per particle (cell index, permutation, one gather buffer,
 // the ids in the new order), plus per-thread cell counts.
@@ -76,6 +86,8 @@ struct SortScratch {
   // (the grid does not change within a run), empty while the plain order is used
   std::vector<std::uint32_t> block_order;
   std::size_t block_order_rows = 0, block_order_plane = 0;
+  // fused step, boxes with walls: per thread, the wall events of its grains (WallEvent)
+  std::vector<std::vector<WallEvent>> wall_events;
   static constexpr std::size_t fused_bytes_per_particle = 5 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
