@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <stdexcept>
+#include <type_traits>
 
 #include "dsmc/cell_order.hpp"
 #include "dsmc/decomposition.hpp"
@@ -681,28 +682,34 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       // scatter: the id travels with the index as a 32-bit key, so the in-cell order reads
       // contiguous keys (four per SSE2 vector, in place: order_cell_by_key32)
       std::uint64_t any_id = 0;
-      // (walls: the cell's kStreamedBit moves to the old index; the mask keeps the plain
-      // loop's operations otherwise)
-      const std::uint32_t cell_mask = walled ? kIndexMask : kRemoved;
-      for (std::size_t i = lo; i < hi; ++i) {
-        // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
-        // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
-        // cells about `lead` slots ahead of i get their first particles now, and those lines
-        // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
-        // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
-        if ((i & 15) == 0 && n > 0) {
-          const std::size_t f = (i + lead) % n;
-          __builtin_prefetch(stable + f, 1, 1);
-          __builtin_prefetch(key32 + f, 1, 1);
+      // (walls: the cell's kStreamedBit moves to the old index; the loop without walls is
+      // compiled as it was, without the masks)
+      auto scatter = [&](auto with_walls) __attribute__((always_inline)) {
+        constexpr std::uint32_t cell_mask = decltype(with_walls)::value ? kIndexMask : kRemoved;
+        for (std::size_t i = lo; i < hi; ++i) {
+          // Once per line of the scatter's arrays (16 slots), their lines at the leading edge of
+          // its writes into L2 (prefetcht2): a particle moves at most `reach` cells, so the new
+          // cells about `lead` slots ahead of i get their first particles now, and those lines
+          // come from DRAM. DSMC-1 at 1e6: 27.99 -> 27.07 CPU ns per particle-step, faster in 5
+          // of 5 interleaved pairs (docs/performance/dsmc1.md, h-dsmc7).
+          if ((i & 15) == 0 && n > 0) {
+            const std::size_t f = (i + lead) % n;
+            __builtin_prefetch(stable + f, 1, 1);
+            __builtin_prefetch(key32 + f, 1, 1);
+          }
+          if (cell[i] == kRemoved) continue;  // MPI: left for another rank; or out of an open face
+          const std::uint32_t k = cell[i] & cell_mask;
+          const std::uint32_t slot = cnt[k]++;
+          stable[slot] = static_cast<std::uint32_t>(i) | (cell[i] & ~cell_mask);
+          const std::uint64_t d = id[i];
+          any_id |= d;
+          key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
         }
-        if (cell[i] == kRemoved) continue;  // MPI: left for another rank; or out of an open face
-        const std::uint32_t k = cell[i] & cell_mask;
-        const std::uint32_t slot = cnt[k]++;
-        stable[slot] = static_cast<std::uint32_t>(i) | (cell[i] & ~cell_mask);
-        const std::uint64_t d = id[i];
-        any_id |= d;
-        key32[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(d) ^ 0x80000000u);
-      }
+      };
+      if (walled)
+        scatter(std::true_type{});
+      else
+        scatter(std::false_type{});
       wide_ranges[static_cast<std::size_t>(u)] = (any_id >> 32) != 0;
     }
 #pragma omp barrier
