@@ -150,6 +150,18 @@ void BM_DSMC1_SpartaBox_Bird(benchmark::State& state) {
 }
 BENCHMARK(BM_DSMC1_SpartaBox_Bird)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
 
+// DSMC-1 between walls: the same box with diffuse walls at x = 0, L (at the grains'
+// temperature) and specular walls at y = 0, L, periodic in z. Boxes with walls take the fused
+// step since 2026-12-05 (src/dsmc/fused.cpp: the grains that meet a wall fly by
+// stream_through_walls in the streaming pass); GRAINBATH_DSMC_UNFUSED=1 gives the separate
+// passes, bitwise the same results, for the comparison (docs/PERFORMANCE.md).
+void BM_DSMC1_WalledBox(benchmark::State& state) {
+  std::string toml = kDsmc1;
+  toml.replace(toml.find("[grains]\n"), 9, "boundaries = [\"diffuse\", \"specular\", \"periodic\"]\n[grains]\n");
+  for (auto _ : state) report(state, run_case(toml, static_cast<int>(state.range(0))), 1024000.0 * 200, 1024000.0, 3);
+}
+BENCHMARK(BM_DSMC1_WalledBox)->Arg(1)->Arg(2)->UseManualTime()->Iterations(1)->Unit(benchmark::kSecond);
+
 // DSMC-1 at N = 1e7: 86^3 cells of 0.25 (the same cell size, density and dt), 50 steps.
 const char* kDsmc1Large = R"(
 [domain]

@@ -30,6 +30,7 @@ py=/usr/bin/python3
 
 echo "== DSMC ($(date -u +%H:%M:%S), $(uptime))" | tee "$out/dsmc.txt"
 "$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" "$reps" 'DSMC1_SpartaBox/1/' 'DSMC1_SpartaBox/2/' 'DSMC1_SpartaBox_Bird/1/' 'DSMC1_SpartaBox_Bird/2/' \
+  'DSMC1_WalledBox/1/' 'DSMC1_WalledBox/2/' \
   'DSMC2_HomogeneousBath/1/' 'DSMC2_HomogeneousBath/2/' 'StreamTriad' | tee -a "$out/dsmc.txt"
 "$py" "$here/bench/dsmc_medians.py" "$build/bench/bench_dsmc" 1 'DSMC1_SpartaBox_1e7/1/' 'DSMC1_SpartaBox_1e7/2/' \
   | tee -a "$out/dsmc.txt"

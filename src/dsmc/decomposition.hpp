@@ -111,7 +111,7 @@ class Decomposition {
   // reaches its owner (several rounds only when some grain crossed more than one rank's
   // cells in a step). Leaves the cell of every particle (kRemoved: gone) in s.sort.cell.
   void migrate(State& s, const Config& c, std::vector<std::uint8_t>& removed);
-  // The same exchange for the fused step of a periodic box (src/dsmc/fused.cpp), which finds
+  // The same exchange for the fused step (src/dsmc/fused.cpp), which finds
   // the grains that left while it streams and packs them itself: `leaving` holds their
   // records (migrant_width(c) doubles each: the id's 64 bits, vx, vy, vz, the streamed
   // position, one per dimension, and the bath residual if a medium is present), `staying`

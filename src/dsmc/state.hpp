@@ -61,7 +61,7 @@ struct SortScratch {
   NoFillVector<std::uint64_t> id;         // ids in the new order (swapped with Particles::id; no zero fill)
   std::vector<std::uint32_t> counts;      // [thread][cell] counting-sort offsets
   static constexpr std::size_t bytes_per_particle = 2 * sizeof(std::uint32_t) + sizeof(double) + sizeof(std::uint64_t);
-  // fully periodic boxes (src/dsmc/fused.cpp): the state before the step, swapped out of
+  // fused step (src/dsmc/fused.cpp): the state before the step, swapped out of
   // Particles so that the gather into cell order writes the new arrays while it reads these
   // (replaces `gather`): x, y, z, vx, vy, vz, bath residual
   NoFillVector<double> previous[7];  // (no zero fill: swapped with Particles' arrays)

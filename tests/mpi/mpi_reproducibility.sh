@@ -13,7 +13,7 @@
 # whole population (performance.rank_peak_particles < dsmc.particles).
 #
 # usage: mpi_reproducibility.sh GRAINBATH CASE_DIR WORK_DIR CHECK...
-#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | np3tiled | checkpoint (each compared with the plain run)
+#   CHECK: np1 | np2 | np2t2 | np3 | np4 | np4t2 | np3tiled | np2unfused | checkpoint (each compared with the plain run)
 #          rebalance (the 2-rank run must have moved its boundary at least once)
 #          multihop (the 4-rank run must have forwarded grains across two ranks in a step)
 set -euo pipefail
@@ -86,6 +86,13 @@ for check in "${checks[@]}"; do
       GRAINBATH_DSMC_TILE_ROWS=2 mpi 3 run "$case_dir" --out "$work/np3tiled" -q > /dev/null
       same "$work/plain" "$work/np3tiled" "3 ranks, tiled block order"
       distributed "$work/np3tiled" "3 ranks, tiled block order" ;;
+    np2unfused)
+      # the separate passes on 2 ranks (stream, migrate, sort, collide: GRAINBATH_DSMC_UNFUSED)
+      # against the plain run's fused step: boxes with walls take the fused step since
+      # 2026-12-05, and both paths must still give the same bits
+      GRAINBATH_DSMC_UNFUSED=1 mpi 2 run "$case_dir" --out "$work/np2unfused" -q > /dev/null
+      same "$work/plain" "$work/np2unfused" "2 ranks, separate passes"
+      distributed "$work/np2unfused" "2 ranks, separate passes" ;;
     multihop)
       # after np4: some grain must have crossed two ranks' cells in one step (forwarded)
       python3 - "$work/np4/summary.json" <<'PY' || fail=1
