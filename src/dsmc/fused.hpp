@@ -121,9 +121,9 @@ inline std::size_t stream_cells_sse2(const StreamCellsArgs& g, std::size_t i, st
 // SSE2 path's instructions per particle (docs/performance/dsmc1.md). A group with a
 // coordinate to wrap is wrapped in the vector (wrap_periodic's operations), not handed to
 // `scalar`: the scalar lambda cost ~3 % of the DSMC-1 step (8 % of the groups of four have
-// a particle crossing a face). With kWalls, a group with a coordinate outside [0, L) on a
-// walled axis (g.walled) is handed to `scalar` particle by particle (the wall's flight),
-// before anything of it is stored or counted.
+// a particle crossing a face). With kWalls, a particle with a coordinate outside [0, L) on
+// a walled axis (g.walled) is handed to `scalar` (the wall's flight) instead of being stored
+// and counted; its group's other particles are stored as usual, in lane order.
 template <int Dim, bool kCount = true, bool kWalls = false, class Scalar>
 [[gnu::target("avx2")]] inline std::size_t stream_cells_avx2(const StreamCellsArgs& g, std::size_t i, std::size_t hi,
                                                              std::uint32_t* cell, std::uint32_t* cnt, [[maybe_unused]] Scalar&& scalar) {
@@ -137,7 +137,7 @@ template <int Dim, bool kCount = true, bool kWalls = false, class Scalar>
   const __m256d nx = _mm256_set1_pd(g.nx), ny = _mm256_set1_pd(g.ny);
   for (; i + 4 <= hi; i += 4) {
     __m256d k[3];
-    [[maybe_unused]] bool at_wall = false;
+    [[maybe_unused]] int at_wall = 0;  // kWalls: the lanes outside [0, L) on a walled axis
     for (int a = 0; a < Dim; ++a) {
       __m256d xa = _mm256_add_pd(_mm256_loadu_pd(g.pos[a] + i), _mm256_mul_pd(_mm256_loadu_pd(g.vel[a] + i), dt4));
       // ordered, quiet compares: false for NaN, as SSE2's cmplt/cmpge (and wrap_periodic's)
@@ -145,25 +145,36 @@ template <int Dim, bool kCount = true, bool kWalls = false, class Scalar>
       if (_mm256_movemask_pd(outside) != 0) [[unlikely]] {
         if constexpr (kWalls) {
           if (g.walled[a]) {
-            at_wall = true;
-            break;
+            at_wall |= _mm256_movemask_pd(outside);  // no wrap: these lanes' cells are not used
+          } else {
+            xa = wrap_periodic_avx2(xa, len[a], outside);
           }
+        } else {
+          xa = wrap_periodic_avx2(xa, len[a], outside);
         }
-        xa = wrap_periodic_avx2(xa, len[a], outside);
       }
       const __m256d f = _mm256_min_pd(_mm256_max_pd(_mm256_mul_pd(xa, inv[a]), zero), top[a]);
       k[a] = _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(f));
-    }
-    if constexpr (kWalls) {
-      if (at_wall) [[unlikely]] {
-        for (std::size_t q = i; q < i + 4; ++q) scalar(q);
-        continue;
-      }
     }
     __m256d linear = k[0];
     if constexpr (Dim == 2) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, k[1]));
     if constexpr (Dim == 3) linear = _mm256_add_pd(k[0], _mm256_mul_pd(nx, _mm256_add_pd(k[1], _mm256_mul_pd(ny, k[2]))));
     const __m128i kk = _mm256_cvttpd_epi32(linear);
+    if constexpr (kWalls) {
+      if (at_wall != 0) [[unlikely]] {  // the lanes at a wall to `scalar`, the others as below, in order
+        alignas(16) std::uint32_t lane[4];
+        _mm_store_si128(reinterpret_cast<__m128i*>(lane), kk);
+        for (int q = 0; q < 4; ++q) {
+          if ((at_wall >> q) & 1) {
+            scalar(i + static_cast<std::size_t>(q));
+          } else {
+            cell[i + static_cast<std::size_t>(q)] = lane[q];
+            if constexpr (kCount) ++cnt[lane[q]];
+          }
+        }
+        continue;
+      }
+    }
     _mm_storeu_si128(reinterpret_cast<__m128i*>(cell + i), kk);
     if constexpr (kCount) {
       ++cnt[static_cast<std::uint32_t>(_mm_cvtsi128_si32(kk))];
