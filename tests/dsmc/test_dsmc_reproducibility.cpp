@@ -40,14 +40,9 @@ dimensions = 3
 length = [2.0, 2.0, 2.0]
 cells = [8, 8, 8]
 )";
-const char* kSpatialRest = R"(
-[grains]
-temperature = 1.3
-[background]
-mass_ratio = 0.4
-density = 1.0
-temperature = 1.0
-knudsen = 0.5
+// inelastic grains and the run: with a medium (kSpatialRest) or without one, drifting
+// (kSpatialRestWithoutBath: the fused step then predicts the next step's cells)
+const std::string kSpatialRun = R"(
 [restitution]
 law = "constant"
 e = 0.8
@@ -59,6 +54,20 @@ t_end = 0.6
 every = 0.1
 steady_from = 0.3
 )";
+const std::string kSpatialRest = R"(
+[grains]
+temperature = 1.3
+[background]
+mass_ratio = 0.4
+density = 1.0
+temperature = 1.0
+knudsen = 0.5
+)" + kSpatialRun;
+const std::string kSpatialRestWithoutBath = R"(
+[grains]
+temperature = 1.3
+drift = [0.3, -0.2, 0.1]
+)" + kSpatialRun;
 
 std::vector<std::string> physics_keys(const grainbath::Summary& s) {
   std::vector<std::string> keys;
@@ -243,48 +252,17 @@ steady_from = 0.3
 // order), at 1 and 2 threads, in 3, 2 and 1 dimensions with specular, diffuse and open faces
 // beside periodic axes, with a bath and without one.
 TEST(DsmcReproducibility, FusedStepWithWallsEqualsSeparatePasses) {
-  const char* const walled_domains[] = {R"(
-[domain]
-dimensions = 3
-length = [2.0, 2.0, 2.0]
-cells = [8, 8, 8]
-boundaries = ["diffuse", "diffuse", "periodic", "periodic", "open", "specular"]
-wall_temperature = 1.5
-)",
-                                        R"(
-[domain]
-dimensions = 2
-length = [2.0, 1.0]
-cells = [10, 5]
-boundaries = ["specular", "specular", "open", "diffuse"]
-wall_temperature = 0.7
-)",
-                                        R"(
-[domain]
-dimensions = 1
-length = [2.0]
-cells = [16]
-boundaries = ["diffuse", "open"]
-)"};
-  const char* without_bath = R"(
-[grains]
-temperature = 1.3
-drift = [0.3, -0.2, 0.1]
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.02
-t_end = 0.6
-[sampling]
-every = 0.1
-steady_from = 0.3
-)";
-  for (const char* rest : {kSpatialRest, without_bath}) {
-    for (const char* domain : walled_domains) {
-      SCOPED_TRACE(std::string(domain) + rest);
-      const auto separate = expect_fused_equals_separate(std::string(domain) + rest, 13, "walled");
+  // the periodic boxes' geometry (kPeriodicDomains, in order) with walls
+  const char* const walls[] = {
+      "boundaries = [\"diffuse\", \"diffuse\", \"periodic\", \"periodic\", \"open\", \"specular\"]\n"
+      "wall_temperature = 1.5\n",
+      "boundaries = [\"specular\", \"specular\", \"open\", \"diffuse\"]\nwall_temperature = 0.7\n",
+      "boundaries = [\"diffuse\", \"open\"]\n"};
+  for (const std::string& rest : {kSpatialRest, kSpatialRestWithoutBath}) {
+    for (int d = 0; d < 3; ++d) {
+      const std::string toml = std::string(kPeriodicDomains[d]) + walls[d] + rest;
+      SCOPED_TRACE(toml);
+      const auto separate = expect_fused_equals_separate(toml, 13, "walled");
       EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
       EXPECT_GT(separate.summary.number("counters.particles_removed"), 0.0);
       EXPECT_NE(separate.summary.number("energy.wall_input_per_grain"), 0.0);
@@ -308,24 +286,9 @@ dimensions = 3
 length = [1.75, 1.5, 1.25]
 cells = [7, 6, 5]
 )";
-  const char* without_bath = R"(
-[grains]
-temperature = 1.3
-drift = [0.3, -0.2, 0.1]
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.02
-t_end = 0.4
-[sampling]
-every = 0.1
-steady_from = 0.2
-)";
   for (const char* rows : {"1", "2", "4"}) {
     ::setenv("GRAINBATH_DSMC_TILE_ROWS", rows, 1);
-    for (const char* rest : {without_bath, kSpatialRest}) {
+    for (const std::string& rest : {kSpatialRestWithoutBath, kSpatialRest}) {
       SCOPED_TRACE(std::string("tile rows ") + rows + rest);
       const auto separate = expect_fused_equals_separate(std::string(box) + rest, 11, std::string("tiled") + rows);
       EXPECT_GT(separate.summary.number("counters.grain_collisions"), 0.0);
