@@ -1,6 +1,6 @@
 #pragma once
 // Ordering the particles of one cell by global id, shared by the cell sort
-// (src/dsmc/spatial.cpp) and the fused periodic step (src/dsmc/fused.cpp).
+// (src/dsmc/spatial.cpp) and the fused step (src/dsmc/fused.cpp).
 #include <immintrin.h>
 
 #include <algorithm>

@@ -376,8 +376,13 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // the state before the step moves to the scratch arrays; Particles receives the new order
   NoFillVector<double>* state_arrays[7] = {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.bath_hazard};
   bool active[7] = {};
+  // which arrays the grains carry follows from the configuration, not only from emptiness: a
+  // rank with no grains may receive some in this step (positions in Dim axes, velocities
+  // always, the bath residual iff a medium is present, as in the driver's initial state)
+  const bool medium = medium_present(c);
   for (int a = 0; a < 7; ++a) {
-    if (state_arrays[a]->empty()) continue;
+    const bool carried = a < 3 ? a < Dim : a < 6 ? true : medium;
+    if (!carried && state_arrays[a]->empty()) continue;
     active[a] = true;
     // not zero-filled (core/no_fill_vector.hpp): after the swap Particles holds the unfilled
     // array, and the gather below writes each of its n slots
@@ -385,7 +390,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     state_arrays[a]->swap(w.previous[a]);
   }
   w.cell.resize(n0);
-  const bool hazard = !p.bath_hazard.empty();
+  const bool hazard = active[6];
   const int max_threads = omp_get_max_threads();
   if (w.counts.size() < static_cast<std::size_t>(max_threads) * cells) w.counts.resize(static_cast<std::size_t>(max_threads) * cells);
   s.cell_start.resize(cells + 1);
@@ -419,7 +424,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // within (tile_rows + 2) rows of three planes (~3 MB), and only the rows on a tile's edges
   // are read twice from memory. The block order changes nothing in the results: a block's
   // cells are ordered, gathered, collided and predicted from its own slots, its counters go
-  // to per_block[blk] and are summed in block order (fused_periodic_step), and its random
+  // to per_block[blk] and are summed in block order (fused_spatial_step), and its random
   // words are keyed by cell and step.
   const std::size_t nx = c.domain.cells[0], ny = Dim > 1 ? c.domain.cells[1] : 1, nz = Dim > 2 ? c.domain.cells[2] : 1;
   const std::size_t plane = nx * ny;
@@ -469,12 +474,15 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   int threads_used = 1;
   {
     std::uint32_t* __restrict cell = w.cell.data();
-    const double* __restrict ox = w.previous[0].data();
-    const double* __restrict oy = Dim > 1 ? w.previous[1].data() : nullptr;
-    const double* __restrict oz = Dim > 2 ? w.previous[2].data() : nullptr;
-    const double* __restrict ovx = w.previous[3].data();
-    const double* __restrict ovy = w.previous[4].data();
-    const double* __restrict ovz = w.previous[5].data();
+    // not restrict: a grain that meets a wall is flown in place through these pointers, and
+    // the SIMD kernels read the same arrays through stream_args (cell and counts are
+    // uint32_t, so the doubles' loads need no restrict to stay out of their way)
+    double* const ox = w.previous[0].data();
+    double* const oy = Dim > 1 ? w.previous[1].data() : nullptr;
+    double* const oz = Dim > 2 ? w.previous[2].data() : nullptr;
+    double* const ovx = w.previous[3].data();
+    double* const ovy = w.previous[4].data();
+    double* const ovz = w.previous[5].data();
     // the cell index kernels' arguments for this step's streaming (previous arrays)
     const detail::StreamCellsArgs stream_args = stream_cells_args(grid, {Lx, Ly, Lz}, dt, {ox, oy, oz}, {ovx, ovy, ovz});
     detail::StreamCellsArgs walled_args = stream_args;
@@ -512,9 +520,8 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
           stream_one(i);
           return;
         }
-        double* const pos[3] = {const_cast<double*>(ox) + i, Dim > 1 ? const_cast<double*>(oy) + i : nullptr,
-                                Dim > 2 ? const_cast<double*>(oz) + i : nullptr};
-        double* const vel[3] = {const_cast<double*>(ovx) + i, const_cast<double*>(ovy) + i, const_cast<double*>(ovz) + i};
+        double* const pos[3] = {ox + i, Dim > 1 ? oy + i : nullptr, Dim > 2 ? oz + i : nullptr};
+        double* const vel[3] = {ovx + i, ovy + i, ovz + i};
         struct Sink {
           std::vector<WallEvent>& log;
           std::uint32_t index;
@@ -603,7 +610,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
         Decomposition::pack_migrant(c, p.id[i], v, r, hazard ? w.previous[6][i] : 0.0, leaving);
         w.cell[i] = kRemoved;  // not scattered here
       }
-    const std::vector<double> in = dec.migrate_records(c, leaving, n0 - left);
+    const std::vector<double> in = dec.migrate_records(c, leaving, n0 - left - gone_all);
     arrived = in.size() / width;
     const std::size_t total = n0 + arrived;
     if (total >= kStreamedBit) throw std::runtime_error("fused_spatial_step: more than 2^31 - 1 particles in one process");

@@ -139,7 +139,7 @@ inline bool stream_through_walls(double* const pos[3], double* const vel[3], con
 }
 
 // Streams every particle over dt and applies the face boundaries. Particles leaving through
-// open faces are marked (id kept, velocity zeroed) in `removed` and dropped by sort_by_cell.
+// open faces are marked in `removed` (their state as it was where they left) and dropped by sort_by_cell.
 // Wall exchanges are counted per reduction block ([bounds[b], bounds[b+1]) in particle
 // index, src/dsmc/decomposition.hpp) into `partial`, which the caller adds in block order
 // (nothing is counted in a fully periodic box).

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Tiny spatial cases under MPI (docs/dsmc.md, "MPI domain decomposition"): fewer grains than
 # ranks, ranks that own no cell (more ranks than reduction blocks), a rank whose slab empties
-# during the run. Every run must finish (each mpirun under a timeout: a rank that skips a
+# during the run (and one that then receives grains again), ranks whose grains all leave
+# through an open face. Every run must finish (each mpirun under a timeout: a rank that skips a
 # collective hangs the others, and the test must then fail, not block), and its results.h5
 # (h5diff, exact; /parameters left out: run.threads) and summary.json (same_summary.py:
 # every number and state.hash) must be bitwise those of the plain process. Checkpoint and
@@ -9,7 +10,7 @@
 # them on R' ranks (1 process included), must end bitwise where the plain run ended.
 #
 # usage: mpi_tiny.sh GRAINBATH CASES_DIR WORK_DIR
-#   CASES_DIR holds tiny/, emptyslab/ and fewblocks/ (tests/mpi/cases)
+#   CASES_DIR holds tiny/, emptyslab/, refillslab/, drainslab/ and fewblocks/ (tests/mpi/cases)
 set -euo pipefail
 exe=$1
 cases=$2
@@ -56,6 +57,23 @@ if e < need:
     sys.exit(1)
 PY
 }
+# unfused CASE TAG [ARGS...]: after check's 2-rank run TAG-np2, the separate passes on 2 ranks
+# (GRAINBATH_DSMC_UNFUSED) must give the plain run's bits and count the same steps without
+# grains (performance.rank_empty_steps, which same_summary.py leaves out with performance.*)
+unfused() {
+  local case_dir=$cases/$1 tag=$2
+  shift 2
+  GRAINBATH_DSMC_UNFUSED=1 run_np 2 "$tag-np2unfused" "$case_dir" "$@" || return 0
+  same "$tag-plain" "$tag-np2unfused" "$tag, 2 ranks, separate passes"
+  python3 - "$work/$tag-np2/summary.json" "$work/$tag-np2unfused/summary.json" "$tag" <<'PY' || fail=1
+import json, sys
+fused, separate = (json.load(open(f))["performance"]["rank_empty_steps"] for f in sys.argv[1:3])
+if fused != separate:
+    print("FAIL %s: rank_empty_steps %d (fused step) != %d (separate passes)" % (sys.argv[3], fused, separate))
+    sys.exit(1)
+print("ok   %s: rank_empty_steps %d in the fused step and the separate passes" % (sys.argv[3], fused))
+PY
+}
 # check CASE TAG NPS CK_NP RESUME_NPS [ARGS...]: plain run; NPS ranks each; a run with
 # checkpoints on CK_NP ranks (0: the plain process) resumed on each of RESUME_NPS (1: the
 # plain process); every result compared with the plain run's
@@ -93,6 +111,15 @@ check tiny tiny "2 3 4" 3 "1 2"
 check tiny tiny-nomedium "3" 0 "3" --set background.density=0
 # a slab that empties during the run; with 3 ranks one rank owns no block
 check emptyslab emptyslab "2 3" 2 "1 3"
+# a slab that empties and then receives grains again (the fused step's arrays on a rank with
+# no grains), with the medium (the bath residuals migrate) and without it
+check refillslab refillslab "2" 2 "1"
+unfused refillslab refillslab
+check refillslab refillslab-nomedium "2" 0 "2" --set background.density=0
+unfused refillslab refillslab-nomedium --set background.density=0
+# each rank's last grains leave through an open face (not by migration)
+check drainslab drainslab "2" 2 "1"
+unfused drainslab drainslab
 # periodic (fused step), 2 blocks on 3 and 4 ranks
 check fewblocks fewblocks "3 4" 4 "1 2"
 # without a medium the fused step predicts the next step's cells (SortScratch::next_cell),
