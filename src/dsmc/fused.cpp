@@ -21,6 +21,9 @@ bool fused_step_applies(const Config& c) {
   // walls: the grains that met one this step are marked by the top bit of their cell index
   // (kStreamedBit), which the grid's cells must leave free
   if (!fully_periodic(c.domain) && c.domain.cell_count() >= kStreamedBit) return false;
+  // and the old indices too (no process can then hold 2^31 grains: the whole population
+  // is fewer); larger populations take the separate passes
+  if (c.particles >= kStreamedBit) return false;
   return std::getenv("GRAINBATH_DSMC_UNFUSED") == nullptr;
 }
 
