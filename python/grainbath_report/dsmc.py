@@ -3,7 +3,7 @@ import math
 
 import numpy as np
 
-from .common import deviation, free_cooling, homogeneous_background
+from .common import deviation, free_cooling, homogeneous_state
 from .document import Section, fmt, fmt_pm
 from .plotting import SIM, SIM_POINTS, plt, subplots, theory_style
 
@@ -122,11 +122,12 @@ def temperature(run, ctx):
 
 def _temperature_alone(run, ctx, s, t, T):
     """No relaxation curves (spatial run, or the closures do not apply): T(t) with the steady roots
-    when the background is uniform (then the homogeneous T# is the reference)."""
+    when the state is homogeneous (uniform background, no diffuse walls or open faces: then the
+    homogeneous T# is the reference)."""
     fig, ax = subplots(figsize=(7.5, 4.2))
     _shade_window(ax, run, t)
     ax.plot(t, T, **dict(SIM, label="DSMC, whole domain"))
-    uniform = run.param("background.profile", "uniform") == "uniform"
+    uniform = homogeneous_state(run)
     shown = []
     if uniform:
         for c in CLOSURES:
@@ -143,7 +144,9 @@ def _temperature_alone(run, ctx, s, t, T):
              (", beside the steady temperatures T# of the closures for a homogeneous gas in this (uniform) "
               "background; the grey band is the averaging window." if shown else
               "; no closure relaxation curves were written for this run (spatial run, or the closures do not "
-              "apply to these parameters)."))
+              "apply to these parameters)." + ("" if uniform else
+              " The background profile or the walls (diffuse or open faces) make the state inhomogeneous: "
+              "the homogeneous T# describes at most a bulk far from them (profiles below).")))
     if shown:
         Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
         s.table(["source", "T  [E]", "theory − DSMC"],
@@ -281,12 +284,13 @@ def sonine_a2(run, ctx):
     t0 = run.param("sampling.steady_from")
     if m is not None and isinstance(t0, (int, float)):
         ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_pm(m, e, 4)}")
-    if run.has("theory/sonine/a2"):
+    homogeneous = homogeneous_state(run)  # else the homogeneous a2 is no prediction for the domain
+    if run.has("theory/sonine/a2") and homogeneous:
         ax.plot(t, run.arr("theory/sonine/a2"), **theory_style("sonine"))
     vne = run.num("theory.haff.a2_van_noije_ernst")
     if vne is not None:
         ax.axhline(vne, **theory_style("haff", label=f"van Noije-Ernst a₂ = {vne:.4g}"))
-    a2eq = run.num("theory.equilibrium.sonine.a2")
+    a2eq = run.num("theory.equilibrium.sonine.a2") if homogeneous else None
     if a2eq is not None and not run.has("theory/sonine/a2"):
         ax.axhline(a2eq, **theory_style("sonine", label=f"Sonine closure, steady a₂ = {a2eq:.4g}"))
     ax.axhline(0, color="black", lw=0.6)
@@ -296,8 +300,10 @@ def sonine_a2(run, ctx):
     ax.legend(loc="best")
     s.figure(ctx.save(fig, "a2"),
              f"a₂(t) measured in DSMC (black; one sample has noise ≈ √(8/15N)"
-             f"{' = ' + fmt(math.sqrt(8 / (15 * N)), 2) if N else ''}) beside the Sonine closure's "
-             "a₂(t) and its steady value (or the van Noije-Ernst value of the homogeneous cooling state).")
+             f"{' = ' + fmt(math.sqrt(8 / (15 * N)), 2) if N else ''})" +
+             (" beside the Sonine closure's a₂(t) and its steady value (or the van Noije-Ernst value of the "
+              "homogeneous cooling state)." if homogeneous else
+              "; the state is inhomogeneous (background profile or walls), so no homogeneous theory is drawn."))
     rows = [["DSMC, window mean (`a2.mean`)", fmt_pm(m, e), ""]]
     if a2eq is not None:
         rows.append(["Sonine closure (`theory.equilibrium.sonine.a2`)", fmt(a2eq), deviation(m, e, a2eq)])
@@ -323,7 +329,7 @@ def steady_temperature(run, ctx):
     """Steady T# from DSMC beside the closures' roots and the ε-expansions."""
     if not _is_dsmc(run) or run.num("theory.equilibrium.maxwellian.T") is None:
         return None
-    if not homogeneous_background(run):  # imposed profile: the homogeneous T# does not describe the domain
+    if not homogeneous_state(run):  # imposed profile or walls: the homogeneous T# does not describe the domain
         return None
     Tm, Te = run.num("temperature.mean"), run.num("temperature.stderr")
     if Tm is None:
