@@ -58,7 +58,7 @@ def temperature(run, ctx):
     T = run.arr("timeseries/temperature")
     N = _particles(run)
     s = Section("Temperature T(t): simulation and theory", "temperature")
-    if _free_cooling(run):
+    if _free_cooling(run) and homogeneous_state(run):  # (walls: Haff's law is no prediction)
         return _temperature_haff(run, ctx, s, t, T, N)
     have = [c for c in CLOSURES if run.has(f"theory/{c}/temperature")]
     th = {c: run.arr(f"theory/{c}/temperature") for c in have}
@@ -287,7 +287,7 @@ def sonine_a2(run, ctx):
     homogeneous = homogeneous_state(run)  # else the homogeneous a2 is no prediction for the domain
     if run.has("theory/sonine/a2") and homogeneous:
         ax.plot(t, run.arr("theory/sonine/a2"), **theory_style("sonine"))
-    vne = run.num("theory.haff.a2_van_noije_ernst")
+    vne = run.num("theory.haff.a2_van_noije_ernst") if homogeneous else None
     if vne is not None:
         ax.axhline(vne, **theory_style("haff", label=f"van Noije-Ernst a₂ = {vne:.4g}"))
     a2eq = run.num("theory.equilibrium.sonine.a2") if homogeneous else None

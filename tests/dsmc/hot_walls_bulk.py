@@ -21,8 +21,12 @@ import shutil
 import subprocess
 import sys
 
-import h5py
-import numpy as np
+try:
+    import h5py
+    import numpy as np
+except ImportError as e:
+    print(f"SKIP: {sys.executable} lacks {e.name} (Debian: python3-h5py python3-numpy)")
+    sys.exit(77)
 
 exe, cases, work = sys.argv[1:4]
 seeds = int(sys.argv[4]) if len(sys.argv) > 4 else 8
