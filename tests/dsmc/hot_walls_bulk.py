@@ -10,8 +10,10 @@ then checks
     box's temperature at that density within 4 sigma (seed spreads of both);
   - the bulk is colder than a periodic box at the mean density n = 1 by more than 4 sigma
     (the density effect is resolved, so the previous check is not vacuous);
-  - the layer's e-folding length of T - T_bulk lies within 15 % of a grain's mean free path
-    through the medium, eps <|v|>/<|v - w|> (Maxwellian grains at TB and medium: 0.0707).
+  - the layer's e-folding length of T - T_bulk (one exponential fitted with weights
+    (excess/err)^2, so set by the cells next to the wall; the layer is not one exponential)
+    lies within 15 % of a grain's mean free path through the medium, eps <|v|>/<|v - w|>
+    (Maxwellian grains at TB and medium: 0.0707): a regression check of its order.
 Seeds are fixed (1..SEEDS); about 30 s of CPU per run.
 
 usage: hot_walls_bulk.py GRAINBATH CASES_DIR WORK_DIR [SEEDS]"""
