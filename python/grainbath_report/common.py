@@ -13,6 +13,12 @@ UNITS = {
 }
 
 
+def has_walls(run):
+    """Diffuse walls or open faces: they exchange energy or grains (layers next to them)."""
+    faces = run.param("domain.boundaries", [])
+    return bool(set(faces if isinstance(faces, list) else [faces]) & {"diffuse", "open"})
+
+
 def homogeneous_state(run):
     """True unless the run imposes a spatial background profile, or has faces that exchange
     energy or grains (diffuse walls, open faces): then the homogeneous steady-state theory
@@ -21,8 +27,7 @@ def homogeneous_state(run):
     specular face does not: such a box is still compared)."""
     if run.param("background.profile", "uniform") != "uniform":
         return False
-    faces = run.param("domain.boundaries", [])
-    return not set(faces if isinstance(faces, list) else [faces]) & {"diffuse", "open"}
+    return not has_walls(run)
 
 
 def free_cooling(run):

@@ -7,14 +7,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from .common import has_walls
 from .document import Section, fmt, fmt_pm
 from .plotting import SIM, plt, subplots, theory_style
-
-
-def _has_walls(run):
-    """Diffuse walls or open faces (they exchange energy or grains: layers next to them)."""
-    faces = run.param("domain.boundaries", [])
-    return bool(set(faces if isinstance(faces, list) else [faces]) & {"diffuse", "open"})
 
 TIME_LABEL = "time t  [λ/√(E/m)]"
 
@@ -222,7 +217,7 @@ def profiles(run, ctx):
              "Cell averages over the steady window (black, ± batch standard errors): grain density against the "
              "drift-diffusion prediction n ∝ T_B^(−p) (normalised to the same mean density), and the grain "
              "temperature beside the imposed background temperature." +
-             ("" if not _has_walls(run) else " The drift-diffusion limit has no walls: the diffuse walls or open "
+             ("" if not has_walls(run) else " The drift-diffusion limit has no walls: the diffuse walls or open "
               "faces of this box make the layers next to them, where it does not apply."))
     rows = [[f"`{key}`", fmt(run.num(key))] for key in
             ["profile.exponent", "profile.exponent_stderr", "theory.hydro.thermal_diffusion_exponent",
