@@ -297,6 +297,46 @@ cells = [7, 6, 5]
   }
 }
 
+// Which runs take the fused step (fused_step_applies): spatial ones, except where a grain's
+// cell index could reach the kStreamedBit that marks grains that met a wall (a walled grid of
+// 2^31 cells or more) or an old index could (2^31 grains or more): those take the separate
+// passes instead of stopping. A case file cannot ask for either today (read_config: at most
+// 2e9 grains, at least 2 per cell), so the sizes are set on a read configuration, as a
+// program using the library or a later limit could; nothing is allocated.
+TEST(DsmcReproducibility, FusedStepAppliesBelowTheStreamedBitOnly) {
+  using grainbath::dsmc::Boundary;
+  const auto read = [](const std::string& toml) {
+    grainbath::CaseReader reader(toml, "/tmp/test.toml");
+    reader.accept("run", "solver");
+    auto cfg = grainbath::dsmc::read_config(reader);
+    reader.finish();
+    return cfg;
+  };
+  ASSERT_EQ(std::getenv("GRAINBATH_DSMC_UNFUSED"), nullptr);
+  EXPECT_FALSE(grainbath::dsmc::fused_step_applies(read(kCase)));  // homogeneous: never
+  const auto periodic = read(std::string(kPeriodicBox3d) + kSpatialRest);
+  ASSERT_TRUE(grainbath::dsmc::fused_step_applies(periodic));
+  // grains: 2^31 - 1 fused, 2^31 not
+  auto c = periodic;
+  c.particles = 2147483647;
+  EXPECT_TRUE(grainbath::dsmc::fused_step_applies(c));
+  c.particles = 2147483648;
+  EXPECT_FALSE(grainbath::dsmc::fused_step_applies(c));
+  // cells: 2^31 of them fused in a periodic box (no grain is ever marked), not with a wall;
+  // 2^31 - 2^20 cells fused with a wall
+  c = periodic;
+  c.domain.cells = {2048, 1024, 1024};
+  EXPECT_TRUE(grainbath::dsmc::fused_step_applies(c));
+  c.domain.faces[4] = Boundary::specular;
+  EXPECT_FALSE(grainbath::dsmc::fused_step_applies(c));
+  c.domain.cells = {2047, 1024, 1024};
+  EXPECT_TRUE(grainbath::dsmc::fused_step_applies(c));
+  // and the environment's switch to the separate passes
+  ::setenv("GRAINBATH_DSMC_UNFUSED", "1", 1);
+  EXPECT_FALSE(grainbath::dsmc::fused_step_applies(periodic));
+  ::unsetenv("GRAINBATH_DSMC_UNFUSED");
+}
+
 TEST(DsmcReproducibility, DifferentSeedDifferentNumbers) {
   const auto a = run_dsmc(kCase, 9, 0, "seedA");
   const auto b = run_dsmc(kCase, 10, 0, "seedB");
