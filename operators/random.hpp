@@ -50,6 +50,8 @@ enum class Stream : std::uint64_t {
                                     // substep over dt (keyed on k; src/dsmc/driver.cpp)
   collision_groups = 14,            // homogeneous DSMC: the step's deal of tiles into collision groups
                                     // (keyed on the step; src/dsmc/collision_groups.hpp)
+  ntc_initial_remainder = 15,       // DSMC: each cell's initial fractional NTC candidate (keyed on
+                                    // the cell; src/dsmc/driver.cpp, initialise)
 };
 
 // Ziggurat tables (Marsaglia & Tsang 2000, "The Ziggurat Method for Generating Random

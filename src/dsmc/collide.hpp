@@ -420,6 +420,19 @@ template <bool Exact, class Law, class Draws, class Slot>
   }
 }
 
+// The density `collide_cell` takes for a cell of a spatial run holding `count` simulated
+// grains, each standing for `weight` grains, in a cell of volume `cell_volume`: that of a
+// grain's N - 1 partners, (N - 1) weight / V_c, so that a pair collides at weight/V_c |g|.
+// The occupation N fluctuates (Poisson in an ideal gas), and a grain finds on average
+// <N(N - 1)>/<N> = <N> partners' worth of density: its rate averages to n <|g|>, Boltzmann's.
+// The cell's own density N weight / V_c (used before 2026-12-05) counts the grain itself
+// and gives n (1 + 1/<N>) <|g|>; its bath equilibrium was measured colder by 0.039/<N>, the
+// shift of n -> n (1 + 1/<N>) (docs/dsmc.md "Grain-grain collisions";
+// DsmcPhysics.CellCollisionRateIsBoltzmannsAtFewGrainsPerCell).
+inline double cell_partner_density(std::size_t count, double weight, double cell_volume) {
+  return count < 2 ? 0.0 : static_cast<double>(count - 1) * weight / cell_volume;
+}
+
 // Grain-grain collisions among the particles [begin, end) of one cell over a time dt
 // (Bird's no-time-counter scheme). Each grain meets the others at rate n |g| (Issue #2
 // scaled units): with N simulated grains standing for density n, a pair collides at rate

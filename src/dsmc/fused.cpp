@@ -403,7 +403,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
 
   const CellGrid grid(c.domain);
   const double dt = c.dt, Lx = c.domain.length[0], Ly = c.domain.length[1], Lz = c.domain.length[2];
-  // as in the driver's grain_step: the cell's simulated density
+  // as in the driver's grain_step: the density of a grain's partners in its cell
   const double weight = c.grains.density * c.domain.volume() / static_cast<double>(c.particles);
   const double cell_volume = c.domain.cell_volume();
   const auto step = static_cast<std::uint64_t>(s.step);
@@ -796,7 +796,7 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       for (std::size_t k = k0; k < k1; ++k) {
         const std::size_t b0 = start[k], b1 = start[k + 1];
         if (b1 - b0 < 2) continue;
-        const double density = static_cast<double>(b1 - b0) * weight / cell_volume;
+        const double density = cell_partner_density(b1 - b0, weight, cell_volume);
         CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
         collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters, c.exact_bound);
       }
