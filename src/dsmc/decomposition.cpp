@@ -546,7 +546,10 @@ std::vector<double> Decomposition::migrate_records(const Config& c, const std::v
     throw std::logic_error("migrate: a grain did not reach the rank that owns its cell");
   stats_.max_hops = std::max(stats_.max_hops, rounds);
   ++stats_.steps;
-  if (staying + kept.size() / rec.width == 0) ++stats_.empty_steps;
+  const bool empty = staying + kept.size() / rec.width == 0;
+  if (empty) ++stats_.empty_steps;
+  if (!empty && stats_.empty_after_last_step) ++stats_.refills;
+  stats_.empty_after_last_step = empty;
 #else
   (void)c;
   (void)leaving;

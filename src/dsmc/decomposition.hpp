@@ -199,11 +199,15 @@ class Decomposition {
 
   // Communication of migrate() on this rank since the start (docs/performance/mpi.md):
   // neighbour rounds, messages and bytes sent, collectives, the most ranks one grain crossed,
-  // and the steps after which this rank held no grain (its cells empty or it owns none: the
-  // tests of tiny cases check that they test such a rank, tests/mpi/mpi_tiny.sh).
+  // the steps after which this rank held no grain (its cells empty or it owns none: the
+  // tests of tiny cases check that they test such a rank, tests/mpi/mpi_tiny.sh), and the
+  // refills, steps after which it holds grains again having held none after the step before
+  // (the fused step then rebuilds its arrays from nothing: tests/mpi/cases/refillslab).
   struct MigrationStats {
-    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0, empty_steps = 0;
+    long long steps = 0, rounds = 0, messages = 0, bytes = 0, collectives = 0, migrants = 0, empty_steps = 0,
+              refills = 0;
     int max_hops = 0;
+    bool empty_after_last_step = false;
   };
   const MigrationStats& migration_stats() const { return stats_; }
   // The most grains this rank has held at once in its particle arrays (from the start, or

@@ -626,6 +626,7 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     summary.set("performance.migrants", static_cast<std::int64_t>(dec.sum(static_cast<double>(m.migrants))));
     summary.set("performance.migration_max_hops", static_cast<std::int64_t>(dec.max(m.max_hops)));
     summary.set("performance.rank_empty_steps", static_cast<std::int64_t>(dec.max(m.empty_steps)));
+    summary.set("performance.rank_refills", static_cast<std::int64_t>(dec.max(m.refills)));
     summary.set("performance.rank_peak_particles",
                 static_cast<std::int64_t>(dec.max(static_cast<long long>(dec.peak_particles()))));
     // rank 0 against the largest of the others: no gather for output makes them alike

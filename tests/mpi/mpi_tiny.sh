@@ -57,9 +57,20 @@ if e < need:
     sys.exit(1)
 PY
 }
+refills() {  # refills OUT LABEL: some rank held grains again after holding none
+  python3 - "$work/$1/summary.json" "$2" <<'PY' || fail=1
+import json, sys
+r = json.load(open(sys.argv[1]))["performance"]["rank_refills"]
+print("     %s: a rank received grains again %d time(s) after holding none" % (sys.argv[2], r))
+if r < 1:
+    print("FAIL %s: expected a rank to hold grains again after holding none: the test does not test it" % sys.argv[2])
+    sys.exit(1)
+PY
+}
 # unfused CASE TAG [ARGS...]: after check's 2-rank run TAG-np2, the separate passes on 2 ranks
 # (GRAINBATH_DSMC_UNFUSED) must give the plain run's bits and count the same steps without
-# grains (performance.rank_empty_steps, which same_summary.py leaves out with performance.*)
+# grains and the same refills (performance.rank_empty_steps, rank_refills, which
+# same_summary.py leaves out with performance.*)
 unfused() {
   local case_dir=$cases/$1 tag=$2
   shift 2
@@ -67,11 +78,15 @@ unfused() {
   same "$tag-plain" "$tag-np2unfused" "$tag, 2 ranks, separate passes"
   python3 - "$work/$tag-np2/summary.json" "$work/$tag-np2unfused/summary.json" "$tag" <<'PY' || fail=1
 import json, sys
-fused, separate = (json.load(open(f))["performance"]["rank_empty_steps"] for f in sys.argv[1:3])
-if fused != separate:
-    print("FAIL %s: rank_empty_steps %d (fused step) != %d (separate passes)" % (sys.argv[3], fused, separate))
-    sys.exit(1)
-print("ok   %s: rank_empty_steps %d in the fused step and the separate passes" % (sys.argv[3], fused))
+bad = 0
+for key in ("rank_empty_steps", "rank_refills"):
+    fused, separate = (json.load(open(f))["performance"][key] for f in sys.argv[1:3])
+    if fused != separate:
+        print("FAIL %s: %s %d (fused step) != %d (separate passes)" % (sys.argv[3], key, fused, separate))
+        bad = 1
+    else:
+        print("ok   %s: %s %d in the fused step and the separate passes" % (sys.argv[3], key, fused))
+sys.exit(bad)
 PY
 }
 # check CASE TAG NPS CK_NP RESUME_NPS [ARGS...]: plain run; NPS ranks each; a run with
@@ -114,8 +129,10 @@ check emptyslab emptyslab "2 3" 2 "1 3"
 # a slab that empties and then receives grains again (the fused step's arrays on a rank with
 # no grains), with the medium (the bath residuals migrate) and without it
 check refillslab refillslab "2" 2 "1"
+refills refillslab-np2 "refillslab, 2 ranks"
 unfused refillslab refillslab
 check refillslab refillslab-nomedium "2" 0 "2" --set background.density=0
+refills refillslab-nomedium-np2 "refillslab-nomedium, 2 ranks"
 unfused refillslab refillslab-nomedium --set background.density=0
 # each rank's last grains leave through an open face (not by migration)
 check drainslab drainslab "2" 2 "1"
