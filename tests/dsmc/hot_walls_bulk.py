@@ -8,7 +8,7 @@ then checks
   - the walls push grains into the bulk: n_bulk - 1 > 5 sigma (sigma from the seeds' spread);
   - the bulk temperature (cells farther than 1 = 10 eps from both walls) equals the periodic
     box's temperature at that density within 4 sigma (seed spreads of both);
-  - the bulk is colder than a periodic box at the mean density n = 1 by more than 4 sigma
+  - the bulk is colder than a periodic box at the mean density n = 1 by more than 3 sigma
     (the density effect is resolved, so the previous check is not vacuous);
   - the layer's e-folding length of T - T_bulk (one exponential fitted with weights
     (excess/err)^2, so set by the cells next to the wall; the layer is not one exponential)
@@ -108,7 +108,9 @@ d, de = T_b - Tp, math.hypot(T_e, Tp_e)
 check(abs(d) < 4 * de, f"T_bulk - T_periodic(n_bulk) = {d:+.6f} +- {de:.6f} ({d / de:+.1f} sigma, |.| < 4)")
 T1, T1_e = periodic["mean"]
 d1, d1e = T_b - T1, math.hypot(T_e, T1_e)
-check(d1 < -4 * d1e, f"T_bulk - T_periodic(n = 1) = {d1:+.6f} +- {d1e:.6f} ({d1 / d1e:+.1f} sigma, < -4: resolved)")
+# expected about dT/dn (n_bulk - 1) = -0.039 x 0.012 = -0.00047, 5 sigma of 8 seeds; measured
+# -4.6 sigma with the corrected cell rate (2026-12-05), -6.7 before: 3 sigma keeps a margin
+check(d1 < -3 * d1e, f"T_bulk - T_periodic(n = 1) = {d1:+.6f} +- {d1e:.6f} ({d1 / d1e:+.1f} sigma, < -3: resolved)")
 # a grain's mean free path through the medium: the medium's rate (nB/eps)|v - w| with
 # m = mB (alpha = 1/2), grains and medium Maxwellian at T = TB = 1: <|v|> = sqrt(8/pi),
 # <|v - w|> = sqrt(16/pi) (g has variance 2 per component)
