@@ -13,9 +13,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 here = Path(__file__).resolve().parent
 rows = []
 for d in sorted(p for p in (here / "sweep").glob("eps-*") if (p / "summary.json").exists()):
+    # a re-run keeps the run before as eps-<value>.previous (grainbath never deletes output): skip those
+    try:
+        eps = float(d.name.split("-", 1)[1])
+    except ValueError:
+        continue
     s = json.load(open(d / "summary.json"))
     h = s["theory"]["hydro"]
-    eps = float(d.name.split("-", 1)[1])
     rows.append((eps, s["mode"]["decay_rate"], s["mode"]["decay_rate_stderr"], h["decay_rate"],
                  h["decay_rate_kinetic"], h.get("decay_rate_maxwellian_closure"), h.get("decay_rate_grad_closure")))
 rows.sort()
