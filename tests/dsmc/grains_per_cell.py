@@ -20,8 +20,9 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
+
+from case_run import run_case
 
 exe, cases, work = sys.argv[1:4]
 seeds = int(sys.argv[4]) if len(sys.argv) > 4 else 6
@@ -32,13 +33,7 @@ os.makedirs(work)
 
 
 def temperature(out, *sets):
-    cmd = [exe, "run", case, "--out", os.path.join(work, out), "-q"]
-    for s in sets:
-        cmd += ["--set", s]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"FAIL: {' '.join(cmd)} exited with {r.returncode}:\n{r.stderr[-2000:]}")
-    summary = json.load(open(os.path.join(work, out, "summary.json")))
+    summary = json.load(open(os.path.join(run_case(exe, case, work, out, *sets), "summary.json")))
     return summary["temperature"]["mean"], summary["counters"]["particles_final"]
 
 

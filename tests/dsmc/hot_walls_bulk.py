@@ -20,8 +20,9 @@ usage: hot_walls_bulk.py GRAINBATH CASES_DIR WORK_DIR [SEEDS]"""
 import math
 import os
 import shutil
-import subprocess
 import sys
+
+from case_run import run_case
 
 try:
     import h5py
@@ -39,13 +40,7 @@ failures = []
 
 
 def run(out, *sets):
-    cmd = [exe, "run", case, "--out", os.path.join(work, out), "-q"]
-    for s in sets:
-        cmd += ["--set", s]
-    r = subprocess.run(cmd, capture_output=True, text=True)
-    if r.returncode != 0:
-        sys.exit(f"FAIL: {' '.join(cmd)} exited with {r.returncode}:\n{r.stderr[-2000:]}")
-    return os.path.join(work, out)
+    return run_case(exe, case, work, out, *sets)
 
 
 def knudsen(out):
