@@ -428,7 +428,7 @@ template <bool Exact, class Law, class Draws, class Slot>
 // The cell's own density N weight / V_c (used before 2026-12-05) counts the grain itself
 // and gives n (1 + 1/<N>) <|g|>; its bath equilibrium was measured colder by 0.039/<N>, the
 // shift of n -> n (1 + 1/<N>) (docs/dsmc.md "Grain-grain collisions";
-// DsmcPhysics.CellCollisionRateIsBoltzmannsAtFewGrainsPerCell).
+// DsmcSpatial.CellCollisionRateIsBoltzmannsAtFewGrainsPerCell).
 inline double cell_partner_density(std::size_t count, double weight, double cell_volume) {
   return count < 2 ? 0.0 : static_cast<double>(count - 1) * weight / cell_volume;
 }
