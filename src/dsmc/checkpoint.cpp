@@ -30,13 +30,17 @@ Scalars pack(const State& s) {
          static_cast<std::uint64_t>(s.fields.batches), s.fields.cells,
          static_cast<std::uint64_t>(s.fields.window_samples), static_cast<std::uint64_t>(s.fields.taken),
          s.bath_half_pending ? 1u : 0u};
+  for (const FieldBatchSegment& g : s.fields.segments)  // 4 integers per segment after the 13
+    k.u.insert(k.u.end(), {static_cast<std::uint64_t>(g.first_sample), static_cast<std::uint64_t>(g.end_sample),
+                           static_cast<std::uint64_t>(g.first_batch), static_cast<std::uint64_t>(g.batches)});
   return k;
 }
 
 void unpack(const Scalars& k, State& s) {
-  // 13 integers; 12 in checkpoints written before the bath halves were joined, which were
-  // always written with both halves applied
-  if (k.d.size() != 5 || (k.u.size() != 12 && k.u.size() != 13))
+  // 13 integers and 4 per field batch segment; 13 in checkpoints written before the segments
+  // (2026-12-05: one segment, the whole window); 12 in those written before the bath halves
+  // were joined, which were always written with both halves applied
+  if (k.d.size() != 5 || k.u.size() < 12 || (k.u.size() > 13 && (k.u.size() - 13) % 4 != 0))
     throw std::runtime_error("checkpoint: wrong scalar layout");
   RunCounters& c = s.counters;
   c.bath_energy = k.d[0];
@@ -57,6 +61,22 @@ void unpack(const Scalars& k, State& s) {
   s.fields.window_samples = static_cast<std::int64_t>(k.u[10]);
   s.fields.taken = static_cast<std::int64_t>(k.u[11]);
   s.bath_half_pending = k.u.size() > 12 && k.u[12] != 0;
+  FieldAccumulator& f = s.fields;
+  f.segments.clear();
+  for (std::size_t i = 13; i + 4 <= k.u.size(); i += 4)
+    f.segments.push_back({static_cast<std::int64_t>(k.u[i]), static_cast<std::int64_t>(k.u[i + 1]),
+                          static_cast<int>(k.u[i + 2]), static_cast<int>(k.u[i + 3])});
+  if (k.u.size() <= 13 && f.window_samples > 0) f.segments.push_back({0, f.window_samples, 0, f.batches});
+  std::int64_t covered = 0;  // the segments must tile the window: batch_of relies on it
+  int batches = 0;
+  for (const FieldBatchSegment& g : f.segments) {
+    if (g.first_sample != covered || g.end_sample <= g.first_sample || g.first_batch != batches || g.batches < 1)
+      throw std::runtime_error("checkpoint: field batch segments do not tile the window");
+    covered = g.end_sample;
+    batches += g.batches;
+  }
+  if (!f.segments.empty() && (covered != f.window_samples || batches != f.batches))
+    throw std::runtime_error("checkpoint: field batch segments do not tile the window");
 }
 
 // The state as named arrays (core/checkpoint.hpp): one list drives writing, reading and

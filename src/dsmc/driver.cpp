@@ -260,6 +260,47 @@ void grain_step(State& s, const Config& c, std::uint64_t seed, std::vector<Grain
 // Moments of the whole population, summed per reduction block (src/dsmc/decomposition.hpp)
 // and combined in block order: each rank sums its own particles, and every rank gets the
 // same numbers as one process (no particle is gathered).
+// Samples of the fields' averaging window: the sample points of steps 0..c.steps at t >= steady_from.
+std::int64_t field_window_samples(const Config& c) {
+  std::int64_t n = 0;
+  for (std::int64_t st = 0; st <= c.steps; ++st)
+    if (c.sampled_after(st) && static_cast<double>(st) * c.dt >= c.steady_from - 1e-12) ++n;
+  return n;
+}
+
+// A fresh window: [sampling] field_batches batches (at most one per sample) over one segment.
+void plan_field_window(FieldAccumulator& f, const Config& c) {
+  f.window_samples = field_window_samples(c);
+  f.taken = 0;
+  f.batches = static_cast<int>(std::min<std::int64_t>(c.field_batches, std::max<std::int64_t>(1, f.window_samples)));
+  f.segments.clear();
+  if (f.window_samples > 0) f.segments.push_back({0, f.window_samples, 0, f.batches});
+  f.sums.assign(static_cast<std::size_t>(f.batches) * f.cells * FieldAccumulator::kSums, 0.0);
+  f.batch_samples.assign(f.batches, 0);
+}
+
+// --resume with a later dsmc.t_end: the window grows; the samples added get batches of about
+// the length the window's batches had, appended after them (FieldBatchSegment), so the
+// samples already summed stay in their batches. A window that took no sample yet is planned
+// afresh. Every rank does the same (each holds the sums of all cells).
+void extend_field_window(FieldAccumulator& f, const Config& c) {
+  const std::int64_t window = field_window_samples(c);
+  if (window <= f.window_samples) return;  // same run (or a shorter one: its last batches stay short)
+  if (f.taken == 0) {
+    plan_field_window(f, c);
+    return;
+  }
+  const std::int64_t added = window - f.window_samples;
+  const double per_batch = static_cast<double>(f.window_samples) / f.batches;
+  const int batches = static_cast<int>(
+      std::clamp<std::int64_t>(std::llround(static_cast<double>(added) / per_batch), 1, added));
+  f.segments.push_back({f.window_samples, window, f.batches, batches});
+  f.batches += batches;
+  f.window_samples = window;
+  f.sums.resize(static_cast<std::size_t>(f.batches) * f.cells * FieldAccumulator::kSums, 0.0);
+  f.batch_samples.resize(f.batches, 0);
+}
+
 void sample(State& s, const Config& c, double t, const Decomposition& dec, std::vector<std::size_t>& bounds) {
   const Particles& p = s.particles;
   dec.block_bounds(s, c, bounds);
@@ -313,7 +354,7 @@ void sample(State& s, const Config& c, double t, const Decomposition& dec, std::
   // per-cell sums for the time-averaged fields
   FieldAccumulator& f = s.fields;
   if (f.cells > 0 && t >= c.steady_from - 1e-12 && f.taken < f.window_samples) {
-    const int batch = static_cast<int>(f.taken * f.batches / f.window_samples);
+    const int batch = f.batch_of(f.taken);
     double* base = f.sums.data() + static_cast<std::size_t>(batch) * f.cells * FieldAccumulator::kSums;
 #pragma omp parallel for schedule(dynamic, 256)
     for (std::size_t k = 0; k < f.cells; ++k) {
@@ -417,18 +458,13 @@ void run(const Config& c, const RunContext& ctx, Summary& summary) {
     if (bath_on && s.particles.bath_hazard.size() != s.particles.size())
       throw std::runtime_error("--resume: the checkpoint has no particles/bath_hazard for its " +
                                std::to_string(s.particles.size()) + " grains (written before the carried bath residual)");
+    if (s.fields.cells > 0) extend_field_window(s.fields, c);
     if (dec.root()) std::fprintf(stderr, "resuming from step %lld (t = %.6g)\n", static_cast<long long>(s.step), s.step * c.dt);
   } else {
     initialise(s, c, ctx.seed, bath_on, dec);
     if (c.spatial() && c.sample_fields) {
-      FieldAccumulator& f = s.fields;
-      f.cells = c.domain.cell_count();
-      f.batches = c.field_batches;
-      for (std::int64_t st = 0; st <= c.steps; ++st)
-        if (c.sampled_after(st) && st * c.dt >= c.steady_from - 1e-12) ++f.window_samples;
-      f.batches = static_cast<int>(std::min<std::int64_t>(f.batches, std::max<std::int64_t>(1, f.window_samples)));
-      f.sums.assign(static_cast<std::size_t>(f.batches) * f.cells * FieldAccumulator::kSums, 0.0);
-      f.batch_samples.assign(f.batches, 0);
+      s.fields.cells = c.domain.cell_count();
+      plan_field_window(s.fields, c);
     }
   }
   std::vector<std::uint8_t> removed;

@@ -129,6 +129,54 @@ StateHash final_state_hash(const State& s) {
   return h;
 }
 
+
+// The fields of one cell from its sums (FieldAccumulator) over `samples` samples: density,
+// and, from two grain visits on, mean velocity, pressure tensor, temperature and heat flux.
+struct CellField {
+  double density = 0.0, temperature = 0.0;
+  double velocity[3] = {0, 0, 0}, pressure[6] = {0, 0, 0, 0, 0, 0}, heat_flux[3] = {0, 0, 0};
+  bool kinetic = false;  // at least two grain visits: velocity, P, T and q are set
+};
+
+CellField cell_field(const double* a, double samples, double weight, double cell_volume, double m) {
+  CellField f;
+  const double count = a[0];
+  if (samples <= 0.0) return f;
+  f.density = count * weight / cell_volume / samples;
+  if (count < 2) return f;
+  f.kinetic = true;
+  const double dens = f.density;
+  const double* u = f.velocity;
+  for (int i = 0; i < 3; ++i) f.velocity[i] = a[1 + i] / count;
+  const double vv[6] = {a[4] / count, a[5] / count, a[6] / count, a[7] / count, a[8] / count, a[9] / count};
+  const int ij[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+  for (int q = 0; q < 6; ++q) f.pressure[q] = dens * m * (vv[q] - u[ij[q][0]] * u[ij[q][1]]);
+  f.temperature = (f.pressure[0] + f.pressure[1] + f.pressure[2]) / (3 * dens);
+  const double v2 = a[13] / count, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
+  const double full[3][3] = {{vv[0], vv[3], vv[4]}, {vv[3], vv[1], vv[5]}, {vv[4], vv[5], vv[2]}};
+  for (int i = 0; i < 3; ++i) {
+    // <|c|^2 c_i> = <|v|^2 v_i> - u_i <|v|^2> - 2 u_j <v_j v_i> + 2 u_i |u|^2
+    double ujvv = 0;
+    for (int j = 0; j < 3; ++j) ujvv += u[j] * full[j][i];
+    const double c3 = a[10 + i] / count - u[i] * v2 - 2 * ujvv + 2 * u[i] * u2;
+    f.heat_flux[i] = 0.5 * m * dens * c3;
+  }
+  return f;
+}
+
+// The jackknife standard error of an estimate from the leave-one-batch-out values x_(-b):
+// sqrt((B - 1)/B sum (x_(-b) - mean)^2) (Efron 1982, eq. 3.5).
+double jackknife_stderr(const std::vector<double>& left_out) {
+  const std::size_t B = left_out.size();
+  if (B < 2) return NAN;
+  double mean = 0;
+  for (double x : left_out) mean += x;
+  mean /= static_cast<double>(B);
+  double ss = 0;
+  for (double x : left_out) ss += (x - mean) * (x - mean);
+  return std::sqrt(ss * static_cast<double>(B - 1) / static_cast<double>(B));
+}
+
 }  // namespace
 
 FinalGrains final_grains(const Config& c, const State& s, const Decomposition& dec) {
@@ -294,6 +342,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   }
 
   // ---- spatial: per-cell time-averaged fields with batch standard errors
+  // Each field is the ratio of the window's totals (the mean of n |v|^2 over the mean of n,
+  // and so on), not the mean of per-batch ratios: a batch's temperature subtracts its own
+  // mean velocity, estimated from its M grain visits, which biases it by about -T g/M (g the
+  // correlation of successive samples), so the old mean over batches depended on how many
+  // batches there were (-23 % at 2 grains per cell and the default 16 batches; docs/dsmc.md
+  // "Fields"). The window's own estimate keeps -T g/M_window. Standard errors: jackknife
+  // over the batches, leaving one out at a time (for the density: the batch-mean spread).
   const FieldAccumulator& fa = s.fields;
   if (c.spatial() && fa.cells > 0 && fa.taken > 0) {
     const std::size_t cells = fa.cells;
@@ -301,54 +356,47 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
     const double vcell = c.domain.cell_volume();
     std::vector<double> nmean(cells, 0), nerr(cells, 0), Tmean(cells, 0), Terr(cells, 0), umean(3 * cells, 0),
         Pmean(6 * cells, 0), qmean(3 * cells, 0);
-    std::vector<double> nb_(fa.batches), Tb(fa.batches);
-    int used_batches = 0;
+    std::vector<int> used;  // batches with samples
+    double samples = 0;
     for (int b = 0; b < fa.batches; ++b)
-      if (fa.batch_samples[b] > 0) ++used_batches;
+      if (fa.batch_samples[b] > 0) {
+        used.push_back(b);
+        samples += static_cast<double>(fa.batch_samples[b]);
+      }
+    const int used_batches = static_cast<int>(used.size());
+    constexpr int K = FieldAccumulator::kSums;
+    std::vector<double> left_n, left_T;
     for (std::size_t k = 0; k < cells; ++k) {
-      double ns = 0, n2 = 0, Ts = 0, T2 = 0;
-      int nbt = 0, nTb = 0;
-      for (int b = 0; b < fa.batches; ++b) {
-        if (fa.batch_samples[b] == 0) continue;
-        const double* a = fa.sums.data() + (static_cast<std::size_t>(b) * cells + k) * FieldAccumulator::kSums;
-        const double count = a[0];
-        const double dens = count * weight / vcell / static_cast<double>(fa.batch_samples[b]);
-        ns += dens;
-        n2 += dens * dens;
-        ++nbt;
-        if (count < 2) continue;
-        const double u[3] = {a[1] / count, a[2] / count, a[3] / count};
-        const double vv[6] = {a[4] / count, a[5] / count, a[6] / count, a[7] / count, a[8] / count, a[9] / count};
-        const int ij[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
-        double P[6];
-        for (int q = 0; q < 6; ++q) P[q] = dens * m * (vv[q] - u[ij[q][0]] * u[ij[q][1]]);
-        const double T = (P[0] + P[1] + P[2]) / (3 * dens);
-        const double v2 = a[13] / count, u2 = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-        const double full[3][3] = {{vv[0], vv[3], vv[4]}, {vv[3], vv[1], vv[5]}, {vv[4], vv[5], vv[2]}};
-        for (int i = 0; i < 3; ++i) {
-          // <|c|^2 c_i> = <|v|^2 v_i> - u_i <|v|^2> - 2 u_j <v_j v_i> + 2 u_i |u|^2
-          double ujvv = 0;
-          for (int j = 0; j < 3; ++j) ujvv += u[j] * full[j][i];
-          const double c3 = a[10 + i] / count - u[i] * v2 - 2 * ujvv + 2 * u[i] * u2;
-          qmean[3 * k + i] += 0.5 * m * dens * c3;
-          umean[3 * k + i] += u[i];
-        }
-        for (int q = 0; q < 6; ++q) Pmean[6 * k + q] += P[q];
-        Ts += T;
-        T2 += T * T;
-        ++nTb;
+      double total[K] = {};
+      for (int b : used) {
+        const double* a = fa.sums.data() + (static_cast<std::size_t>(b) * cells + k) * K;
+        for (int q = 0; q < K; ++q) total[q] += a[q];
       }
-      nmean[k] = ns / nbt;
-      nerr[k] = nbt > 1 ? std::sqrt(std::max(0.0, n2 / nbt - nmean[k] * nmean[k]) / (nbt - 1)) : NAN;
-      if (nTb > 0) {
-        Tmean[k] = Ts / nTb;
-        Terr[k] = nTb > 1 ? std::sqrt(std::max(0.0, T2 / nTb - Tmean[k] * Tmean[k]) / (nTb - 1)) : NAN;
-        for (int i = 0; i < 3; ++i) {
-          umean[3 * k + i] /= nTb;
-          qmean[3 * k + i] /= nTb;
-        }
-        for (int q = 0; q < 6; ++q) Pmean[6 * k + q] /= nTb;
+      const CellField whole = cell_field(total, samples, weight, vcell, m);
+      nmean[k] = whole.density;
+      left_n.clear();
+      left_T.clear();
+      bool T_err = whole.kinetic;
+      for (int b : used) {
+        const double* a = fa.sums.data() + (static_cast<std::size_t>(b) * cells + k) * K;
+        double rest[K];
+        for (int q = 0; q < K; ++q) rest[q] = total[q] - a[q];
+        const CellField f = cell_field(rest, samples - static_cast<double>(fa.batch_samples[b]), weight, vcell, m);
+        left_n.push_back(f.density);
+        if (f.kinetic)
+          left_T.push_back(f.temperature);
+        else
+          T_err = false;
       }
+      nerr[k] = jackknife_stderr(left_n);
+      if (!whole.kinetic) continue;
+      Tmean[k] = whole.temperature;
+      Terr[k] = T_err ? jackknife_stderr(left_T) : NAN;
+      for (int i = 0; i < 3; ++i) {
+        umean[3 * k + i] = whole.velocity[i];
+        qmean[3 * k + i] = whole.heat_flux[i];
+      }
+      for (int q = 0; q < 6; ++q) Pmean[6 * k + q] = whole.pressure[q];
     }
     const hsize_t nx = c.domain.cells[0], ny = c.domain.cells[1], nz = c.domain.cells[2];
     f.write("/fields/density", nmean, {nz, ny, nx});

@@ -30,6 +30,21 @@ struct TimeSeries {
 
 // Per-cell sums for time-averaged fields, in batches (for standard errors). Per cell and
 // batch: count, sum v (3), sum v_i v_j (6: xx yy zz xy xz yz), sum |v|^2 v (3), sum |v|^2.
+// The fields are ratios of the window's totals (src/dsmc/output.cpp); the batches serve the
+// standard errors only.
+//
+// Which batch a sample goes to: the window's samples [first_sample, end_sample) of a segment
+// are split evenly over its batches, as sample j -> first_batch + (j - first_sample) batches /
+// (end_sample - first_sample). A fresh run has one segment (the whole window, [sampling]
+// field_batches batches); a --resume with a later dsmc.t_end appends one for the samples
+// added, with batches of about the same length, so the samples already taken keep their
+// batches and the extension is sampled too (before 2026-12-05 it was not: the fields stopped
+// at the first run's t_end).
+struct FieldBatchSegment {
+  std::int64_t first_sample = 0, end_sample = 0;
+  int first_batch = 0, batches = 0;
+};
+
 struct FieldAccumulator {
   static constexpr int kSums = 14;
   int batches = 0;
@@ -38,6 +53,15 @@ struct FieldAccumulator {
   std::int64_t taken = 0;                 // samples taken so far in the window
   std::vector<double> sums;               // [batch][cell][kSums]
   std::vector<std::int64_t> batch_samples;
+  std::vector<FieldBatchSegment> segments;  // in sample order, covering [0, window_samples)
+
+  // the batch of the window's sample j (0 <= j < window_samples)
+  int batch_of(std::int64_t j) const {
+    for (const FieldBatchSegment& g : segments)
+      if (j < g.end_sample)
+        return g.first_batch + static_cast<int>((j - g.first_sample) * g.batches / (g.end_sample - g.first_sample));
+    return batches - 1;  // not reached: the segments cover the window
+  }
 };
 
 // What a wall did to one grain in a fused step's streaming (src/dsmc/fused.cpp), logged per

@@ -390,3 +390,37 @@ TEST(DsmcRestart, ResumeWithTEndAtACheckpointBetweenSamplesIsRefused) {
   EXPECT_EQ(checkpoint_files(ck), files);
   fs::remove_all(ck);
 }
+
+// A --resume with a later dsmc.t_end samples the per-cell fields to the new end: the resumed
+// run's fields are the fresh long run's (the same trajectory; the window's totals, summed in
+// another grouping of batches: equal to rounding). Before 2026-12-05 the field window stayed
+// the first run's, so the fields stopped at its t_end while the time series went on (checked:
+// fails). The samples added get their own batches, of about the first run's batch length
+// (FieldBatchSegment): 4 batches over the first run's 15 samples, 5 more over the 20 added.
+TEST(DsmcRestart, ResumeWithALaterEndSamplesTheFieldsToTheNewEnd) {
+  // mode_fit_to defaults to t_end, which would make the resume a changed case
+  std::string first = std::string(kSpatialHead) + kSpatialRun;
+  first.insert(first.find("field_batches = 4\n"), "mode_fit_to = 1.0\n");
+  std::string longer = first;
+  longer.replace(longer.find("t_end = 1.0"), 11, "t_end = 2.0");
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-extend-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  run_dsmc(first, 21, 0, "extend-first", ck);  // checkpoints kept at t = 0.75 and 1.0
+  const auto resumed = run_dsmc(longer, 21, 0, "extend-resumed", ck, true);
+  const auto fresh = run_dsmc(longer, 21, 0, "extend-fresh");
+  for (const char* name : {"/fields/density", "/fields/temperature", "/fields/velocity", "/fields/pressure_tensor",
+                           "/fields/heat_flux"}) {
+    const std::vector<double> a = resumed.series(name), b = fresh.series(name);
+    ASSERT_EQ(a.size(), b.size()) << name;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      ASSERT_NEAR(a[i], b[i], 1e-12 * std::max(1.0, std::abs(b[i]))) << name << " [" << i << "]";
+  }
+  auto window = [](const grainbath::testing::CaseRun& r) {
+    return grainbath::H5File((r.dir / "results.h5").string(), grainbath::H5File::Mode::read)
+        .read_attribute("/fields", "window");
+  };
+  EXPECT_NE(window(fresh).find("from 4 batches"), std::string::npos) << window(fresh);
+  EXPECT_NE(window(resumed).find("from 9 batches"), std::string::npos) << window(resumed);
+  fs::remove_all(ck);
+}
+

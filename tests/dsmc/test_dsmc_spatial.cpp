@@ -420,3 +420,51 @@ steady_from = 0.0
     EXPECT_LT(std::abs(run.summary.number("energy.budget_relative_residual")), 1e-12);
   }
 }
+
+// The per-cell fields are ratios of the window's totals (src/dsmc/output.cpp), so the number
+// of batches, which serves only the standard errors, cannot change them. Before 2026-12-05
+// each batch subtracted its own mean velocity and the fields averaged the batches' ratios,
+// a bias of about -T g / M per batch of M grain visits (an elastic gas at T = 1 and 2 grains
+// per cell, 401 samples: the cells' temperature averaged 0.955 with 2 batches, 0.772 with the
+// default 16 and 0.538 with 64; this test fails on that code). The cells' temperatures then average to the gas's T = 1 (kept
+// exactly: elastic, no medium) less the window estimate's own bias, -T g/M_window: 0.951 here
+// (M_window = 82 visits, so g ~ 4 samples of correlated velocity in a cell); the tolerance
+// takes 0.93-1.
+TEST(DsmcSpatial, FieldsDoNotDependOnTheNumberOfBatches) {
+  auto run = [](int batches) {
+    return run_dsmc(R"(
+[domain]
+dimensions = 1
+length = [500.0]
+cells = [1000]
+[grains]
+density = 1.0
+temperature = 1.0
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 2000
+dt = 0.05
+t_end = 10.0
+[sampling]
+every = 0.25
+steady_from = 0.0
+field_batches = )" + std::to_string(batches) + "\n",
+                    7, 0, "batches-" + std::to_string(batches));
+  };
+  const auto few = run(2), many = run(32);
+  for (const char* name : {"/fields/density", "/fields/temperature", "/fields/velocity", "/fields/pressure_tensor",
+                           "/fields/heat_flux"}) {
+    const std::vector<double> a = few.series(name), b = many.series(name);
+    ASSERT_EQ(a.size(), b.size()) << name;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      ASSERT_NEAR(a[i], b[i], 1e-12 * std::max(1.0, std::abs(a[i]))) << name << " [" << i << "]";
+  }
+  const std::vector<double> T = many.series("/fields/temperature"), Terr = many.series("/fields/temperature_stderr");
+  double mean = 0;
+  for (double x : T) mean += x;
+  mean /= static_cast<double>(T.size());
+  std::printf("cells' temperature: mean %.4f over %zu cells (gas: T = 1)\n", mean, T.size());
+  EXPECT_NEAR(mean, 0.965, 0.035);
+  for (std::size_t i = 0; i < Terr.size(); ++i) EXPECT_GT(Terr[i], 0.0) << i;  // jackknife over 32 batches
+}
