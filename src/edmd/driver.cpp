@@ -842,7 +842,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
                    c.gr_bin);
     summary.set("g_r.contact_fit", contact);
   }
-  // loss rate (Bizon eqs. 14, 29-31)
+  // loss rate (Bizon eqs. 14, 29-31): grain-grain collisions only (energy_lost); losses at
+  // static inelastic walls are energy.wall_loss_rate
   const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
   const double Gfor = Gs / pref / c.packing_fraction;  // g from the EOS measurement, as Bizon does
   const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_mean);
@@ -865,12 +866,14 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // conservation
   summary.set("conservation.energy_change",
               (total_energy() - e_initial) -
-                  (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost));
+                  (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost -
+                   f.wall_energy_lost));
   summary.set("conservation.relative_energy_change_elastic", (total_energy() - e_initial) / e_initial);
   summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
   summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
   summary.set("energy.background_rate", t_run > 0 ? f.background_energy / (volume * t_run) : 0.0);
   summary.set("energy.loss_rate", gamma);
+  summary.set("energy.wall_loss_rate", t_run > 0 ? f.wall_energy_lost / (volume * t_run) : 0.0);
   summary.set("overlap.min_distance", eng.min_distance());
   if (vhist.samples > 0) {
     const double c4 = vhist.c4_sum / vhist.samples, c2 = vhist.c2_sum / vhist.samples;

@@ -947,7 +947,7 @@ void Engine::process_wall(std::uint32_t i) {
     } else {
       c_.wall_virial += (1.0 + wall_e_) * std::abs(v);
       v = -wall_e_ * v;
-      c_.energy_lost += e0 - 0.5 * v * v;
+      c_.wall_energy_lost += e0 - 0.5 * v * v;
     }
     // pin to the wall against round-off drift
     comp(k_[i].r, d) = high ? comp(L_, d) - 0.5 : 0.5;
@@ -1215,6 +1215,10 @@ void Engine::restore(const EngineState& st) {
   if (st.rebuild_every != rebuild_every_) bad("rebuild interval differs from the case");
   if (st.cell_capacity < 1 || st.cell_capacity > 65535) bad("cell capacity out of range");
   if (st.counters.vn_histogram.size() != c_.vn_histogram.size()) bad("normal-speed histogram size differs from the case");
+  const bool lossy_walls = !driving_walls_ && wall_e_ < 1.0 && std::any_of(walls_.begin(), walls_.end(), [](bool w) { return w; });
+  if (std::isnan(st.counters.wall_energy_lost) && lossy_walls)
+    bad("written before static-wall losses had their own counter (they were added to the grain-grain energy_lost): "
+        "it cannot be continued with walls.restitution < 1; start the run again");
   for (std::uint32_t i = 0; i < n_; ++i)
     for (int d = 0; d < dims_; ++d) {
       const double x = comp(st.positions[i], d), l = comp(L_, d);
@@ -1243,6 +1247,7 @@ void Engine::restore(const EngineState& st) {
   total_collisions_ = st.total_collisions;
   next_rebuild_ = st.next_rebuild;
   c_ = st.counters;
+  if (std::isnan(c_.wall_energy_lost)) c_.wall_energy_lost = 0.0;  // old checkpoint, no lossy walls (checked above)
   calendar_width_ = st.calendar_width;
   if (st.vn_bin_width > 0.0) vn_bin_width_ = st.vn_bin_width;
   for (std::uint32_t i = 0; i < n_; ++i) draw_background_time(i);
