@@ -407,9 +407,10 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
       return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
     }));
     // DSMC of the same physics: grain-grain cross-section 1 in DSMC units corresponds to
-    // pi sigma^2 g(sigma) (3D) or 2 sigma g(sigma) (2D) here, so [grains] density =
+    // pi sigma^2 g(sigma) here, so [grains] density = pi n g(sigma). 3D only: the DSMC's
+    // grains and medium have 3D velocities, so a 2D disk case has no DSMC counterpart (its
+    // collision rate, medium kernel and temperature are those of disks).
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
-    else out.emplace_back("edmd.dsmc_equivalent_grain_density", 2.0 * n * g);
   }
   if (c.driving_walls()) {
     const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;

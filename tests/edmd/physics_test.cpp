@@ -109,6 +109,26 @@ TEST(EdmdPhysics, BackgroundRelaxationMatchesTheory) {
   }
 }
 
+// edmd.dsmc_equivalent_grain_density maps the EDMD to the DSMC, whose velocities are 3D: a
+// disk case has no DSMC counterpart, so the key is for spheres only.
+TEST(EdmdPhysics, DsmcEquivalentDensityOnlyForSpheres) {
+  for (int dims : {2, 3}) {
+    CaseReader r("[edmd]\ndimensions = " + std::to_string(dims) +
+                     "\nparticles = 1000\npacking_fraction = 0.05\n[background]\ndensity = 1.0\n",
+                 "t.toml");
+    const Config c = read_config(r);
+    r.finish();
+    bool found = false;
+    for (const auto& [key, value] : theory_values(c))
+      if (key == "edmd.dsmc_equivalent_grain_density") {
+        found = true;
+        EXPECT_NEAR(value, std::numbers::pi * theory::number_density(3, 0.05) * theory::g_contact_reference(3, 0.05),
+                    1e-12);
+      }
+    EXPECT_EQ(found, dims == 3) << dims;
+  }
+}
+
 TEST(EdmdPhysics, SteadyTemperatureInMediumMatchesEnergyBalance) {
   const Summary s = run_case(
       "[edmd]\ndimensions = 3\nparticles = 1000\npacking_fraction = 0.3\nequilibrate = 20\ncollisions = 60\n"
