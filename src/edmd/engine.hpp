@@ -367,6 +367,17 @@ class Engine {
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
   HugePageVector<Sched> sc_;
   std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
+  // Air table with a medium only (empty otherwise): the velocity changes along a free flight,
+  // so the candidate process is thinned from a bound valid over a window of the flight
+  // (draw_background_window). bound: the window's candidate rate; draws: windows and
+  // thinned candidates since the last trajectory change (the RNG sequence); refresh: the
+  // event at bg_time_ is the window's end, not a candidate.
+  struct BgWindow {
+    double bound = 0.0;
+    std::uint32_t draws = 0;
+    bool refresh = false;
+  };
+  std::vector<BgWindow> bg_win_;
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};
