@@ -1,5 +1,7 @@
 #include "edmd/checkpoint.hpp"
 
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/checkpoint.hpp"
@@ -13,7 +15,7 @@ namespace {
 // Guards against silently unsaved state: a member added to one of these structs changes
 // its size, and this fails to compile until the member is packed below and the size here
 // updated (x86-64 sizes).
-static_assert(sizeof(Counters) == 9 * 8 + 8 * 8 + 2 * 8 + 2 * 8 + 2 * 8 + sizeof(std::vector<std::uint64_t>),
+static_assert(sizeof(Counters) == 9 * 8 + 9 * 8 + 2 * 8 + 2 * 8 + 2 * 8 + sizeof(std::vector<std::uint64_t>),
               "Counters changed: save the new member in the checkpoint (pack/unpack below)");
 static_assert(sizeof(EngineState) == 7 * sizeof(std::vector<double>) + 3 * 8 + 5 * 8 + sizeof(Counters),
               "EngineState changed: save the new member in the checkpoint (arrays_of below)");
@@ -35,13 +37,17 @@ struct PackedCounters {
 
 PackedCounters pack(const Counters& c) {
   return {{c.virial, c.energy_lost, c.heating_energy, c.background_energy, c.wall_virial, c.sum_vn, c.sum_vn2, c.sum_e,
-           c.wall_energy[0], c.wall_energy[1], c.wall_momentum[0], c.wall_momentum[1]},
+           c.wall_energy[0], c.wall_energy[1], c.wall_momentum[0], c.wall_momentum[1], c.wall_energy_lost},
           {c.collisions, c.events, c.stale, c.cell_crossings, c.wall_collisions, c.background_candidates,
            c.background_collisions, c.guard_elastic, c.clamped, c.wall_hits[0], c.wall_hits[1]}};
 }
 
 void unpack(const PackedCounters& p, Counters& c) {
-  if (p.real.size() != 12 || p.integer.size() != 11) throw std::runtime_error("wrong counter layout");
+  // 12 reals: written before static-wall losses had their own counter (they were added to
+  // energy_lost). Their wall loss is unknown (NaN): Engine::restore refuses such a checkpoint
+  // if the case has lossy static walls and otherwise sets it to 0, the value it had.
+  if ((p.real.size() != 12 && p.real.size() != 13) || p.integer.size() != 11)
+    throw std::runtime_error("wrong counter layout");
   c.virial = p.real[0];
   c.energy_lost = p.real[1];
   c.heating_energy = p.real[2];
@@ -61,6 +67,7 @@ void unpack(const PackedCounters& p, Counters& c) {
   c.clamped = p.integer[8];
   c.wall_energy = {p.real[8], p.real[9]};
   c.wall_momentum = {p.real[10], p.real[11]};
+  c.wall_energy_lost = p.real.size() > 12 ? p.real[12] : std::numeric_limits<double>::quiet_NaN();
   c.wall_hits = {p.integer[9], p.integer[10]};
 }
 
@@ -319,6 +326,10 @@ bool read_newest_checkpoint(const fs::path& dir, const RunContext& ctx, Engine& 
           if (run.vhist.counts[d].size() != fresh.vhist.counts[d].size())
             throw std::runtime_error("velocity-histogram bins differ from the case");
         engine.restore(e);  // checks the engine arrays against the case before changing anything
+        // a checkpoint from before the wall-loss counter, accepted by restore (no lossy
+        // static walls): the run's other counter snapshots had no wall loss either
+        for (Counters* c : {&run.c_eq, &run.prev})
+          if (std::isnan(c->wall_energy_lost)) c->wall_energy_lost = 0.0;
       },
       warning);
   if (loaded.empty()) {

@@ -407,9 +407,10 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
       return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
     }));
     // DSMC of the same physics: grain-grain cross-section 1 in DSMC units corresponds to
-    // pi sigma^2 g(sigma) (3D) or 2 sigma g(sigma) (2D) here, so [grains] density =
+    // pi sigma^2 g(sigma) here, so [grains] density = pi n g(sigma). 3D only: the DSMC's
+    // grains and medium have 3D velocities, so a 2D disk case has no DSMC counterpart (its
+    // collision rate, medium kernel and temperature are those of disks).
     if (D == 3) out.emplace_back("edmd.dsmc_equivalent_grain_density", std::numbers::pi * n * g);
-    else out.emplace_back("edmd.dsmc_equivalent_grain_density", 2.0 * n * g);
   }
   if (c.driving_walls()) {
     const int wd = c.walls[0] ? 0 : c.walls[1] ? 1 : 2;
@@ -842,7 +843,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
                    c.gr_bin);
     summary.set("g_r.contact_fit", contact);
   }
-  // loss rate (Bizon eqs. 14, 29-31)
+  // loss rate (Bizon eqs. 14, 29-31): grain-grain collisions only (energy_lost); losses at
+  // static inelastic walls are energy.wall_loss_rate
   const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
   const double Gfor = Gs / pref / c.packing_fraction;  // g from the EOS measurement, as Bizon does
   const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_mean);
@@ -865,12 +867,14 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // conservation
   summary.set("conservation.energy_change",
               (total_energy() - e_initial) -
-                  (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost));
+                  (f.heating_energy + f.background_energy + f.wall_energy[0] + f.wall_energy[1] - f.energy_lost -
+                   f.wall_energy_lost));
   summary.set("conservation.relative_energy_change_elastic", (total_energy() - e_initial) / e_initial);
   summary.set("conservation.momentum_change", norm(eng.momentum() - p_initial));
   summary.set("energy.heating_rate", t_run > 0 ? f.heating_energy / (volume * t_run) : 0.0);
   summary.set("energy.background_rate", t_run > 0 ? f.background_energy / (volume * t_run) : 0.0);
   summary.set("energy.loss_rate", gamma);
+  summary.set("energy.wall_loss_rate", t_run > 0 ? f.wall_energy_lost / (volume * t_run) : 0.0);
   summary.set("overlap.min_distance", eng.min_distance());
   if (vhist.samples > 0) {
     const double c4 = vhist.c4_sum / vhist.samples, c2 = vhist.c2_sum / vhist.samples;

@@ -125,11 +125,15 @@ struct Counters {
   std::uint64_t guard_elastic = 0;    // TC-model collisions made elastic
   std::uint64_t clamped = 0;          // restitution law clamped to [0, 1]
   double virial = 0.0;                // Sum sigma k.dv_i = Sum (1+e)/2 g_n  (Bizon eq. 24)
-  double energy_lost = 0.0;           // Sum (m/4)(1-e^2) g_n^2
+  double energy_lost = 0.0;           // Sum (m/4)(1-e^2) g_n^2: grain-grain collisions only
   double heating_energy = 0.0;        // energy injected by the heat bath (air table: work of the forces)
   double background_energy = 0.0;     // energy given by the background medium
   double wall_virial = 0.0;           // Sum m |dv_n| at walls (momentum transferred)
-  // Driving walls only (plain walls book their loss in energy_lost): energy given to the
+  // Plain (static) walls with restitution e_w < 1: Sum (1 - e_w^2) m v_n^2 / 2. Kept apart
+  // from energy_lost, which loss.gamma compares with the grain-grain theory (Bizon eqs.
+  // 29-31) and the slab loss_rate of [profiles] sums to.
+  double wall_energy_lost = 0.0;
+  // Driving walls only (plain walls book their loss in wall_energy_lost): energy given to the
   // grains by the low / high wall (signed, net of the wall's restitution loss), and the
   // momentum given along the wall normal (into the box positive).
   std::array<double, 2> wall_energy{0.0, 0.0};
@@ -315,6 +319,7 @@ class Engine {
   void scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift, Top2& best) const;
   void trajectory_changed(std::uint32_t i);  // counter++, redraw background time
   void draw_background_time(std::uint32_t i);  // from (id, counter): next background candidate
+  void draw_background_window(std::uint32_t i);  // air table: next candidate of the current window
   void rebuild_calendar();  // predict everyone, size and fill the calendar (rebuild, restore)
   void insert_cell(std::uint32_t i);
   void remove_cell(std::uint32_t i);
@@ -362,6 +367,17 @@ class Engine {
   std::vector<std::uint32_t> pair_;  // by id: air-table partner (id) with the opposite acceleration
   HugePageVector<Sched> sc_;
   std::vector<double> bg_time_;  // next background-medium candidate (only with a medium)
+  // Air table with a medium only (empty otherwise): the velocity changes along a free flight,
+  // so the candidate process is thinned from a bound valid over a window of the flight
+  // (draw_background_window). bound: the window's candidate rate; draws: windows and
+  // thinned candidates since the last trajectory change (the RNG sequence); refresh: the
+  // event at bg_time_ is the window's end, not a candidate.
+  struct BgWindow {
+    double bound = 0.0;
+    std::uint32_t draws = 0;
+    bool refresh = false;
+  };
+  std::vector<BgWindow> bg_win_;
 
   // cells: fixed-capacity member arrays
   std::array<int, 3> nc_{1, 1, 1};

@@ -146,6 +146,33 @@ every = 20
 keep = true
 )";
 
+// Air table in a medium: the medium candidates are thinned over windows of each free flight
+// (engine.cpp, draw_background_window), whose state is not in the checkpoint but redrawn at
+// the rebuild. (No lossy walls here: an accelerated grain can bounce ever lower on an
+// inelastic wall, the bouncing ball's infinite sequence of hits; kWallsAndMedium covers the
+// static-wall loss counter.)
+const char* kAirTableMedium = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.1
+equilibrate = 20
+collisions = 60
+[restitution]
+law = "bizon"
+[heating]
+model = "air_table"
+acceleration = 2.0
+[background]
+density = 1.0
+knudsen = 1.0
+temperature = 0.2
+mass_ratio = 0.5
+[checkpoint]
+every = 20
+keep = true
+)";
+
 // Driving walls (two different ones) with slab profiles: the profile blocks, the
 // per-slab velocity histograms and the wall energy series must all be in the checkpoint.
 const char* kDrivingWallsProfiles = R"(
@@ -268,6 +295,9 @@ void check_exact_continuation(const char* toml, const std::string& tag) {
 TEST(EdmdRestart, HeatedSpheresContinueBitwise) { check_exact_continuation(kHeatedSpheres, "heated"); }
 TEST(EdmdRestart, WallsAndMediumContinueBitwise) { check_exact_continuation(kWallsAndMedium, "walls"); }
 TEST(EdmdRestart, AirTableContinuesBitwise) { check_exact_continuation(kAirTable, "air"); }
+TEST(EdmdRestart, AirTableInMediumContinuesBitwise) {
+  check_exact_continuation(kAirTableMedium, "air-medium");
+}
 TEST(EdmdRestart, RoughDisksContinueBitwise) { check_exact_continuation(kRoughDisks, "rough"); }
 TEST(EdmdRestart, TransportBookkeepingContinuesBitwise) { check_exact_continuation(kTransportTent, "transport"); }
 TEST(EdmdRestart, TransportResumedInTheEquilibrationContinuesBitwise) {

@@ -92,6 +92,31 @@ TEST(DrivingWalls, BalanceTemperatureMatchesTheClosedForm) {
   }
 }
 
+// Static walls with restitution < 1 book their loss in wall_energy_lost, not in the
+// grain-grain energy_lost that loss.gamma compares with Bizon's eqs. 29-31 (and the slab
+// loss_rate sums to): elastic grains lose nothing in collisions, so energy_lost stays 0 (the
+// earlier engine added the wall losses there: loss.gamma/gamma_e 1.40 instead of 0.99 in
+// /tmp/auditB's wallloss case), and the budget closes with both.
+TEST(StaticWalls, LossyWallsBookTheirLossApartFromGrainCollisions) {
+  Config c = config_from(
+      "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.3\naspect = [0.25, 1.0]\n"
+      "[heating]\nmodel = \"white_noise\"\nkick = 0.3\n"
+      "[walls]\ndirections = [\"x\"]\nrestitution = 0.5\n");
+  ASSERT_FALSE(c.driving_walls());
+  const auto init = make_initial_state(c, 3);
+  Engine eng(make_setup(c, 3), init.positions, init.velocities);
+  const double e0 = eng.kinetic_energy();
+  eng.advance(ElasticRestitution{}, kInf, 50 * eng.size());
+  eng.synchronize();
+  const Counters& f = eng.counters();
+  EXPECT_EQ(f.energy_lost, 0.0);
+  EXPECT_GT(f.wall_collisions, 1000u);
+  EXPECT_GT(f.wall_energy_lost, 0.01 * f.heating_energy);
+  EXPECT_NEAR(eng.kinetic_energy() - e0, f.heating_energy - f.energy_lost - f.wall_energy_lost,
+              1e-9 * (e0 + f.heating_energy));
+  EXPECT_EQ(f.wall_energy[0] + f.wall_energy[1], 0.0);  // driving walls' counter untouched
+}
+
 TEST(DrivingWalls, SteadyStateWallInputEqualsCollisionalLoss) {
   Config c = config_from(
       "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.1\naspect = [1.0, 2.0]\n"
