@@ -164,7 +164,7 @@ def overview(run, ctx):
     row("final |u − u_B|", "velocity.final")
     row("compressibility factor Z", "pressure.Z", "pressure.Z_stderr")
     row("g(σ) from Z", "pressure.g_contact")
-    row("g(σ) from fit of g(r)", "g_r.contact_fit")
+    row("g(σ) from a quadratic fit of g(r)", "g_r.contact_fit")
     row("a₂ (EDMD)", "velocity.a2")
     row("mean restitution ⟨e⟩", "restitution.mean_e")
     row("collision frequency / Enskog", "collision.frequency_over_enskog")

@@ -253,7 +253,7 @@ def pair_correlation(run, ctx):
     marks = [("theory.g_contact", "o", "#0072B2", "g(σ⁺) from the EOS"),
              ("pressure.g_contact", "s", "#E69F00", "g(σ⁺) from the measured Z"),
              ("pressure.g_contact_weighted_e", "^", "#009E73", "g(σ⁺) from Z, collision-weighted (1+e)"),
-             ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a linear fit of g(r) near contact")]
+             ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a quadratic fit of g(r) near contact")]
     for key, mk, col, lab in marks:
         v = run.num(key)
         if v is not None:

@@ -838,8 +838,8 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     // applies but not measurable: null in summary.json, and the reason here (docs/OUTPUT.md)
     if (!std::isfinite(contact))
       std::fprintf(stderr,
-                   "warning: no g_r.contact_fit: the fit of g(r) over [sigma, 1.1 sigma] needs 2 bin centres there, "
-                   "sampling.gr_bin = %.4g gives fewer: use gr_bin <= 0.05\n",
+                   "warning: no g_r.contact_fit: the quadratic fit of g(r) over [sigma, 1.1 sigma] needs 3 bins there, "
+                   "sampling.gr_bin = %.4g gives fewer: use gr_bin <= 0.033\n",
                    c.gr_bin);
     summary.set("g_r.contact_fit", contact);
   }

@@ -35,14 +35,17 @@ struct PairStatistics {
   // The pairs of one snapshot by the direct O(N^2) sum (used for small boxes, and by the tests
   // as the reference for add()'s cell search); does not count a snapshot.
   void add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
-  // g(r) at bin centres (ideal-gas normalisation for a periodic box).
+  // g(r) per bin, reported at the bin centres: pair counts over the ideal-gas count of the
+  // N(N-1)/2 pairs (periodic box).
   std::vector<double> gr() const;
   std::vector<double> gr_radii() const;
   std::vector<double> corr_radii() const;
   // <v1par v2par>/T and <v1perp . v2perp>/((D-1) T) per bin (Bizon eqs. 25-26).
   std::vector<double> parallel() const;
   std::vector<double> perpendicular() const;
-  // g at contact by a linear fit of g(r) over [1, 1 + width] extrapolated to r = 1.
+  // g at contact: a quadratic least-squares fit in r of the bin averages of g(r) over
+  // [1, 1 + width] (fitted exactly as bin averages, not centre values), evaluated at r = 1;
+  // NaN with fewer than 3 bins there (gr_bin > width / 3).
   double contact_value(double width = 0.1) const;
 };
 
