@@ -252,6 +252,23 @@ Config read_config(CaseReader& r) {
   }
   // transport bookkeeping (Bizon Sec. V)
   c.transport = r.has_section("transport");
+  // A grain accelerated into a static lossy wall bounces infinitely often in finite time
+  // (each flight 2 alpha_w |v_n| / a_n, a geometric series: inelastic collapse at the wall),
+  // and the air table redraws an acceleration only at grain collisions, which then never
+  // come: the event loop stalls (found 2026-12-05; it hung past any time limit). A driving
+  // speed v_dr > 0 keeps each flight at least 2 v_dr / a_n.
+  if (c.heating.kind == HeatingKind::air_table && n_wall_dirs > 0)
+    for (int side = 0; side < 2; ++side)
+      if (c.wall_restitution_side[side] < 1.0 && c.wall_driving[side] <= 0.0) {
+        const char* key = r.has("walls", side == 0 ? "restitution_low" : "restitution_high")
+                              ? (side == 0 ? "restitution_low" : "restitution_high")
+                              : "restitution";
+        r.problem("walls", key,
+                  "the air table with a static wall of restitution < 1 collapses: a grain accelerated into the wall "
+                  "bounces infinitely often in finite time; use restitution = 1, a driving speed "
+                  "(walls.driving_speed) or another [heating] model");
+        break;
+      }
   if (c.transport) {
     c.transport_slabs = static_cast<int>(r.integer("transport", "slabs", 32, 4, 100000));
     c.transport_fit_inner = r.real("transport", "fit_inner", 0.2, Bounds::closed(0.0, 1.0), "fraction of L/2");

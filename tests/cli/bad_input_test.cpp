@@ -447,6 +447,25 @@ TEST_F(BadInput, EdmdOutOfRangeEveryParameter) {
   }
 }
 
+// The air table with a static lossy wall collapses at the wall (a grain accelerated into it
+// bounces infinitely often in finite time) and used to hang the run past any time limit
+// (2026-12-05): refused with the key; a driving speed, which bounds each flight from below, is
+// accepted (and runs).
+TEST_F(BadInput, AirTableWithAStaticLossyWallIsRefused) {
+  Case air;  // edmd_case() with the air table (its heating.kick would be an unused key)
+  air.set("run", "solver", "\"edmd\"").set("run", "seed", "1");
+  air.set("edmd", "dimensions", "2").set("edmd", "particles", "64").set("edmd", "packing_fraction", "0.1");
+  air.set("edmd", "equilibrate", "1.0").set("edmd", "collisions", "5.0");
+  air.set("restitution", "law", "\"constant\"").set("restitution", "e", "0.9");
+  air.set("heating", "model", "\"air_table\"").set("heating", "acceleration", "1.0");
+  air.set("walls", "directions", "[\"x\"]").set("walls", "restitution", "0.5");
+  expect_rejected(air.text(), {{air.line_of("walls", "restitution"), "walls.restitution", "collapses"}});
+  air.set("walls", "driving_speed", "0.5");
+  write_text(case_file(), air.text());
+  const RunResult r = grainbath({"run", case_dir().string(), "--quiet", "--out", (work() / "driven").string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+}
+
 // ---------------------------------------------------------------- malformed files
 
 TEST_F(BadInput, EmptyWhitespaceAndCommentOnlyFiles) {
