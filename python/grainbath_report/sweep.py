@@ -114,7 +114,7 @@ def ensemble_section(runs, quantities, paths):
     """Replicas (the runs differ only in seed): each quantity's mean over the R runs with the
     error from their scatter, std/sqrt(R), which holds whatever the correlations inside a run
     (the numbers of `grainbath sweep`'s ensemble.md), beside the runs' own errors combined,
-    mean(stderr)/sqrt(R), and each theory value's distance from the mean in units of the
+    sqrt(sum stderr^2)/R, and each theory value's distance from the mean in units of the
     scatter error."""
     R = len(runs)
     s = Section(f"Ensemble of {R} replicas", "ensemble")
@@ -126,7 +126,8 @@ def ensemble_section(runs, quantities, paths):
             continue
         mean, scatter = float(np.mean(v)), float(np.std(v, ddof=1) / np.sqrt(len(v)))
         own = [r.num(err_key) for r in runs if err_key and r.num(err_key) is not None]
-        own_err = float(np.mean(own) / np.sqrt(len(own))) if own else None
+        # the error of a mean of independent runs: sqrt(sum s_i^2)/R
+        own_err = float(np.sqrt(np.sum(np.square(own))) / len(own)) if own else None
         th = []
         for tkey, _style, tlabel in theories:
             tv = [r.num(tkey) for r in runs if r.num(tkey) is not None]
@@ -137,7 +138,7 @@ def ensemble_section(runs, quantities, paths):
                      "; ".join(th) or "—"])
     s.text(f"The {R} runs differ only in their seed: they are independent replicas. The mean of each quantity "
            "over them, with the standard error from their scatter (std/√R, honest whatever the correlations "
-           "inside a run), beside the runs' own block-averaged errors combined (mean/√R): where the scatter "
+           "inside a run), beside the runs' own errors combined (√(Σs²)/R): where the scatter "
            "error is the larger, the single-run errors understate the uncertainty.")
     s.table(["quantity", f"mean over {R} ± scatter error", "runs' own errors combined", "theory (distance)"], rows,
             caption="Replica statistics (the same numbers as the sweep's ensemble.md, where `grainbath sweep` "

@@ -181,6 +181,17 @@ int command_sweep(const SweepArgs& a) {
       return 2;
     }
     axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));
+    // A value given twice makes the same run twice: over run.seed, identical copies counted
+    // as independent replicas (the ensemble error then too small: sqrt(3) with 1,1,2,2).
+    const auto& values = axes.back().second;
+    for (std::size_t i = 0; i < values.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (values[i] == values[j]) {
+          std::fprintf(stderr, "error: --set %s: the value %s is given twice; each value makes one run%s\n", o.c_str(),
+                       values[i].c_str(),
+                       axes.back().first == "run.seed" ? " (a repeated seed is the same run, not another replica)" : "");
+          return 2;
+        }
   }
   // A key given one value is a setting of every run, not an axis: it is passed to each run
   // but names no directory and no table column, and it does not stop a sweep over run.seed
@@ -573,11 +584,19 @@ int command_sweep(const SweepArgs& a) {
   // (mean over replicas, standard error = sample standard deviation / sqrt(R), which is an
   // honest error whatever the correlations inside each run).
   if (axes.size() == 1 && axes[0].first == "run.seed" && variants.size() >= 2) {
+    // the replicas whose summary was read (a failed run is not one)
+    const auto read = static_cast<std::size_t>(std::count_if(rows.begin(), rows.end(), [](const auto& r) { return !r.empty(); }));
     std::ostringstream em;
-    em << "| quantity | mean over " << variants.size() << " replicas | standard error | per-run stderr (mean) |\n|---|---|---|---|\n";
+    em << "| quantity | mean over " << read << " replicas | standard error | per-run stderr combined |\n|---|---|---|---|\n";
     Summary merged;
+    // a quantity's own error: `key.stderr` for a `key.mean` (temperature.stderr), else
+    // `key_stderr` (mode.decay_rate_stderr, profile.exponent_stderr, rotation.R_stderr)
+    auto ends_with = [](const std::string& c, const char* tail) {
+      const std::size_t n = std::strlen(tail);
+      return c.size() > n && c.compare(c.size() - n, n, tail) == 0;
+    };
     for (const auto& c : columns) {
-      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || (c.size() > 7 && c.compare(c.size() - 7, 7, ".stderr") == 0))
+      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || ends_with(c, ".stderr") || ends_with(c, "_stderr"))
         continue;
       std::vector<double> v;
       for (const auto& r : rows)
@@ -595,20 +614,22 @@ int command_sweep(const SweepArgs& a) {
       merged.set(c + ".ensemble_mean", m);
       merged.set(c + ".ensemble_stderr", se);
       merged.set(c + ".replicas", static_cast<std::int64_t>(v.size()));
-      // the runs' own (blocked) standard errors, averaged and divided by sqrt(R), for comparison
+      // the runs' own standard errors combined as the error of a mean of R independent
+      // runs, sqrt(sum s_i^2)/R, for comparison with the scatter (before 2026-12-05: the mean
+      // of the s_i over sqrt(R), low by Jensen's inequality, and blank for the `_stderr` keys)
       std::string own;
-      const std::string base = c.size() > 5 && c.compare(c.size() - 5, 5, ".mean") == 0 ? c.substr(0, c.size() - 5) : c;
-      if (columns.count(base + ".stderr")) {
+      const std::string err_key = ends_with(c, ".mean") ? c.substr(0, c.size() - 5) + ".stderr" : c + "_stderr";
+      if (columns.count(err_key)) {
         double s2 = 0;
         int cnt = 0;
         for (const auto& r : rows)
-          if (auto it = r.find(base + ".stderr"); it != r.end() && std::isfinite(it->second)) {
-            s2 += it->second;
+          if (auto it = r.find(err_key); it != r.end() && std::isfinite(it->second)) {
+            s2 += it->second * it->second;
             ++cnt;
           }
         if (cnt) {
           char b[40];
-          std::snprintf(b, sizeof b, "%.4g", s2 / cnt / std::sqrt(static_cast<double>(cnt)));
+          std::snprintf(b, sizeof b, "%.4g", std::sqrt(s2) / cnt);
           own = b;
         }
       }
@@ -618,7 +639,7 @@ int command_sweep(const SweepArgs& a) {
     }
     write_file_atomic(out / "ensemble.md", em.str());
     write_file_atomic(out / "ensemble.json", merged.to_json());
-    std::printf("ensemble of %zu replicas: %s/ensemble.md, %s/ensemble.json\n", variants.size(), out.string().c_str(),
+    std::printf("ensemble of %zu replicas: %s/ensemble.md, %s/ensemble.json\n", read, out.string().c_str(),
                 out.string().c_str());
   }
   write_file_atomic(out / "sweep.tsv", tsv.str());

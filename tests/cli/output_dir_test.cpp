@@ -5,6 +5,8 @@
 // the user's own are refused at start-up, before any work, with nothing changed.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -158,6 +160,47 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_EQ(r.code, 2) << r.describe();
   EXPECT_NE(r.err.find("does not hold grainbath output"), std::string::npos) << r.err;
   EXPECT_EQ(listing(tmp.path()), before);
+}
+
+// The ensemble's comparison column combines the runs' own errors as the error of a mean of R
+// independent runs, sqrt(sum s_i^2)/R (before 2026-12-05: mean(s_i)/sqrt(R), low by Jensen's
+// inequality, and blank for the quantities whose error is `key_stderr`); a seed given twice is
+// refused before any run (it was run twice and counted as two replicas: the ensemble error
+// sqrt(3) too small with 1,1,2,2).
+TEST_F(OutputDir, EnsembleCombinesTheRunsOwnErrorsAndRefusesARepeatedSeed) {
+  const fs::path out = tmp / "ens";
+  RunResult r = grainbath({"sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set",
+                           "run.seed=1,2,1", "--set", "run.threads=1"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("run.seed=1,2,1: the value 1 is given twice"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  r = grainbath({"sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set", "run.seed=1,2,3",
+                 "--set", "run.threads=1"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  auto temperature_stderr = [](const std::string& json) {  // "temperature": {"mean": .., "stderr": x
+    const std::size_t at = json.find("\"stderr\"", json.find("\"temperature\""));
+    return std::stod(json.substr(json.find(':', at) + 1));
+  };
+  double s2 = 0, s1 = 0;
+  for (const char* v : {"variant-0_seed_1", "variant-1_seed_2", "variant-2_seed_3"}) {
+    const double s = temperature_stderr(read_text(out / v / "summary.json"));
+    s2 += s * s;
+    s1 += s;
+  }
+  // the test tells the two combinations apart only if the runs' errors differ enough
+  std::printf("runs' errors combined: sqrt(sum s^2)/R = %.6g, mean(s)/sqrt(R) = %.6g\n", std::sqrt(s2) / 3.0,
+              s1 / 3.0 / std::sqrt(3.0));
+  ASSERT_GT(std::sqrt(s2) / 3.0 - s1 / 3.0 / std::sqrt(3.0), 3e-3 * std::sqrt(s2) / 3.0);
+  std::istringstream md(read_text(out / "ensemble.md"));
+  std::string row;
+  for (std::string line; std::getline(md, line);)
+    if (line.rfind("| temperature.mean |", 0) == 0) row = line;
+  std::vector<std::string> cols;  // "", quantity, mean, standard error, per-run stderr combined
+  std::istringstream cells(row);
+  for (std::string cell; std::getline(cells, cell, '|');) cols.push_back(cell);
+  ASSERT_GE(cols.size(), 5u) << row;
+  EXPECT_NEAR(std::stod(cols[4]), std::sqrt(s2) / 3.0, 1e-3 * std::sqrt(s2) / 3.0) << row;
+  EXPECT_EQ(read_text(out / "ensemble.md").find("_stderr |"), std::string::npos) << "an error merged as a quantity";
 }
 
 // `sweep --quiet`: no progress lines on stderr, the same sweep and its table on stdout (a failed
