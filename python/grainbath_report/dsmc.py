@@ -470,6 +470,70 @@ def distribution(run, ctx):
 
 
 # ---------------------------------------------------------------------------------------
+ROUGH_MODELS = ("A", "B", "C", "D", "E")
+ROUGH_COLOURS = {"A": "#E69F00", "B": "#56B4E9", "C": "#009E73", "D": "#CC79A7", "E": "#D55E00"}
+
+
+def rough(run, ctx):
+    """Rough grains (Walton's rule): Ttr(t) and Trot(t) beside the mean-field models A-E of
+    docs/rough.md (integrated from the first sample by the run, /theory/rough_model_X), and the
+    ratio R = Trot/Ttr over the averaging window."""
+    if not _is_dsmc(run) or not run.has("timeseries/rotational_temperature"):
+        return None
+    t = run.arr("timeseries/t")
+    Ttr = run.arr("timeseries/temperature")
+    Trot = run.arr("timeseries/rotational_temperature")
+    models = [m for m in ROUGH_MODELS if run.has(f"theory/rough_model_{m}/Ttr", f"theory/rough_model_{m}/Trot")]
+    s = Section("Rough grains: translational and rotational temperature", "rough")
+    fig, (ax, axr) = subplots(2, 1, figsize=(7.5, 6.0), sharex=True, gridspec_kw=dict(height_ratios=[2, 1]))
+    _shade_window(axr, run, t)
+    ax.plot(t, Ttr, **dict(SIM, label="DSMC: Ttr"))
+    ax.plot(t, Trot, color="0.45", lw=2.0, label="DSMC: Trot")
+    for m in models:
+        col = ROUGH_COLOURS[m]
+        ax.plot(t, run.arr(f"theory/rough_model_{m}/Ttr"), color=col, lw=1.2, ls="--", label=f"model {m}: Ttr")
+        ax.plot(t, run.arr(f"theory/rough_model_{m}/Trot"), color=col, lw=1.2, ls=":", label=f"model {m}: Trot")
+    ax.set_ylabel(f"temperature  [{T_UNIT}]")
+    ax.set_title("Rough grains: DSMC beside the mean-field models A–E" if models else "Rough grains")
+    ax.legend(loc="best", fontsize=7, ncol=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        R = np.where(Ttr > 0, Trot / Ttr, np.nan)
+    axr.plot(t, R, **dict(SIM, label="DSMC: R = Trot/Ttr"))
+    for m in models:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            Rm = run.arr(f"theory/rough_model_{m}/Trot") / run.arr(f"theory/rough_model_{m}/Ttr")
+        axr.plot(t, Rm, color=ROUGH_COLOURS[m], lw=1.2, ls="--", label=f"model {m}")
+    axr.set_xlabel(TIME_LABEL)
+    axr.set_ylabel("R = Trot/Ttr  [1]")
+    axr.legend(loc="best", fontsize=7, ncol=3)
+    s.figure(ctx.save(fig, "rough"),
+             "Translational (black) and rotational (grey) temperature of the grains, with the mean-field models "
+             "A–E (docs/rough.md, R3–R14) integrated from the first sample (dashed: Ttr, dotted: Trot); lower "
+             "panel: their ratio R." + ("" if models else " " + "This run wrote no model curves (the models have no "
+                                           "background medium: they are written for free cooling only)."))
+    Rm, Re = run.num("rotation.R"), run.num("rotation.R_stderr")
+    rows = [["DSMC, window mean (`rotation.R`)", fmt_pm(Rm, Re) if Rm is not None else "n/a", ""],
+            ["DSMC at t_end (`rotation.R_final`)", fmt(run.num("rotation.R_final")), ""]]
+    for m in models:
+        tr = run.num(f"theory.rough.rough_model_{m}.Ttr_at_t_end")
+        rot = run.num(f"theory.rough.rough_model_{m}.Trot_at_t_end")
+        if tr and rot is not None:
+            rows.append([f"model {m} at t_end (Trot/Ttr)", fmt(rot / tr), deviation(run.num("rotation.R_final"), None,
+                                                                                 rot / tr)])
+    s.table(["source", "R = Trot/Ttr", "model − DSMC, both at t_end"], rows)
+    Tf, Trf = run.num("temperature.final"), run.num("rotation.Trot_final")
+    if models and Tf is not None and Trf is not None:
+        s.table(["model", "Ttr(t_end)  [E]", "theory − DSMC", "Trot(t_end)  [E]", "theory − DSMC"],
+                [[f"model {m}", fmt(run.num(f"theory.rough.rough_model_{m}.Ttr_at_t_end")),
+                  deviation(Tf, None, run.num(f"theory.rough.rough_model_{m}.Ttr_at_t_end")),
+                  fmt(run.num(f"theory.rough.rough_model_{m}.Trot_at_t_end")),
+                  deviation(Trf, None, run.num(f"theory.rough.rough_model_{m}.Trot_at_t_end"))] for m in models],
+                caption="At the end of the run (DSMC: `temperature.final`, `rotation.Trot_final`; one sample, no "
+                        "error bar: compare the curves above for the noise).")
+    return s
+
+
+# ---------------------------------------------------------------------------------------
 def energy(run, ctx):
     """Energy budget: ΔKE = bath input − inelastic loss (cumulative, per grain)."""
     if not _is_dsmc(run) or not run.has("timeseries/kinetic_energy_per_grain"):

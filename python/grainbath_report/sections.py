@@ -15,6 +15,7 @@ SECTIONS = [
     dsmc.steady_temperature,
     dsmc.sonine_a2,
     dsmc.distribution,
+    dsmc.rough,
     dsmc.energy,
     dsmc.pressure,
     # spatially resolved runs (DSMC with cells, hydrodynamic solvers)

@@ -39,7 +39,9 @@ CASES = [
     ("hot-walls", ["dsmc.particles=4000", "dsmc.t_end=1", "sampling.steady_from=0.5", "sampling.field_batches=2"],
      ["overview", "temperature", "a2", "distribution", "energy", "profiles", "appendix"],
      ["temperature.mean", "temperature.stderr", "a2.mean", "energy.wall_input_per_grain"]),
-    ("@rough", [], ["overview", "temperature", "energy", "appendix"], ["temperature.final"]),
+    ("@rough", [], ["overview", "temperature", "rough", "energy", "appendix"],
+     ["temperature.final", "rotation.R", "theory.rough.rough_model_A.Ttr_at_t_end",
+      "theory.rough.rough_model_E.Trot_at_t_end"]),
     ("@mode", [],  # spatial DSMC: a decaying density mode (case written below)
      ["overview", "temperature", "mode", "profiles", "appendix"],
      ["mode.decay_rate", "mode.decay_rate_stderr", "theory.hydro.decay_rate", "theory.hydro.decay_rate_kinetic"]),
