@@ -25,6 +25,14 @@ namespace {
 
 const std::string kBinary = GRAINBATH_BINARY;
 
+// The cells of a Markdown table row, split at '|' (the first is the empty text before it).
+std::vector<std::string> table_cells(const std::string& row) {
+  std::vector<std::string> cols;
+  std::istringstream cells(row);
+  for (std::string cell; std::getline(cells, cell, '|');) cols.push_back(cell);
+  return cols;
+}
+
 // a homogeneous DSMC case of a fraction of a second
 const char* kCase = R"([run]
 solver = "dsmc"
@@ -146,9 +154,7 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   for (std::string line; std::getline(md, line);) {
     if (line.rfind("| theory.", 0) != 0) continue;
     ++theory_rows;
-    std::vector<std::string> cols;  // "", quantity, mean, standard error, per-run stderr, ""
-    std::istringstream cells(line);
-    for (std::string cell; std::getline(cells, cell, '|');) cols.push_back(cell);
+    const std::vector<std::string> cols = table_cells(line);  // "", quantity, mean, standard error, per-run
     ASSERT_GE(cols.size(), 4u) << line;
     EXPECT_EQ(cols[3], " 0 ") << line;
   }
@@ -195,9 +201,7 @@ TEST_F(OutputDir, EnsembleCombinesTheRunsOwnErrorsAndRefusesARepeatedSeed) {
   std::string row;
   for (std::string line; std::getline(md, line);)
     if (line.rfind("| temperature.mean |", 0) == 0) row = line;
-  std::vector<std::string> cols;  // "", quantity, mean, standard error, per-run stderr combined
-  std::istringstream cells(row);
-  for (std::string cell; std::getline(cells, cell, '|');) cols.push_back(cell);
+  const std::vector<std::string> cols = table_cells(row);  // "", quantity, mean, standard error, per-run
   ASSERT_GE(cols.size(), 5u) << row;
   EXPECT_NEAR(std::stod(cols[4]), std::sqrt(s2) / 3.0, 1e-3 * std::sqrt(s2) / 3.0) << row;
   EXPECT_EQ(read_text(out / "ensemble.md").find("_stderr |"), std::string::npos) << "an error merged as a quantity";

@@ -1,8 +1,12 @@
 #pragma once
 // Runs a DSMC case given as TOML text into a fresh temporary directory.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <unistd.h>
+
+#include <gtest/gtest.h>
 
 #include "core/case_file.hpp"
 #include "core/h5.hpp"
@@ -45,6 +49,18 @@ inline CaseRun run_dsmc(const std::string& toml, std::uint64_t seed, int threads
   ctx.resume = resume;
   dsmc::run(cfg, ctx, out.summary);
   return out;
+}
+
+// Every /fields dataset of two runs equal to 1e-12 (relative above 1): runs of one
+// trajectory whose fields are summed in different groupings (batches, a resume).
+inline void expect_same_fields(const CaseRun& a, const CaseRun& b) {
+  for (const char* name : {"/fields/density", "/fields/temperature", "/fields/velocity", "/fields/pressure_tensor",
+                           "/fields/heat_flux"}) {
+    const std::vector<double> x = a.series(name), y = b.series(name);
+    ASSERT_EQ(x.size(), y.size()) << name;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      ASSERT_NEAR(x[i], y[i], 1e-12 * std::max(1.0, std::abs(y[i]))) << name << " [" << i << "]";
+  }
 }
 
 }  // namespace grainbath::testing

@@ -408,13 +408,7 @@ TEST(DsmcRestart, ResumeWithALaterEndSamplesTheFieldsToTheNewEnd) {
   run_dsmc(first, 21, 0, "extend-first", ck);  // checkpoints kept at t = 0.75 and 1.0
   const auto resumed = run_dsmc(longer, 21, 0, "extend-resumed", ck, true);
   const auto fresh = run_dsmc(longer, 21, 0, "extend-fresh");
-  for (const char* name : {"/fields/density", "/fields/temperature", "/fields/velocity", "/fields/pressure_tensor",
-                           "/fields/heat_flux"}) {
-    const std::vector<double> a = resumed.series(name), b = fresh.series(name);
-    ASSERT_EQ(a.size(), b.size()) << name;
-    for (std::size_t i = 0; i < a.size(); ++i)
-      ASSERT_NEAR(a[i], b[i], 1e-12 * std::max(1.0, std::abs(b[i]))) << name << " [" << i << "]";
-  }
+  grainbath::testing::expect_same_fields(resumed, fresh);
   auto window = [](const grainbath::testing::CaseRun& r) {
     return grainbath::H5File((r.dir / "results.h5").string(), grainbath::H5File::Mode::read)
         .read_attribute("/fields", "window");

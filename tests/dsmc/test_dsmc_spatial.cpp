@@ -453,13 +453,7 @@ field_batches = )" + std::to_string(batches) + "\n",
                     7, 0, "batches-" + std::to_string(batches));
   };
   const auto few = run(2), many = run(32);
-  for (const char* name : {"/fields/density", "/fields/temperature", "/fields/velocity", "/fields/pressure_tensor",
-                           "/fields/heat_flux"}) {
-    const std::vector<double> a = few.series(name), b = many.series(name);
-    ASSERT_EQ(a.size(), b.size()) << name;
-    for (std::size_t i = 0; i < a.size(); ++i)
-      ASSERT_NEAR(a[i], b[i], 1e-12 * std::max(1.0, std::abs(a[i]))) << name << " [" << i << "]";
-  }
+  grainbath::testing::expect_same_fields(few, many);
   const std::vector<double> T = many.series("/fields/temperature"), Terr = many.series("/fields/temperature_stderr");
   double mean = 0;
   for (double x : T) mean += x;
