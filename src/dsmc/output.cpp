@@ -443,7 +443,9 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
       std::vector<double> lx, ly, ls;
       for (std::size_t k = 0; k < cells; ++k)
         if (nmean[k] > 0 && nerr[k] > 0) {
-          lx.push_back(std::log(bgT[k]));
+          // ln TB averaged over the cell, not at its centre (which biased p by -0.0013 in
+          // cases/thermal-gradient; cell_mean_log_background_temperature)
+          lx.push_back(cell_mean_log_background_temperature(c, k));
           ly.push_back(std::log(nmean[k]));
           ls.push_back(nerr[k] / nmean[k]);
         }

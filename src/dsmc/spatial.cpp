@@ -190,6 +190,22 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
   p.id.resize(kept);
 }
 
+double cell_mean_log_background_temperature(const Config& c, std::size_t k) {
+  const Domain& d = c.domain;
+  const std::size_t nx = d.cells[0], ny = d.cells[1];
+  const std::size_t ix = k % nx, iy = (k / nx) % ny, iz = k / (nx * ny);
+  const double w = d.cell_size(0), y = (iy + 0.5) * d.cell_size(1), z = (iz + 0.5) * d.cell_size(2);
+  const double mB = background_mass(c.background.mass_ratio, c.grains.mass);
+  constexpr int kPoints = 64;
+  double sum = 0.0;
+  for (int q = 0; q < kPoints; ++q) {
+    const double x = (ix + (q + 0.5) / kPoints) * w;
+    const BackgroundState b = local_background(c, x, y, z, static_cast<std::uint32_t>(k));
+    sum += std::log(b.sigma * b.sigma * mB);
+  }
+  return sum / kPoints;
+}
+
 BackgroundState local_background(const Config& c, double x, double y, double z, std::uint32_t cell) {
   const BackgroundParameters& b = c.background;
   double nB = b.density, TB = b.temperature;

@@ -153,4 +153,11 @@ void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed)
 // collisions use the local nB, uB, TB).
 BackgroundState local_background(const Config& c, double x, double y, double z, std::uint32_t cell);
 
+// <ln TB> over cell k's extent along x (the midpoint rule on 64 sub-intervals), for a
+// background that varies along x only (isobaric_sine), at the cell's centre in y and z.
+// What the profile exponent fits n_cell against (src/dsmc/output.cpp): a cell's grain count is
+// the integral of n ~ TB^-p over the cell, and ln <TB^-p> = -p <ln TB> + O(w^2 Var) while
+// ln TB at the centre misses the curvature of ln TB at O(w^2) itself.
+double cell_mean_log_background_temperature(const Config& c, std::size_t k);
+
 }  // namespace grainbath::dsmc

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmc/spatial.hpp"
 #include "hydro/hydro.hpp"
 #include "support.hpp"
 
@@ -461,4 +462,47 @@ field_batches = )" + std::to_string(batches) + "\n",
   std::printf("cells' temperature: mean %.4f over %zu cells (gas: T = 1)\n", mean, T.size());
   EXPECT_NEAR(mean, 0.965, 0.035);
   for (std::size_t i = 0; i < Terr.size(); ++i) EXPECT_GT(Terr[i], 0.0) << i;  // jackknife over 32 batches
+}
+
+// The profile exponent fits ln n_cell against <ln TB> over each cell (src/dsmc/output.cpp),
+// not ln TB at the cell's centre: for n ~ TB^-p exactly, cell-averaged, the centre value gives
+// p 0.0013 too low with cases/thermal-gradient's 32 cells (A = 0.3, p = 0.819), the cell mean
+// of ln TB 4e-5 (computed by quadrature). Here: the cell mean against an independent
+// 20001-point trapezoid of ln(TB0 (1 + A sin kx)), and its distance from the centre value,
+// so that the test fails if the centre value is used.
+TEST(DsmcSpatial, CellMeanOfLogBackgroundTemperature) {
+  grainbath::CaseReader reader(R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [32]
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.5
+knudsen = 0.05
+profile = "isobaric_sine"
+amplitude = 0.3
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 1000
+)", "/tmp/test.toml");
+  const grainbath::dsmc::Config c = grainbath::dsmc::read_config(reader);
+  reader.finish();
+  const double w = 2.0 / 32, k = std::numbers::pi;
+  double largest_gap = 0;
+  for (std::size_t cell = 0; cell < 32; ++cell) {
+    constexpr int M = 20000;
+    double integral = 0;
+    for (int q = 0; q <= M; ++q) {
+      const double x = cell * w + w * q / M;
+      integral += (q == 0 || q == M ? 0.5 : 1.0) * std::log(1.5 * (1.0 + 0.3 * std::sin(k * x)));
+    }
+    integral /= M;
+    const double mean = grainbath::dsmc::cell_mean_log_background_temperature(c, cell);
+    EXPECT_NEAR(mean, integral, 1e-6) << cell;  // the midpoint rule's error, w^2/(24 * 64^2) (ln TB)'' < 3e-7
+    largest_gap = std::max(largest_gap, std::abs(mean - std::log(1.5 * (1.0 + 0.3 * std::sin(k * (cell + 0.5) * w)))));
+  }
+  EXPECT_GT(largest_gap, 1e-4);  // the centre value is not what is fitted
 }
