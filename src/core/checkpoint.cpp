@@ -469,7 +469,11 @@ fs::path read_newest_checkpoint_file(const fs::path& dir, const RunContext& ctx,
         H5File h(path.string(), H5File::Mode::read);
         check_case(h, path, ctx, solver, may_change, may_change_text);
         load_whole(h, prepare(), bytes_read);
-        finish();
+        try {
+          finish();
+        } catch (const std::invalid_argument& e) {  // a state this case cannot continue: name the file
+          throw std::invalid_argument(path.string() + ": " + e.what());
+        }
       }
       return path;
     } catch (const std::invalid_argument&) {

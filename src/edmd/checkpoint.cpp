@@ -1,6 +1,8 @@
 #include "edmd/checkpoint.hpp"
 
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -35,11 +37,23 @@ struct PackedCounters {
   std::vector<std::uint64_t> integer;
 };
 
+// Test hook (tests/edmd/restart_test.cpp, EdmdRestart.OldCounterLayout*): with the
+// environment variable GRAINBATH_TEST_OLD_EDMD_COUNTERS=1 the counters are written in the
+// layout of before 2026-12-05 (12 reals, no static-wall loss), so that reading such files,
+// which unpack() still accepts, stays tested. Read at every write (checkpoints are rare).
+bool write_old_counter_layout() {
+  const char* v = std::getenv("GRAINBATH_TEST_OLD_EDMD_COUNTERS");
+  return v && std::strcmp(v, "1") == 0;
+}
+
 PackedCounters pack(const Counters& c) {
-  return {{c.virial, c.energy_lost, c.heating_energy, c.background_energy, c.wall_virial, c.sum_vn, c.sum_vn2, c.sum_e,
-           c.wall_energy[0], c.wall_energy[1], c.wall_momentum[0], c.wall_momentum[1], c.wall_energy_lost},
-          {c.collisions, c.events, c.stale, c.cell_crossings, c.wall_collisions, c.background_candidates,
-           c.background_collisions, c.guard_elastic, c.clamped, c.wall_hits[0], c.wall_hits[1]}};
+  PackedCounters p{{c.virial, c.energy_lost, c.heating_energy, c.background_energy, c.wall_virial, c.sum_vn, c.sum_vn2,
+                    c.sum_e, c.wall_energy[0], c.wall_energy[1], c.wall_momentum[0], c.wall_momentum[1],
+                    c.wall_energy_lost},
+                   {c.collisions, c.events, c.stale, c.cell_crossings, c.wall_collisions, c.background_candidates,
+                    c.background_collisions, c.guard_elastic, c.clamped, c.wall_hits[0], c.wall_hits[1]}};
+  if (write_old_counter_layout()) p.real.pop_back();  // the wall loss is the 13th, the last
+  return p;
 }
 
 void unpack(const PackedCounters& p, Counters& c) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
+#include <stdexcept>
 
 namespace grainbath::edmd {
 
@@ -1280,9 +1281,13 @@ void Engine::restore(const EngineState& st) {
   if (st.cell_capacity < 1 || st.cell_capacity > 65535) bad("cell capacity out of range");
   if (st.counters.vn_histogram.size() != c_.vn_histogram.size()) bad("normal-speed histogram size differs from the case");
   const bool lossy_walls = !driving_walls_ && wall_e_ < 1.0 && std::any_of(walls_.begin(), walls_.end(), [](bool w) { return w; });
+  // not a damaged file but one this case cannot continue (the previous checkpoint is as
+  // old): std::invalid_argument, which the reader passes on instead of trying the previous
+  // one and reporting both as corrupt
   if (std::isnan(st.counters.wall_energy_lost) && lossy_walls)
-    bad("written before static-wall losses had their own counter (they were added to the grain-grain energy_lost): "
-        "it cannot be continued with walls.restitution < 1; start the run again");
+    throw std::invalid_argument(
+        "edmd: checkpoint state: written before static-wall losses had their own counter (they were added to the "
+        "grain-grain energy_lost): it cannot be continued with walls.restitution < 1; start the run again");
   for (std::uint32_t i = 0; i < n_; ++i)
     for (int d = 0; d < dims_; ++d) {
       const double x = comp(st.positions[i], d), l = comp(L_, d);
