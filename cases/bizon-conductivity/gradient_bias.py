@@ -101,11 +101,15 @@ def load(run):
         slab = h["transport/blocks/slab"][()]
         plane = h["transport/blocks/plane"][()]
         zp = h["transport/z_plane"][()]
-        edges = h["particles/all/box/edges"][()] if "particles/all/box/edges" in h else None
+        par = h["parameters"].attrs
+        aspect = json.loads(par["edmd.aspect"]) if "edmd.aspect" in par else [1.0]
+        dims = int(par["edmd.dimensions"])
+    if any(a != 1.0 for a in aspect) or dims != 2:
+        sys.exit(f"{run}: this analysis assumes a square 2D box (the cases' boxes)")
     S = slab.shape[1]
     w = zp[1] - zp[0]
     L = S * w
-    A = float(edges[0]) if edges is not None else L  # 2D: axis y, cross-section = L_x
+    A = L  # cross-section of the square 2D box
     return t, slab, plane, S, w, L, A
 
 
