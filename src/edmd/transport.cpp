@@ -415,15 +415,19 @@ std::vector<TransportField> transport_fields(const SlabTransport& t, const Trans
     // two adjacent slabs used before 2026-12-05 were off at O(w^2) (Taylor expansion of the
     // slab averages about the plane): T_plane by T'' w^2/6 + (n'T'/n) w^2/12, dT/dz by
     // T''' w^2/12 + (n'T'/n)' w^2/12, packing_plane by nu'' w^2/6. In cases/bizon-conductivity
-    // (S = 32) that moved kappa_over_enskog by -0.4 % at nu = 0.5, a0 = 30 (0.05 sigma) and
-    // single planes' kappa_ratio by up to 1.4 % (docs/VALIDATION.md, gradient_bias.py there).
+    // (S = 32) that moved kappa_over_enskog by -0.4 % (nu = 0.5, a0 = 30) to -1.5 % (nu = 0.75,
+    // a0 = 30: 0.6 sigma) and single planes' kappa_ratio by 1-6 % (smooth models of the runs'
+    // profiles; docs/VALIDATION.md, cases/bizon-conductivity/gradient_bias.py).
     // Now n, e and their slopes at the plane come from four-slab stencils exact for cubic
     // profiles (solved from the slab averages of 1, s, s^2, s^3; a = the slab averages):
     //   f(z_k)  = [7 (a_k + a_{k-1}) - (a_{k+1} + a_{k-2})] / 12
     //   f'(z_k) = [15 (a_k - a_{k-1}) - (a_{k+1} - a_{k-2})] / (12 w)
-    // and T = e/n, dT/dz = (e' - T n')/n there; the O(w^4) left is < 2e-4 of
-    // kappa_over_enskog in the case (six-slab stencils), and the jackknife errors grow by
-    // < 2 %. With S < 4 the stencil would reuse slabs: the two-slab forms are kept.
+    // and T = e/n, dT/dz = (e' - T n')/n there; the O(w^4) left is <= 2.5e-4 of
+    // kappa_over_enskog on smooth models of the case's profiles (<= 7.5e-4 with wigglier ones).
+    // The price is noise: the stencil's slope has 1.25x the white noise of a two-slab
+    // difference; the jackknife errors grew by <= 3 % where the gradient is resolved, 18 % at
+    // nu = 0.75, a0 = 1 (crystalline planes) and 52 % in the noise-dominated e = 0.99 check.
+    // With S < 4 the stencil would reuse slabs: the two-slab forms are kept.
     std::vector<double> e(S);
     for (int k = 0; k < S; ++k) e[k] = dens[k] * T[k];
     auto at_plane = [&](const std::vector<double>& a, int k) {
