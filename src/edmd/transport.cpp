@@ -409,12 +409,42 @@ std::vector<TransportField> transport_fields(const SlabTransport& t, const Trans
     // which carries the shear; a mode of wavelength L/m keeps sinc^2(m pi/S)/sinc^2(pi/S).
     const double half_kw = std::numbers::pi / S;
     const double sinc2 = S > 1 ? std::pow(std::sin(half_kw) / half_kw, 2) : 1.0;
+    // T, dT/dz and the packing at plane k. A slab holds slab averages of the number density n
+    // and of the kinetic energy density e = n T (T[k] = kinetic energy / number in the slab,
+    // density-weighted), not the values at its centre. The means and the difference of the
+    // two adjacent slabs used before 2026-12-05 were off at O(w^2) (Taylor expansion of the
+    // slab averages about the plane): T_plane by T'' w^2/6 + (n'T'/n) w^2/12, dT/dz by
+    // T''' w^2/12 + (n'T'/n)' w^2/12, packing_plane by nu'' w^2/6. In cases/bizon-conductivity
+    // (S = 32) that moved kappa_over_enskog by -0.4 % (nu = 0.5, a0 = 30) to -1.5 % (nu = 0.75,
+    // a0 = 30: 0.6 sigma) and single planes' kappa_ratio by 1-6 % (smooth models of the runs'
+    // profiles; docs/VALIDATION.md, cases/bizon-conductivity/gradient_bias.py).
+    // Now n, e and their slopes at the plane come from four-slab stencils exact for cubic
+    // profiles (solved from the slab averages of 1, s, s^2, s^3; a = the slab averages):
+    //   f(z_k)  = [7 (a_k + a_{k-1}) - (a_{k+1} + a_{k-2})] / 12
+    //   f'(z_k) = [15 (a_k - a_{k-1}) - (a_{k+1} - a_{k-2})] / (12 w)
+    // and T = e/n, dT/dz = (e' - T n')/n there; the O(w^4) left is <= 2.5e-4 of
+    // kappa_over_enskog on smooth models of the case's profiles (<= 7.5e-4 with wigglier ones).
+    // The price is noise: the stencil's slope has 1.25x the white noise of a two-slab
+    // difference; the jackknife errors grew by <= 3 % where the gradient is resolved, 18 % at
+    // nu = 0.75, a0 = 1 (crystalline planes) and 52 % in the noise-dominated e = 0.99 check.
+    // With S < 4 the stencil would reuse slabs: the two-slab forms are kept.
+    std::vector<double> e(S);
+    for (int k = 0; k < S; ++k) e[k] = dens[k] * T[k];
+    auto at_plane = [&](const std::vector<double>& a, int k) {
+      if (S < 4) return 0.5 * (a[wrap(k, S)] + a[wrap(k - 1, S)]);
+      return (7.0 * (a[wrap(k, S)] + a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] + a[wrap(k - 2, S)])) / 12.0;
+    };
+    auto slope_at_plane = [&](const std::vector<double>& a, int k) {
+      if (S < 4) return (a[wrap(k, S)] - a[wrap(k - 1, S)]) / w;
+      return (15.0 * (a[wrap(k, S)] - a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] - a[wrap(k - 2, S)])) / (12.0 * w);
+    };
     for (int k = 0; k < S; ++k) {
       const int km = wrap(k - 1, S);
-      tp[k] = 0.5 * (T[km] + T[k]);
-      gr[k] = (T[k] - T[km]) / w;
+      const double n_p = at_plane(dens, k);
+      tp[k] = at_plane(e, k) / n_p;
+      gr[k] = (slope_at_plane(e, k) - tp[k] * slope_at_plane(dens, k)) / n_p;
       ka[k] = -F[k] / gr[k];
-      pp[k] = 0.5 * (pack[km] + pack[k]);
+      pp[k] = packing_of(D, n_p);
       ke[k] = theory::enskog_conductivity(D, pp[k], enskog_g(D, pp[k]), tp[k]);
       kr[k] = ka[k] / ke[k];
       pk[k] = plane(k, 2) / (A * time);
