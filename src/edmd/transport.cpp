@@ -427,24 +427,29 @@ std::vector<TransportField> transport_fields(const SlabTransport& t, const Trans
     // The price is noise: the stencil's slope has 1.25x the white noise of a two-slab
     // difference; the jackknife errors grew by <= 3 % where the gradient is resolved, 18 % at
     // nu = 0.75, a0 = 1 (crystalline planes) and 52 % in the noise-dominated e = 0.99 check.
-    // With S < 4 the stencil would reuse slabs: the two-slab forms are kept.
+    // With S < 4 the stencil would reuse slabs, and at a plane where one of the four slabs is
+    // empty or the stencil's n or nT is not positive (outer slabs more than 7x denser than
+    // the inner two: a profile the cubic does not describe), the two-slab forms are kept.
     std::vector<double> e(S);
     for (int k = 0; k < S; ++k) e[k] = dens[k] * T[k];
-    auto at_plane = [&](const std::vector<double>& a, int k) {
-      if (S < 4) return 0.5 * (a[wrap(k, S)] + a[wrap(k - 1, S)]);
-      return (7.0 * (a[wrap(k, S)] + a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] + a[wrap(k - 2, S)])) / 12.0;
+    auto two_slab = [&](const std::vector<double>& a, int k) { return 0.5 * (a[k] + a[wrap(k - 1, S)]); };
+    auto two_slab_slope = [&](const std::vector<double>& a, int k) { return (a[k] - a[wrap(k - 1, S)]) / w; };
+    auto stencil = [&](const std::vector<double>& a, int k) {
+      return (7.0 * (a[k] + a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] + a[wrap(k - 2, S)])) / 12.0;
     };
-    auto slope_at_plane = [&](const std::vector<double>& a, int k) {
-      if (S < 4) return (a[wrap(k, S)] - a[wrap(k - 1, S)]) / w;
-      return (15.0 * (a[wrap(k, S)] - a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] - a[wrap(k - 2, S)])) / (12.0 * w);
+    auto stencil_slope = [&](const std::vector<double>& a, int k) {
+      return (15.0 * (a[k] - a[wrap(k - 1, S)]) - (a[wrap(k + 1, S)] - a[wrap(k - 2, S)])) / (12.0 * w);
     };
     for (int k = 0; k < S; ++k) {
       const int km = wrap(k - 1, S);
-      const double n_p = at_plane(dens, k);
-      tp[k] = at_plane(e, k) / n_p;
-      gr[k] = (slope_at_plane(e, k) - tp[k] * slope_at_plane(dens, k)) / n_p;
+      bool four = S >= 4;
+      for (int j = -2; four && j <= 1; ++j) four = dens[wrap(k + j, S)] > 0.0 && std::isfinite(e[wrap(k + j, S)]);
+      four = four && stencil(dens, k) > 0.0 && stencil(e, k) > 0.0;
+      const double n_p = four ? stencil(dens, k) : two_slab(dens, k);
+      tp[k] = four ? stencil(e, k) / n_p : two_slab(T, k);
+      gr[k] = four ? (stencil_slope(e, k) - tp[k] * stencil_slope(dens, k)) / n_p : two_slab_slope(T, k);
       ka[k] = -F[k] / gr[k];
-      pp[k] = packing_of(D, n_p);
+      pp[k] = four ? packing_of(D, n_p) : two_slab(pack, k);
       ke[k] = theory::enskog_conductivity(D, pp[k], enskog_g(D, pp[k]), tp[k]);
       kr[k] = ka[k] / ke[k];
       pk[k] = plane(k, 2) / (A * time);

@@ -531,3 +531,46 @@ TEST(TransportConductivity, PlaneValuesFromSlabAveragesOfARealisticProfile) {
   EXPECT_GT(c32.T_rel / c64.T_rel, 12.0);
   EXPECT_GT(c32.dT_rel / c64.dT_rel, 12.0);
 }
+
+// Where the four-slab stencil has nothing to work with (an empty slab in it, or outer slabs so
+// much denser than the inner two that its n is not positive), a plane keeps the two-slab
+// forms: finite wherever its own two slabs are occupied, not NaN or a negative density.
+TEST(TransportConductivity, PlanesBesideAnEmptySlabKeepTheTwoSlabForms) {
+  const int S = 12;
+  SlabTransport t;
+  t.init({2, Vec3{24.0, 24.0, 1.0}, 1, 0, S}, 1);
+  const double w = t.slab_width(), V = t.cross_section() * w;
+  TransportBlock b{1.0, std::vector<double>(S * SlabTransport::kSlab, 0.0), std::vector<double>(S * SlabTransport::kPlane, 0.0)};
+  std::vector<double> n(S), T(S);
+  for (int k = 0; k < S; ++k) n[k] = 0.3 + 0.02 * k, T[k] = 1.0 + 0.1 * k;
+  n[6] = 0.0;   // slab 6 empty: planes 5 and 8 have it as an outer slab
+  n[2] = 4.0;   // plane 4's stencil: 7 (n3 + n4) - (n5 + n2) < 0
+  n[3] = n[4] = 0.01;
+  for (int k = 0; k < S; ++k) {
+    double* s = &b.slab[static_cast<std::size_t>(k) * SlabTransport::kSlab];
+    s[3] = n[k] * V;
+    s[7] = s[11] = n[k] * T[k] * V;
+    b.plane[static_cast<std::size_t>(k) * SlabTransport::kPlane] = -1.0;
+  }
+  const auto f = transport_fields(t, b);
+  auto get = [&](const char* name) {
+    for (const auto& x : f)
+      if (x.name == name) return x.mean;
+    throw std::logic_error(name);
+  };
+  const auto Tp = get("T_plane"), g = get("dTdz"), pp = get("packing_plane");
+  for (int k : {5, 8, 4}) {  // 5, 8: the empty slab is outer; 4: the stencil's n < 0
+    const int km = k - 1;
+    EXPECT_NEAR(Tp[k], 0.5 * (T[k] + T[km]), 1e-12) << k;
+    EXPECT_NEAR(g[k], (T[k] - T[km]) / w, 1e-12) << k;
+    EXPECT_TRUE(std::isfinite(pp[k]) && pp[k] > 0.0) << k;
+  }
+  for (int k : {10, 11}) {  // four occupied, smooth slabs: the stencil
+    const auto st = [&](const std::vector<double>& a) {
+      return (7.0 * (a[k] + a[k - 1]) - (a[(k + 1) % S] + a[k - 2])) / 12.0;
+    };
+    std::vector<double> e(S);
+    for (int j = 0; j < S; ++j) e[j] = n[j] * T[j];
+    EXPECT_NEAR(Tp[k], st(e) / st(n), 1e-12) << k;
+  }
+}
