@@ -266,7 +266,8 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
     if (e.plateau || !std::isfinite(e.stderr_)) return;
     std::fprintf(stderr,
                  "warning: %s = %.3g is a lower bound: block averaging over the window (%zu samples, %.3g collisions "
-                 "per grain) did not reach a plateau, the series is correlated over a good part of it "
+                 "per grain) did not reach a plateau: the series is correlated over a good part of it, or drifts "
+                 "(a transient in the window: see sampling.steady_from) "
                  "(%s_plateau = false); take the error from independent replicas: grainbath sweep CASE --set "
                  "run.seed=1,2,...,8\n",
                  key, e.stderr_, e.samples, clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front(), key);
