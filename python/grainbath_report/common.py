@@ -46,19 +46,18 @@ def free_cooling(run):
 
 
 def lower_bound(run, err_key):
-    """True when the run flagged `err_key` as a lower bound: its blocking reached no plateau
-    (summary `<err_key>_plateau` false, written since 2026-12-05; older runs: never flagged)."""
+    """True when the run flagged `err_key`: its blocking reached no plateau (summary
+    `<err_key>_plateau` false, written since 2026-12-05; older runs: never flagged). The error
+    is then unreliable: a lower bound if the series is correlated over a good part of the
+    window, and the mean itself no steady value if the series drifts through it."""
     return bool(err_key) and run.get(err_key + "_plateau") is False
 
 
-LOWER_BOUND_NOTE = " (≥: lower bound, blocking reached no plateau; take the error from replicas)"
-
-
 def fmt_err(run, mean, err_key, digits=6):
-    """mean ± error, the error marked ≥ when the run flagged it as a lower bound."""
+    """mean ± error, marked "(no plateau)" when the run flagged the error (lower_bound)."""
     e = run.num(err_key) if err_key else None
     text = fmt_pm(mean, e, digits)
-    return text.replace(" ± ", " ± ≥") if e is not None and lower_bound(run, err_key) else text
+    return text + " (no plateau)" if e is not None and lower_bound(run, err_key) else text
 
 
 def deviation(sim, err, theory):
@@ -169,8 +168,8 @@ def overview(run, ctx):
         if v is None:
             return
         e = run.num(err_key) if err_key else None
-        mark = "≥ " if e is not None and lower_bound(run, err_key) else ""
-        key_rows.append([label, f"`{key}`", fmt(v), mark + fmt(e) if e is not None else ""])
+        mark = " (no plateau)" if e is not None and lower_bound(run, err_key) else ""
+        key_rows.append([label, f"`{key}`", fmt(v), fmt(e) + mark if e is not None else ""])
 
     if run.solver == "edmd":
         row("mean temperature T over the run", "temperature.mean", "temperature.stderr")
@@ -211,8 +210,9 @@ def overview(run, ctx):
     if key_rows:
         s.table(["quantity", "summary.json key", "value", "± std. error"], key_rows,
                 caption="Key numbers from summary.json (std. error from block averaging over the window; "
-                        "≥ marks an error the run flagged as a lower bound: its blocking reached no plateau, "
-                        "take the error from independent replicas).")
+                        "\"no plateau\": the blocking reached no plateau, so the error is a lower bound if the "
+                        "series is correlated over a good part of the window, and the mean no steady value if it "
+                        "drifts through it; take the error from independent replicas).")
     return s
 
 

@@ -304,16 +304,18 @@ def sonine_a2(run, ctx):
              (" beside the Sonine closure's a₂(t) and its steady value (or the van Noije-Ernst value of the "
               "homogeneous cooling state)." if homogeneous else
               "; the state is inhomogeneous (background profile or walls), so no homogeneous theory is drawn."))
-    low = lower_bound(run, "a2.stderr")  # the run's error is a lower bound: no σ distances from it
+    low = lower_bound(run, "a2.stderr")  # the run's error is unreliable: no σ distances from it
     rows = [["DSMC, window mean (`a2.mean`)", fmt_err(run, m, "a2.stderr"), ""]]
     if a2eq is not None:
         rows.append(["Sonine closure (`theory.equilibrium.sonine.a2`)", fmt(a2eq), deviation(m, None if low else e, a2eq)])
     if vne is not None:
         rows.append(["van Noije-Ernst (`theory.haff.a2_van_noije_ernst`)", fmt(vne), deviation(m, None if low else e, vne)])
     s.table(["source", "a₂", "theory − DSMC"], rows,
-            caption=("The error of the window mean is a lower bound (≥): a₂ is correlated over a good part of the "
-                     "window (summary `a2.stderr_plateau` = false), so block averaging reached no plateau; "
-                     "independent replicas (`grainbath sweep CASE --set run.seed=1,2,...`) give its error."
+            caption=("Block averaging of a₂ reached no plateau (summary `a2.stderr_plateau` = false): a₂ is "
+                     "correlated over a good part of the window (then its error is a lower bound; in free cooling "
+                     "the scatter of replicas was 1.9 times it) or drifts through it (a transient: see "
+                     "`sampling.steady_from`). Independent replicas (`grainbath sweep CASE --set "
+                     "run.seed=1,2,...`) give the error."
                      if low else None))
     return s
 

@@ -134,10 +134,10 @@ def ensemble_section(runs, quantities, paths):
             if tv:
                 t = float(np.mean(tv))
                 th.append(f"{tlabel} {fmt(t)}" + (f" ({(t - mean) / scatter:+.1f}σ)" if scatter > 0 else ""))
-        # runs that flagged their error as a lower bound: so is the combination
+        # runs that flagged their error (no plateau): so is the combination
         low = any(lower_bound(r, err_key) for r in runs)
         rows.append([f"{label} [{unit}]", fmt_pm(mean, scatter),
-                     ("≥ " if low else "") + fmt(own_err) if own_err is not None else "—",
+                     fmt(own_err) + (" (no plateau)" if low else "") if own_err is not None else "—",
                      "; ".join(th) or "—"])
     s.text(f"The {R} runs differ only in their seed: they are independent replicas. The mean of each quantity "
            "over them, with the standard error from their scatter (std/√R, honest whatever the correlations "
@@ -172,8 +172,8 @@ def build(paths, ctx):
                     [fmt(r.params.get(k)) if not isinstance(r.params.get(k), list) else str(r.params.get(k))
                      for k in varied] +
                     [fmt_err(r, r.num(q[0]), q[1]) for q in quantities])
-    s.table(headers, rows, caption="Key numbers of every run (± std. error where the run gives one; ≥ marks an "
-                                   "error the run flagged as a lower bound, its blocking having reached no plateau).")
+    s.table(headers, rows, caption="Key numbers of every run (± std. error where the run gives one; \"no plateau\": "
+                                   "the run's blocking reached none, the error is unreliable, see the runs' reports).")
     have_reports = [r for r in runs if os.path.isfile(os.path.join(r.out_dir, "report", "report.html"))]
     s.text("Each run's own report: `grainbath report RUN_DIR`" +
            (f" (already made for {len(have_reports)} of the runs: RUN_DIR/report/report.html)." if have_reports

@@ -88,7 +88,8 @@ struct MeanError {
   // blocks of m samples with m^3 > 2 n (e_m/e_1)^4, e_1 the error of uncorrelated samples,
   // (e_m/e_1)^2 the measured statistical inefficiency. false: the series is correlated over a
   // good part of the window, the blocks (at least 16) stay shorter than the correlation, and
-  // stderr_ is a lower bound (use independent replicas).
+  // stderr_ is a lower bound (use independent replicas). A series that drifts through the
+  // window (a transient) trips it too.
   bool plateau = true;
 };
 

@@ -260,14 +260,16 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   bool diffuse_walls = false;
   for (int f = 0; f < 2 * c.domain.dimensions; ++f) diffuse_walls = diffuse_walls || c.domain.faces[f] == Boundary::diffuse;
   const bool cooling_only = !medium_present(c) && !diffuse_walls;
-  // a blocked error that did not reach a plateau is a lower bound: flagged in summary.json
+  // a blocked error that did not reach a plateau is unreliable (a lower bound for a series
+  // correlated over the window; a drifting series has no steady mean): flagged in summary.json
   // (`*.stderr_plateau`) and said on stderr (the run's log)
   auto warn_no_plateau = [&](const char* key, const MeanError& e) {
     if (e.plateau || !std::isfinite(e.stderr_)) return;
     std::fprintf(stderr,
-                 "warning: %s = %.3g is a lower bound: block averaging over the window (%zu samples, %.3g collisions "
-                 "per grain) did not reach a plateau: the series is correlated over a good part of it, or drifts "
-                 "(a transient in the window: see sampling.steady_from) "
+                 "warning: %s = %.3g is unreliable: block averaging over the window (%zu samples, %.3g collisions "
+                 "per grain) reached no plateau: the series is correlated over a good part of it (then the "
+                 "error is a lower bound) or drifts through it (a transient in the window: see "
+                 "sampling.steady_from) "
                  "(%s_plateau = false); take the error from independent replicas: grainbath sweep CASE --set "
                  "run.seed=1,2,...,8\n",
                  key, e.stderr_, e.samples, clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front(), key);
