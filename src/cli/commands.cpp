@@ -134,10 +134,14 @@ void print_table(const Summary& s) {
     const double m = s.number(mean);
     if (std::isnan(m)) return;
     const double e = err.empty() ? NAN : s.number(err);
+    // an error whose blocking reached no plateau (`key.stderr_plateau` false) is unreliable: a
+    // lower bound for a series correlated over the window, and a drifting one has no steady mean
+    const Summary::Value* plateau = err.empty() ? nullptr : s.get(err + "_plateau");
+    const bool lower_bound = plateau && std::holds_alternative<bool>(*plateau) && !std::get<bool>(*plateau);
     if (std::isnan(e))
       std::printf("  %-34s %14.8g\n", label, m);
     else
-      std::printf("  %-34s %14.8g +- %.3g\n", label, m, e);
+      std::printf("  %-34s %14.8g +- %.3g%s\n", label, m, e, lower_bound ? " (no plateau: use replicas)" : "");
   };
   std::printf("\n  %-34s %14s\n", "quantity", "value");
   // each case's headline result beside its theory (means over the averaging window, which

@@ -596,7 +596,10 @@ int command_sweep(const SweepArgs& a) {
       return c.size() > n && c.compare(c.size() - n, n, tail) == 0;
     };
     for (const auto& c : columns) {
-      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || ends_with(c, ".stderr") || ends_with(c, "_stderr"))
+      // nor the flags of the runs' own errors (`a2.stderr_plateau`): the ensemble's error is the
+      // replicas' scatter whatever they say
+      if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || ends_with(c, ".stderr") || ends_with(c, "_stderr") ||
+          ends_with(c, "_plateau"))
         continue;
       std::vector<double> v;
       for (const auto& r : rows)

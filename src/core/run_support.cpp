@@ -383,6 +383,16 @@ void Progress::finish() {
   if (tty_) std::fprintf(stderr, "\n");
 }
 
+namespace {
+// Lee, Needs & Drummond (2011) eq. 14: a level of blocks of m samples (on average) is long
+// enough when m^3 > 2 n (e_m/e_1)^4, e_1 the standard error of uncorrelated samples
+bool blocks_long_enough(double m, double n, double e_m, double e_1) {
+  if (!(e_1 > 0)) return true;  // a constant series
+  const double r = e_m / e_1;
+  return m * m * m > 2 * n * r * r * r * r;
+}
+}  // namespace
+
 MeanError block_average(const std::vector<double>& series) {
   MeanError r;
   r.samples = series.size();
@@ -395,7 +405,8 @@ MeanError block_average(const std::vector<double>& series) {
     r.stderr_ = NAN;
     return r;
   }
-  double best = 0.0;
+  double best = 0.0, first = -1.0;
+  bool plateau = false;
   while (x.size() >= 16) {
     const double n = static_cast<double>(x.size());
     double m = 0;
@@ -404,7 +415,10 @@ MeanError block_average(const std::vector<double>& series) {
     double var = 0;
     for (double v : x) var += (v - m) * (v - m);
     var /= (n - 1);
-    best = std::max(best, std::sqrt(var / n));
+    const double e = std::sqrt(var / n);
+    if (first < 0) first = e;
+    best = std::max(best, e);
+    plateau = plateau || blocks_long_enough(static_cast<double>(series.size()) / n, static_cast<double>(series.size()), e, first);
     std::vector<double> y(x.size() / 2);
     for (std::size_t i = 0; i < y.size(); ++i) y[i] = 0.5 * (x[2 * i] + x[2 * i + 1]);
     x.swap(y);
@@ -415,6 +429,49 @@ MeanError block_average(const std::vector<double>& series) {
     best = std::sqrt(var / (series.size() - 1) / series.size());
   }
   r.stderr_ = best;
+  r.plateau = series.size() < 16 || plateau;  // too short to block: nothing to judge by
+  return r;
+}
+
+MeanError block_average(const std::vector<double>& series, const std::vector<double>& clock) {
+  const std::size_t n = series.size();
+  if (clock.size() != n || n < 16 || !(clock.back() > clock.front())) return block_average(series);
+  for (std::size_t k = 1; k < n; ++k)
+    if (!(clock[k] >= clock[k - 1])) return block_average(series);
+  MeanError r;
+  r.samples = n;
+  double sum = 0;
+  for (double v : series) sum += v;
+  r.mean = sum / static_cast<double>(n);
+  double var1 = 0;  // the error of uncorrelated samples
+  for (double v : series) var1 += (v - r.mean) * (v - r.mean);
+  const double e1 = std::sqrt(var1 / static_cast<double>(n - 1) / static_cast<double>(n));
+  std::size_t B = 1;
+  while (2 * B <= n) B *= 2;
+  const double c0 = clock.front(), span = clock.back() - c0;
+  double best = 0.0;
+  bool plateau = false, any = false;
+  std::vector<double> S;
+  std::vector<std::size_t> count;
+  for (; B >= 16; B /= 2) {
+    S.assign(B, 0.0);
+    count.assign(B, 0);
+    for (std::size_t k = 0; k < n; ++k) {
+      const auto b = std::min(B - 1, static_cast<std::size_t>(static_cast<double>(B) * (clock[k] - c0) / span));
+      S[b] += series[k] - r.mean;
+      ++count[b];
+    }
+    if (std::find(count.begin(), count.end(), std::size_t{0}) != count.end()) continue;  // too fine for the clock
+    double ss = 0;
+    for (double s : S) ss += s * s;
+    const double e = std::sqrt(ss * static_cast<double>(B) / static_cast<double>(B - 1)) / static_cast<double>(n);
+    best = std::max(best, e);
+    any = true;
+    plateau = plateau || blocks_long_enough(static_cast<double>(n) / static_cast<double>(B), static_cast<double>(n), e, e1);
+  }
+  if (!any) return block_average(series);
+  r.stderr_ = best;
+  r.plateau = plateau;
   return r;
 }
 

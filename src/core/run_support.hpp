@@ -83,11 +83,29 @@ struct MeanError {
   double mean = 0.0;
   double stderr_ = 0.0;  // standard error of the mean, corrected for correlations
   std::size_t samples = 0;
+  // Whether the blocking reached a plateau: some level's blocks are long enough by the
+  // criterion of Lee, Needs & Drummond (Phys. Rev. B 83, 245122 (2011), eq. 14; pyblock):
+  // blocks of m samples with m^3 > 2 n (e_m/e_1)^4, e_1 the error of uncorrelated samples,
+  // (e_m/e_1)^2 the measured statistical inefficiency. false: the series is correlated over a
+  // good part of the window, the blocks (at least 16) stay shorter than the correlation, and
+  // stderr_ is a lower bound (use independent replicas). A series that drifts through the
+  // window (a transient) trips it too.
+  bool plateau = true;
 };
 
 // Flyvbjerg-Petersen blocking: the standard error is taken as the largest estimate over
 // blocking levels that keep at least 16 blocks (conservative for correlated series).
 MeanError block_average(const std::vector<double>& series);
+
+// The same for a series whose correlations decay in `clock` rather than in the sample index
+// (clock non-decreasing, one value per sample): e.g. a free-cooling gas sampled at equal times
+// whose collision rate falls as sqrt(T), where the correlation time of a2 is a fixed number of
+// collisions per grain but a growing number of samples. The blocks span equal lengths of the
+// clock (2^j of them, j down to 16 blocks, a level skipped while a block is empty) and the
+// variance of the plain sample mean is the clustered estimate sum_b S_b^2 / n^2 * B/(B-1), S_b
+// the sum of (x - mean) over block b (equal blocks: the Flyvbjerg-Petersen estimate). The mean
+// is the plain sample mean. A clock that does not advance falls back to block_average(series).
+MeanError block_average(const std::vector<double>& series, const std::vector<double>& clock);
 
 double wall_seconds_since(std::chrono::steady_clock::time_point start);
 

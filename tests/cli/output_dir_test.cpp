@@ -183,13 +183,14 @@ TEST_F(OutputDir, EnsembleCombinesTheRunsOwnErrorsAndRefusesARepeatedSeed) {
   r = grainbath({"sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set", "run.seed=1,2,3",
                  "--set", "run.threads=1"});
   ASSERT_EQ(r.code, 0) << r.describe();
-  auto temperature_stderr = [](const std::string& json) {  // "temperature": {"mean": .., "stderr": x
-    const std::size_t at = json.find("\"stderr\"", json.find("\"temperature\""));
+  // a2: this free-cooling case has no temperature.mean/stderr (since 2026-12-05)
+  auto a2_stderr = [](const std::string& json) {  // "a2": {"mean": .., "stderr": x
+    const std::size_t at = json.find("\"stderr\"", json.find("\"a2\""));
     return std::stod(json.substr(json.find(':', at) + 1));
   };
   double s2 = 0, s1 = 0;
   for (const char* v : {"variant-0_seed_1", "variant-1_seed_2", "variant-2_seed_3"}) {
-    const double s = temperature_stderr(read_text(out / v / "summary.json"));
+    const double s = a2_stderr(read_text(out / v / "summary.json"));
     s2 += s * s;
     s1 += s;
   }
@@ -200,7 +201,7 @@ TEST_F(OutputDir, EnsembleCombinesTheRunsOwnErrorsAndRefusesARepeatedSeed) {
   std::istringstream md(read_text(out / "ensemble.md"));
   std::string row;
   for (std::string line; std::getline(md, line);)
-    if (line.rfind("| temperature.mean |", 0) == 0) row = line;
+    if (line.rfind("| a2.mean |", 0) == 0) row = line;
   const std::vector<std::string> cols = table_cells(row);  // "", quantity, mean, standard error, per-run
   ASSERT_GE(cols.size(), 5u) << row;
   EXPECT_NEAR(std::stod(cols[4]), std::sqrt(s2) / 3.0, 1e-3 * std::sqrt(s2) / 3.0) << row;
