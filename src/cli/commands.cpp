@@ -137,11 +137,17 @@ void print_table(const Summary& s) {
     // an error whose blocking reached no plateau (`key.stderr_plateau` false) is unreliable: a
     // lower bound for a series correlated over the window, and a drifting one has no steady mean
     const Summary::Value* plateau = err.empty() ? nullptr : s.get(err + "_plateau");
+    // (a DSMC error without the flag: the window was too short to check, the run's log says so)
     const bool lower_bound = plateau && std::holds_alternative<bool>(*plateau) && !std::get<bool>(*plateau);
+    const Summary::Value* solver = s.get("solver");
+    const bool unchecked = !err.empty() && !plateau && solver && std::holds_alternative<std::string>(*solver) &&
+                           std::get<std::string>(*solver) == "dsmc" &&
+                           (err == "temperature.stderr" || err == "a2.stderr" || err == "rotation.R_stderr");
     if (std::isnan(e))
       std::printf("  %-34s %14.8g\n", label, m);
     else
-      std::printf("  %-34s %14.8g +- %.3g%s\n", label, m, e, lower_bound ? " (no plateau: use replicas)" : "");
+      std::printf("  %-34s %14.8g +- %.3g%s\n", label, m, e,
+                  lower_bound ? " (no plateau: use replicas)" : unchecked ? " (few samples: unchecked)" : "");
   };
   std::printf("\n  %-34s %14s\n", "quantity", "value");
   // each case's headline result beside its theory (means over the averaging window, which

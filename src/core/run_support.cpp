@@ -391,6 +391,9 @@ bool blocks_long_enough(double m, double n, double e_m, double e_1) {
   const double r = e_m / e_1;
   return m * m * m > 2 * n * r * r * r * r;
 }
+// Whether blocks of m samples could pass that test at all: even uncorrelated samples
+// (e_m = e_1) need m^3 > 2 n, which blocks of at most n/16 samples meet only for n > 90
+bool blocks_could_pass(double m, double n) { return m * m * m > 2 * n; }
 }  // namespace
 
 MeanError block_average(const std::vector<double>& series) {
@@ -406,7 +409,7 @@ MeanError block_average(const std::vector<double>& series) {
     return r;
   }
   double best = 0.0, first = -1.0;
-  bool plateau = false;
+  bool plateau = false, judged = false;
   while (x.size() >= 16) {
     const double n = static_cast<double>(x.size());
     double m = 0;
@@ -418,7 +421,9 @@ MeanError block_average(const std::vector<double>& series) {
     const double e = std::sqrt(var / n);
     if (first < 0) first = e;
     best = std::max(best, e);
-    plateau = plateau || blocks_long_enough(static_cast<double>(series.size()) / n, static_cast<double>(series.size()), e, first);
+    const double m_block = static_cast<double>(series.size()) / n, n_all = static_cast<double>(series.size());
+    plateau = plateau || blocks_long_enough(m_block, n_all, e, first);
+    judged = judged || blocks_could_pass(m_block, n_all);
     std::vector<double> y(x.size() / 2);
     for (std::size_t i = 0; i < y.size(); ++i) y[i] = 0.5 * (x[2 * i] + x[2 * i + 1]);
     x.swap(y);
@@ -429,7 +434,8 @@ MeanError block_average(const std::vector<double>& series) {
     best = std::sqrt(var / (series.size() - 1) / series.size());
   }
   r.stderr_ = best;
-  r.plateau = series.size() < 16 || plateau;  // too short to block: nothing to judge by
+  r.plateau_judged = judged;  // false for fewer than ~91 samples (and below 16: no blocking)
+  r.plateau = judged && plateau;
   return r;
 }
 
@@ -450,7 +456,7 @@ MeanError block_average(const std::vector<double>& series, const std::vector<dou
   while (2 * B <= n) B *= 2;
   const double c0 = clock.front(), span = clock.back() - c0;
   double best = 0.0;
-  bool plateau = false, any = false;
+  bool plateau = false, any = false, judged = false;
   std::vector<double> S;
   std::vector<std::size_t> count;
   for (; B >= 16; B /= 2) {
@@ -467,11 +473,14 @@ MeanError block_average(const std::vector<double>& series, const std::vector<dou
     const double e = std::sqrt(ss * static_cast<double>(B) / static_cast<double>(B - 1)) / static_cast<double>(n);
     best = std::max(best, e);
     any = true;
-    plateau = plateau || blocks_long_enough(static_cast<double>(n) / static_cast<double>(B), static_cast<double>(n), e, e1);
+    const double m_block = static_cast<double>(n) / static_cast<double>(B);
+    plateau = plateau || blocks_long_enough(m_block, static_cast<double>(n), e, e1);
+    judged = judged || blocks_could_pass(m_block, static_cast<double>(n));
   }
   if (!any) return block_average(series);
   r.stderr_ = best;
-  r.plateau = plateau;
+  r.plateau_judged = judged;
+  r.plateau = judged && plateau;
   return r;
 }
 

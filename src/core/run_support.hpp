@@ -91,6 +91,11 @@ struct MeanError {
   // stderr_ is a lower bound (use independent replicas). A series that drifts through the
   // window (a transient) trips it too.
   bool plateau = true;
+  // Whether the series is long enough for that test to say anything: blocks of at most n/16
+  // samples pass it even for uncorrelated samples only when n > 90. false: plateau is false
+  // too, but it means "not known" (summary.json leaves the flag out): the error assumes correlations
+  // shorter than the longest blocks.
+  bool plateau_judged = true;
 };
 
 // Flyvbjerg-Petersen blocking: the standard error is taken as the largest estimate over

@@ -265,6 +265,16 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   // (`*.stderr_plateau`) and said on stderr (the run's log)
   auto warn_no_plateau = [&](const char* key, const MeanError& e) {
     if (e.plateau || !std::isfinite(e.stderr_)) return;
+    const double span = clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front();
+    if (!e.plateau_judged) {  // too few samples to tell: a note, and summary.json's flag is null
+      std::fprintf(stderr,
+                   "note: %s: the window holds %zu samples, too few to check the blocking for a plateau (about 91 "
+                   "needed); the error assumes correlations shorter than its longest blocks (%.2g collisions per "
+                   "grain). A smaller sampling.every gives more samples; replicas give an error that assumes "
+                   "nothing: grainbath sweep CASE --set run.seed=1,2,...,8\n",
+                   key, e.samples, e.samples >= 16 ? span / 16.0 : span);
+      return;
+    }
     std::fprintf(stderr,
                  "warning: %s = %.3g is unreliable: block averaging over the window (%zu samples, %.3g collisions "
                  "per grain) reached no plateau: the series is correlated over a good part of it (then the "
@@ -272,7 +282,11 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
                  "sampling.steady_from) "
                  "(%s_plateau = false); take the error from independent replicas: grainbath sweep CASE --set "
                  "run.seed=1,2,...,8\n",
-                 key, e.stderr_, e.samples, clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front(), key);
+                 key, e.stderr_, e.samples, span, key);
+  };
+  // true / false; absent where the window is too short to tell (MeanError::plateau_judged)
+  auto set_plateau = [&](const char* key, const MeanError& e) {
+    if (e.plateau_judged) summary.set(key, e.plateau);
   };
   if (!cooling_only) warn_no_plateau("temperature.stderr", Tm);
   warn_no_plateau("a2.stderr", a2m);
@@ -328,13 +342,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   if (!cooling_only) {
     summary.set("temperature.mean", Tm.mean);
     summary.set("temperature.stderr", Tm.stderr_);
-    summary.set("temperature.stderr_plateau", Tm.plateau);
+    set_plateau("temperature.stderr_plateau", Tm);
   }
   summary.set("temperature.samples", static_cast<std::int64_t>(Tm.samples));
   summary.set("temperature.final", fin.temperature);
   summary.set("a2.mean", a2m.mean);
   summary.set("a2.stderr", a2m.stderr_);
-  summary.set("a2.stderr_plateau", a2m.plateau);
+  set_plateau("a2.stderr_plateau", a2m);
   summary.set("a2.final", fin.a2);
   summary.set("velocity.final", norm(fin.mean_velocity - c.background.velocity));
   if (c.rough) {
@@ -349,7 +363,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
     warn_no_plateau("rotation.R_stderr", Rm);
     summary.set("rotation.R", Rm.mean);
     summary.set("rotation.R_stderr", Rm.stderr_);
-    summary.set("rotation.R_stderr_plateau", Rm.plateau);
+    set_plateau("rotation.R_stderr_plateau", Rm);
     summary.set("rotation.Trot_final", ts.Trot.back());
     summary.set("rotation.R_final", ts.Trot.back() / ts.T.back());
     summary.set("rotation.moment_of_inertia_q", c.rough->q);
