@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <vector>
 
@@ -283,6 +284,139 @@ TEST(HydroSteadyState, IsobaricProfileExponent) {
     EXPECT_LT((hi - lo) / hi, 1e-8) << c.name;
   }
   EXPECT_LT(kinetic_coefficients(0.7, 1.0, 0.5).p, 0.75);  // kinetic p differs from 1
+}
+
+// Backgrounds with a pressure gradient, grad(nB TB) != 0, and a non-uniform drift uB: the only
+// place where the (m/mB) n grad ln(nB TB) term of eq. H7 acts (every factory background has
+// uniform nB TB, so no other test sees its sign, its mass ratio m/mB = (1-alpha)/alpha, or
+// whether it is there at all). Independent reference: eq. H7 in its first form,
+//   dn/dt = d/dx{ D [dn/dx + p n dlnTB/dx - ((1-alpha)/alpha) n dln(nB TB)/dx] - n uB },
+// with D = eps Dhat sqrt(TB/m)/nB from the fields themselves (not DriftDiffusionFields), central
+// differences on 1024 cells, analytic face derivatives, explicit Heun steps. Plus the closed-form
+// steady state of a walled box, n ~ TB^(-p) (nB TB)^((1-alpha)/alpha).
+namespace {
+struct Fields1D {
+  std::function<double(double)> TB, nB, uB, dlnTB, dlnP;  // dlnP = d ln(nB TB)/dx
+};
+Background background_from(const Grid& g, const Fields1D& f) {
+  Background b = uniform_background(g, 1.0, 1.0);
+  for (int i = 0; i < g.n[0]; ++i) {
+    b.TB[i] = f.TB(g.x(0, i));
+    b.nB[i] = f.nB(g.x(0, i));
+    b.uB[0][i] = f.uB(g.x(0, i));
+  }
+  b.validate();
+  return b;
+}
+// Cell averages (Simpson per cell) of n0 on the N-cell grid of [0, L).
+std::vector<double> cell_averages(int N, double L, const std::function<double(double)>& n0) {
+  std::vector<double> out(N);
+  const double h = L / N;
+  for (int i = 0; i < N; ++i) out[i] = (n0(i * h) + 4.0 * n0((i + 0.5) * h) + n0((i + 1) * h)) / 6.0;
+  return out;
+}
+std::vector<double> h7_reference(const Fields1D& f, double alpha, double Dhat, double p, double eps,
+                                 double L, bool periodic, const std::function<double(double)>& n0,
+                                 double t_end) {
+  const int M = 1024;
+  const double h = L / M, r = (1.0 - alpha) / alpha;
+  // face f sits at x = f h, between cells f-1 and f; faces 0 and M are the walls (or the same
+  // periodic face)
+  std::vector<double> D(M + 1), drift(M + 1);
+  for (int k = 0; k <= M; ++k) {
+    const double x = k * h;
+    D[k] = eps * Dhat * std::sqrt(f.TB(x)) / f.nB(x);
+    drift[k] = -D[k] * (p * f.dlnTB(x) - r * f.dlnP(x)) + f.uB(x);  // J = -D dn/dx + drift n
+  }
+  double Dmax = 0, Wmax = 0;
+  for (int k = 0; k <= M; ++k) Dmax = std::max(Dmax, D[k]), Wmax = std::max(Wmax, std::abs(drift[k]));
+  const double dt_max = 0.2 * std::min(h * h / Dmax, h / std::max(Wmax, 1e-300));
+  const long steps = static_cast<long>(std::ceil(t_end / dt_max));
+  const double dt = t_end / steps;
+  auto rhs = [&](const std::vector<double>& n, std::vector<double>& out) {
+    std::vector<double> J(M + 1, 0.0);
+    for (int k = 0; k <= M; ++k) {
+      if (!periodic && (k == 0 || k == M)) continue;  // zero flux through the walls
+      const double nl = n[(k - 1 + M) % M], nr = n[k % M];
+      J[k] = -D[k] * (nr - nl) / h + drift[k] * 0.5 * (nl + nr);
+    }
+    for (int i = 0; i < M; ++i) out[i] = -(J[i + 1] - J[i]) / h;
+  };
+  std::vector<double> n = cell_averages(M, L, n0), k1(M), k2(M), m(M);
+  for (long s = 0; s < steps; ++s) {
+    rhs(n, k1);
+    for (int i = 0; i < M; ++i) m[i] = n[i] + dt * k1[i];
+    rhs(m, k2);
+    for (int i = 0; i < M; ++i) n[i] += 0.5 * dt * (k1[i] + k2[i]);
+  }
+  return n;
+}
+}  // namespace
+
+TEST(HydroNonIsobaric, PressureGradientDriftMatchesIndependentReference) {
+  const double alpha = 0.7, eps = 0.5, L = 2 * kPi, t_end = 1.0;
+  const DriftDiffusionCoefficients kin = kinetic_coefficients(alpha, 1.0, eps);
+  const auto n0 = [](double x) { return 1.0 + 0.4 * std::cos(x) + 0.2 * std::sin(3 * x); };
+  // Periodic: TB = 1 + 0.5 sin x, nB = 1.3 + 0.4 cos 2x, uB = 0.4 + 0.3 cos x.
+  Fields1D per;
+  per.TB = [](double x) { return 1.0 + 0.5 * std::sin(x); };
+  per.nB = [](double x) { return 1.3 + 0.4 * std::cos(2 * x); };
+  per.uB = [](double x) { return 0.4 + 0.3 * std::cos(x); };
+  per.dlnTB = [](double x) { return 0.5 * std::cos(x) / (1.0 + 0.5 * std::sin(x)); };
+  per.dlnP = [](double x) {
+    return 0.5 * std::cos(x) / (1.0 + 0.5 * std::sin(x)) - 0.8 * std::sin(2 * x) / (1.3 + 0.4 * std::cos(2 * x));
+  };
+  // Walls: TB = 0.5 + x/L, nB = 1 + 0.5 x/L (nB TB grows 3-fold across the box), uB = 0.
+  Fields1D wal;
+  wal.TB = [=](double x) { return 0.5 + x / L; };
+  wal.nB = [=](double x) { return 1.0 + 0.5 * x / L; };
+  wal.uB = [](double) { return 0.0; };
+  wal.dlnTB = [=](double x) { return (1.0 / L) / (0.5 + x / L); };
+  wal.dlnP = [=](double x) { return (1.0 / L) / (0.5 + x / L) + (0.5 / L) / (1.0 + 0.5 * x / L); };
+  for (bool periodic : {true, false}) {
+    const Fields1D& f = periodic ? per : wal;
+    const auto ref = h7_reference(f, alpha, kin.Dhat, kin.p, eps, L, periodic, n0, t_end);
+    const Grid gref = Grid::make({1024}, {L}, periodic ? Boundary::Periodic : Boundary::Wall);
+    std::vector<double> hs, errs;
+    for (int N : {32, 64, 128}) {
+      const Grid g = Grid::make({N}, {L}, periodic ? Boundary::Periodic : Boundary::Wall);
+      FiniteVolumeSolver fv(background_from(g, f), kin);
+      fv.set_density(cell_averages(N, L, n0));
+      fv.run_to(t_end, 0.002);
+      hs.push_back(g.h(0));
+      errs.push_back(max_abs_diff(fv.density(), coarsen(ref, gref, g)));
+    }
+    const double slope = fitted_slope(hs, errs);
+    std::printf("  non-isobaric %s, FV vs reference: N=32 %.3e N=64 %.3e N=128 %.3e slope %.3f\n",
+                periodic ? "periodic" : "walls", errs[0], errs[1], errs[2], slope);
+    EXPECT_NEAR(slope, 2.0, 0.2) << (periodic ? "periodic" : "walls");
+    EXPECT_LT(errs[2], 1e-3) << (periodic ? "periodic" : "walls");
+    if (periodic) {
+      // spectral point values at the cell centres: the mean of the two reference cells that meet there
+      const Grid g = Grid::make({64}, {L}, Boundary::Periodic);
+      SpectralSolver sp(background_from(g, f), kin);
+      sp.set_density(g.sample([&](double x, double, double) { return n0(x); }));
+      sp.run_to(t_end, 0.001);
+      double e = 0.0;
+      for (int i = 0; i < 64; ++i) e = std::max(e, std::abs(sp.density()[i] - 0.5 * (ref[16 * i + 7] + ref[16 * i + 8])));
+      std::printf("  non-isobaric periodic, spectral (64 points) vs reference: %.3e\n", e);
+      EXPECT_LT(e, 1e-4);
+    }
+  }
+  // Closed-form steady state of the walled box (zero flux face by face): n ~ TB^(-p) (nB TB)^(m/mB).
+  const Grid g = Grid::make({48}, {L}, Boundary::Wall);
+  const Background bw = background_from(g, wal);
+  FiniteVolumeSolver fv(bw, kin, TimeScheme::BackwardEuler);
+  fv.set_density(std::vector<double>(g.size(), 1.0));
+  fv.run_to(4000.0, 50.0);
+  double lo = 1e300, hi = -1e300;
+  for (std::size_t i = 0; i < g.size(); ++i) {
+    const double q = fv.density()[i] * std::pow(bw.TB[i], kin.p) * std::pow(bw.nB[i] * bw.TB[i], -(1.0 - alpha) / alpha);
+    lo = std::min(lo, q);
+    hi = std::max(hi, q);
+  }
+  std::printf("  non-isobaric walls, steady n TB^p (nB TB)^(-m/mB) spread: %.2e\n", (hi - lo) / hi);
+  EXPECT_LT((hi - lo) / hi, 1e-9);
 }
 
 TEST(HydroBadInput, ClearErrors) {
