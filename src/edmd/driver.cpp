@@ -786,13 +786,29 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const MeanError Tm = block_average(Tseries);
   const MeanError Zm = block_average(s.z);
   const double T_mean = Tm.mean;
+  // In free cooling T decays through the window, so theory evaluated at the window mean of T
+  // is not the theory of the window: a rate that goes as T^p (collision frequency p = 1/2,
+  // loss rate p = 3/2) averages to its time average <T^p>_t over the window (trapezoid over
+  // the samples, Jensen: <T^p> != <T>^p). Steady runs keep T_mean everywhere.
+  auto time_mean_power = [&](double p) {
+    double integral = 0.0;
+    for (std::size_t k = 1; k < s.time.size(); ++k)
+      integral += 0.5 * (std::pow(s.temperature[k - 1], p) + std::pow(s.temperature[k], p)) * (s.time[k] - s.time[k - 1]);
+    const double span = s.time.size() > 1 ? s.time.back() - s.time.front() : 0.0;
+    return span > 0.0 ? integral / span : std::pow(T_mean, p);
+  };
+  const double Th = c.free_cooling ? time_mean_power(0.5) : 0.0;   // <T^1/2>_t
+  const double T1 = c.free_cooling ? time_mean_power(1.0) : 0.0;    // <T>_t
+  const double T32 = c.free_cooling ? time_mean_power(1.5) : 0.0;   // <T^3/2>_t
   // Z from the totals (ratio of sums) and its error from the blocked per-interval series
   const double Z = c.free_cooling ? Zm.mean : 1.0 + f.virial / (D * t_run * N * T_mean);
   summary.set("pressure.Z", Z);
   summary.set("pressure.Z_stderr", Zm.stderr_);
-  summary.set("pressure.P", n * T_mean * Z);
-  summary.set("temperature.mean", T_mean);
-  summary.set("temperature.stderr", Tm.stderr_);
+  if (!c.free_cooling) {  // a window mean of a decaying T describes nothing (haff.* does)
+    summary.set("pressure.P", n * T_mean * Z);
+    summary.set("temperature.mean", T_mean);
+    summary.set("temperature.stderr", Tm.stderr_);
+  }
   summary.set("temperature.initial", T0);
   const double mean_e = f.collisions ? f.sum_e / f.collisions : 1.0;
   summary.set("restitution.mean_e", mean_e);
@@ -816,15 +832,21 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   }
   // collision frequency per particle vs Enskog
   const double omega = t_run > 0 ? 2.0 * f.collisions / (N * t_run) : 0.0;
-  const double omega_e = theory::enskog_frequency(D, c.packing_fraction, g_ref, T_mean);
+  // Enskog's frequency goes as sqrt(T): over the window, at T_freq = <T^1/2>_t^2
+  const double T_freq = c.free_cooling ? Th * Th : T_mean;
+  const double omega_e = theory::enskog_frequency(D, c.packing_fraction, g_ref, T_freq);
   summary.set("collision.frequency", omega);
   summary.set("collision.enskog_frequency", omega_e);
   summary.set("collision.frequency_over_enskog", omega / omega_e);
-  summary.set("collision.g_contact_from_rate", omega / theory::enskog_frequency(D, c.packing_fraction, 1.0, T_mean));
+  summary.set("collision.g_contact_from_rate", omega / theory::enskog_frequency(D, c.packing_fraction, 1.0, T_freq));
   const double vn_mean = f.collisions ? f.sum_vn / f.collisions : 0.0;
   const double vn2_mean = f.collisions ? f.sum_vn2 / f.collisions : 0.0;
-  summary.set("collision.vn_over_sqrt_piT", vn_mean / std::sqrt(std::numbers::pi * T_mean));  // Bizon after eq. 33
-  summary.set("collision.vn2_over_4T", vn2_mean / (4.0 * T_mean));
+  // collision averages weight each time by the rate (∝ T^1/2): <v_n>_c ∝ <T>_t/<T^1/2>_t,
+  // <v_n^2>_c ∝ <T^3/2>_t/<T^1/2>_t (both T_mean's powers in a steady run)
+  const double vn_scale = c.free_cooling ? std::sqrt(std::numbers::pi) * T1 / Th : std::sqrt(std::numbers::pi * T_mean);
+  const double vn2_scale = c.free_cooling ? 4.0 * T32 / Th : 4.0 * T_mean;
+  summary.set("collision.vn_over_sqrt_piT", vn_mean / vn_scale);  // Bizon after eq. 33
+  summary.set("collision.vn2_over_4T", vn2_mean / vn2_scale);
   summary.set("collision.count", static_cast<std::int64_t>(f.collisions));
   {
     // state.hash (src/core/state_hash.hpp): every bit of the final positions, velocities and
@@ -864,15 +886,19 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // static inelastic walls are energy.wall_loss_rate
   const double gamma = t_run > 0 ? f.energy_lost / (volume * t_run) : 0.0;
   const double Gfor = Gs / pref / c.packing_fraction;  // g from the EOS measurement, as Bizon does
-  const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_mean);
-  const double ge = theory::gamma_e(law, D, c.packing_fraction, Gfor, T_mean);
+  // the loss rate goes as T^3/2: over the window, at T_loss = <T^3/2>_t^(2/3)
+  const double T_loss = c.free_cooling ? std::cbrt(T32 * T32) : T_mean;
+  const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_loss);
+  const double ge = theory::gamma_e(law, D, c.packing_fraction, Gfor, T_loss);
   summary.set("loss.gamma", gamma);
   summary.set("loss.gamma0", g0);
   summary.set("loss.gamma_e", ge);
   if (g0 > 0) summary.set("loss.gamma_over_gamma0", gamma / g0);
   if (ge > 0) summary.set("loss.gamma_over_gamma_e", gamma / ge);
   // Bizon eq. 33 check: gamma/gamma_e tracks (<v_n^2>_c/<v_n>_c) / (4T/sqrt(pi T)), 1 under molecular chaos
-  summary.set("loss.velocity_ratio", std::sqrt(std::numbers::pi) / (4.0 * std::sqrt(T_mean)) * vn2_mean / std::max(vn_mean, 1e-300));
+  // (v_n^2)_c/(v_n)_c under molecular chaos: 4 T/sqrt(pi T) steady, 4 <T^3/2>_t/(sqrt(pi) <T>_t) cooling
+  const double vr_scale = c.free_cooling ? std::sqrt(std::numbers::pi) * T1 / (4.0 * T32) : std::sqrt(std::numbers::pi) / (4.0 * std::sqrt(T_mean));
+  summary.set("loss.velocity_ratio", vr_scale * vn2_mean / std::max(vn_mean, 1e-300));
   if (c.background.present()) {
     const double K = c.background.density / c.background.knudsen;
     const double Tth = theory::steady_temperature_medium(law, D, c.packing_fraction, c.background.temperature, K,
