@@ -393,6 +393,7 @@ bool blocks_long_enough(double m, double n, double e_m, double e_1) {
 }
 // Whether blocks of m samples could pass that test at all: even uncorrelated samples
 // (e_m = e_1) need m^3 > 2 n, which blocks of at most n/16 samples meet only for n > 90
+// (the clock blocking, 16 blocks of n/16; the halving of the index may need more)
 bool blocks_could_pass(double m, double n) { return m * m * m > 2 * n; }
 }  // namespace
 

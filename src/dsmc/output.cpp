@@ -263,16 +263,14 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   // a blocked error that did not reach a plateau is unreliable (a lower bound for a series
   // correlated over the window; a drifting series has no steady mean): flagged in summary.json
   // (`*.stderr_plateau`) and said on stderr (the run's log)
+  const double span = clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front();
+  std::string unchecked;  // the errors too short to judge: one note for all, after the last
+  std::size_t unchecked_samples = 0;
   auto warn_no_plateau = [&](const char* key, const MeanError& e) {
     if (e.plateau || !std::isfinite(e.stderr_)) return;
-    const double span = clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front();
-    if (!e.plateau_judged) {  // too few samples to tell: a note, and summary.json's flag is null
-      std::fprintf(stderr,
-                   "note: %s: the window holds %zu samples, too few to check the blocking for a plateau (about 91 "
-                   "needed); the error assumes correlations shorter than its longest blocks (%.2g collisions per "
-                   "grain). A smaller sampling.every gives more samples; replicas give an error that assumes "
-                   "nothing: grainbath sweep CASE --set run.seed=1,2,...,8\n",
-                   key, e.samples, e.samples >= 16 ? span / 16.0 : span);
+    if (!e.plateau_judged) {  // too few samples to tell: a note, and no flag in summary.json
+      unchecked += (unchecked.empty() ? "" : ", ") + std::string(key);
+      unchecked_samples = e.samples;
       return;
     }
     std::fprintf(stderr,
@@ -283,6 +281,15 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
                  "(%s_plateau = false); take the error from independent replicas: grainbath sweep CASE --set "
                  "run.seed=1,2,...,8\n",
                  key, e.stderr_, e.samples, span, key);
+  };
+  auto note_unchecked = [&] {
+    if (unchecked.empty()) return;
+    std::fprintf(stderr,
+                 "note: %s: the window holds %zu samples, too few to check the blocking for a plateau (about 91 "
+                 "needed); the errors assume correlations shorter than the longest blocks (%.2g collisions per "
+                 "grain). A smaller sampling.every gives more samples; replicas give an error that assumes "
+                 "nothing: grainbath sweep CASE --set run.seed=1,2,...,8\n",
+                 unchecked.c_str(), unchecked_samples, unchecked_samples >= 16 ? span / 16.0 : span);
   };
   // true / false; absent where the window is too short to tell (MeanError::plateau_judged)
   auto set_plateau = [&](const char* key, const MeanError& e) {
@@ -368,6 +375,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
     summary.set("rotation.R_final", ts.Trot.back() / ts.T.back());
     summary.set("rotation.moment_of_inertia_q", c.rough->q);
   }
+  note_unchecked();
 
   // ---- spatial: density mode decay
   if (c.spatial() && !ts.mode_amplitude.empty()) {

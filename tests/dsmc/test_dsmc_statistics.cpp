@@ -231,3 +231,45 @@ steady_from = 2.0
   EXPECT_FALSE(std::get<bool>(*run.summary.get("a2.stderr_plateau")));
   EXPECT_GT(run.summary.number("a2.stderr"), 0.0);
 }
+
+// The plateau test (m^3 > 2 n (e_m/e_1)^4, blocks of at most n/16 samples) cannot pass for
+// n <= 90 even for uncorrelated samples, so there it has nothing to say: "not judged" (no
+// flag in summary.json, a note), not "no plateau" (a warning that the error is unreliable),
+// which every short window got before. Uncorrelated samples: 51 (cases/relaxation's window)
+// are not judged; the clock blocking judges from 91 on (16 blocks of 5.7); 256 are judged and pass in
+// nearly every replica; a series correlated over the whole window is judged and fails.
+TEST(DsmcStats, ShortWindowsAreNotJudgedForAPlateau) {
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> g;
+  auto judged_and_passed = [&](int n, double rho, int R) {
+    std::vector<double> x(n), clock(n);
+    int judged = 0, passed = 0;
+    for (int r = 0; r < R; ++r) {
+      x[0] = g(rng);
+      for (int k = 0; k < n; ++k) {
+        if (k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
+        clock[k] = 0.3 * k;
+      }
+      // the clock blocking (DSMC's window errors: B = 2^j blocks, at least 16) and the halving
+      // blocking of the sample index (n, n/2, ... blocks: its threshold depends on n's bits)
+      const grainbath::MeanError c = grainbath::block_average(x, clock), t = grainbath::block_average(x);
+      judged += c.plateau_judged;
+      passed += c.plateau_judged && c.plateau;
+      if (!c.plateau_judged) EXPECT_FALSE(c.plateau);
+      if (!t.plateau_judged) EXPECT_FALSE(t.plateau);
+      if (n <= 90) EXPECT_FALSE(t.plateau_judged) << n;
+    }
+    return std::pair<double, double>(static_cast<double>(judged) / R, static_cast<double>(passed) / R);
+  };
+  const auto short_white = judged_and_passed(51, 0.0, 200);
+  EXPECT_EQ(short_white.first, 0.0);
+  const auto edge = judged_and_passed(90, 0.0, 50), past = judged_and_passed(91, 0.0, 50);
+  EXPECT_EQ(edge.first, 0.0);
+  EXPECT_EQ(past.first, 1.0);
+  const auto long_white = judged_and_passed(256, 0.0, 200);
+  EXPECT_EQ(long_white.first, 1.0);
+  EXPECT_GE(long_white.second, 0.9);
+  const auto long_correlated = judged_and_passed(256, 0.995, 200);  // correlated over 200 samples
+  EXPECT_EQ(long_correlated.first, 1.0);
+  EXPECT_LE(long_correlated.second, 0.05);
+}

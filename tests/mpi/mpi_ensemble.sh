@@ -45,5 +45,7 @@ mpi 2 sweep "$case_dir" --set restitution.law=elastic,constant --set dsmc.t_end=
   --out "$work/notes" > /dev/null 2>&1
 log=$(ls "$work"/notes/variant-0_*.log)
 grep -q "note: .*restitution.e: ignored" "$log" || { echo "FAIL: the elastic variant's log lacks its note ($log):"; cat "$log"; exit 1; }
-if grep -q "note:" "$(ls "$work"/notes/variant-1_*.log)"; then echo "FAIL: the constant-e variant's log has a note"; exit 1; fi
+# (other notes, e.g. that the short window is too short to check the blocked errors, are the
+# variant's own)
+if grep -q "note: .*restitution" "$(ls "$work"/notes/variant-1_*.log)"; then echo "FAIL: the constant-e variant's log has the elastic variant's note"; exit 1; fi
 echo "ok   MPI sweep: each variant's notes in its own log"
