@@ -596,10 +596,11 @@ int command_sweep(const SweepArgs& a) {
       return c.size() > n && c.compare(c.size() - n, n, tail) == 0;
     };
     for (const auto& c : columns) {
-      // nor the flags of the runs' own errors (`a2.stderr_plateau`): the ensemble's error is the
-      // replicas' scatter whatever they say
+      // nor the flags and parts of the runs' own errors (`a2.stderr_plateau`,
+      // `profile.exponent_stderr_fit`, `_modes`): the ensemble's error is the replicas' scatter
+      // whatever they say
       if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || ends_with(c, ".stderr") || ends_with(c, "_stderr") ||
-          ends_with(c, "_plateau"))
+          ends_with(c, "_plateau") || ends_with(c, "_stderr_fit") || ends_with(c, "_stderr_modes"))
         continue;
       std::vector<double> v;
       for (const auto& r : rows)

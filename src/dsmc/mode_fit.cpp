@@ -1,6 +1,8 @@
 #include "dsmc/mode_fit.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace grainbath::dsmc {
 
@@ -102,6 +104,31 @@ ModeDecayFit fit_mode_decay(const std::vector<double>& t, const std::vector<doub
   const double varG = noise_variance * (u1 * u1 * c11 + 2 * u1 * u2 * c12 + u2 * u2 * c22);
   f.rate_stderr = std::sqrt(varG);
   return f;
+}
+
+}  // namespace grainbath::dsmc
+
+namespace grainbath::dsmc {
+
+double slow_mode_error(const std::vector<double>& x, const std::vector<double>& w, const std::vector<double>& r,
+                       double length, double cell_width, double grains, double diffusion, double window) {
+  if (x.size() != w.size() || x.size() != r.size() || !(length > 0) || !(grains > 0) || !(diffusion > 0) ||
+      !(window > 0))
+    return std::nan("");
+  const int modes = std::max(1, static_cast<int>(std::lround(length / cell_width)) / 2);
+  double var = 0.0;
+  for (int m = 1; m <= modes; ++m) {
+    const double q = 2.0 * std::numbers::pi * m / length, u = diffusion * q * q * window;
+    const double f = u > 1e-8 ? (2.0 / u) * (1.0 - (1.0 - std::exp(-u)) / u) : 1.0;  // window-mean variance factor
+    const double hq = 0.5 * q * cell_width, sinc = hq > 0 ? std::sin(hq) / hq : 1.0;
+    double c = 0.0, s = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      c += w[i] * std::cos(q * x[i]) / r[i];
+      s += w[i] * std::sin(q * x[i]) / r[i];
+    }
+    var += (2.0 / grains) * f * sinc * sinc * (c * c + s * s);
+  }
+  return std::sqrt(var);
 }
 
 }  // namespace grainbath::dsmc

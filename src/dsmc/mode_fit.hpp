@@ -37,3 +37,29 @@ ModeDecayFit fit_mode_decay(const std::vector<double>& t, const std::vector<doub
                             double from, double to);
 
 }  // namespace grainbath::dsmc
+
+namespace grainbath::dsmc {
+
+// The part of the error of a quantity that is linear in the window-mean cell densities,
+// Q = sum_i w_i dn_i/n_i (e.g. the slope of ln n across the cells of a 1D profile: w_i the
+// least-squares weights), that comes from the grains' slow density modes along x.
+//
+// Why: the cell errors of the fields are jackknifed over batches of the window and treat the
+// cells as independent, but the density modes of wavelength L/m move all cells together and
+// relax only at D (2 pi m/L)^2 (the fundamental of cases/thermal-gradient in about 3 time
+// units, a sixth of its window), so the batches cannot see them. Model: the relative density
+// fluctuation is sum_m a_m cos(q_m x) + b_m sin(q_m x), q_m = 2 pi m/L, with the equilibrium
+// variance 2/N of independent grains for each of a_m, b_m and the correlation
+// exp(-D q_m^2 |dt|) (Onsager's regression, as for the density mode: mode_fit above); a window
+// mean over W has the variance (2/N) f(D q^2 W), f(u) = (2/u)(1 - (1 - e^-u)/u); a cell
+// averages cos(q x) to cos(q x_i) sinc(q h/2). Then
+//   Var Q = sum_m (2/N) f(D q_m^2 W) sinc^2(q_m h/2) [(sum_i w_i cos(q_m x_i)/r_i)^2
+//                                                      + (sum_i w_i sin(q_m x_i)/r_i)^2],
+// r_i = n_i/nbar (the fluctuation is relative to the mean density, the fit's to the cell's),
+// summed over m = 1 .. cells/2. D is one coefficient for the whole box (a spatially varying D
+// gives modes that are not pure sines: an approximation, tested against seeds in
+// cases/thermal-gradient/README.md).
+double slow_mode_error(const std::vector<double>& x, const std::vector<double>& w, const std::vector<double>& r,
+                       double length, double cell_width, double grains, double diffusion, double window);
+
+}  // namespace grainbath::dsmc
