@@ -258,9 +258,15 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   // 0.026 against a seed-to-seed scatter of the mean of 0.0011 in cases/free-cooling), so
   // temperature.mean/stderr are not written; temperature.final and /timeseries/temperature
   // compare with Haff's law (theory.haff.*).
+  // Elastic smooth grains in the same box keep their T: a steady state (rough grains with
+  // Walton's rule are counted as cooling, their translational T relaxes even at e = 1).
   bool diffuse_walls = false;
   for (int f = 0; f < 2 * c.domain.dimensions; ++f) diffuse_walls = diffuse_walls || c.domain.faces[f] == Boundary::diffuse;
-  const bool cooling_only = !medium_present(c) && !diffuse_walls;
+  const auto* constant = std::get_if<ConstantRestitution>(&c.restitution);
+  const auto* power = std::get_if<PowerLawRestitution>(&c.restitution);
+  const bool elastic = !c.rough && (std::holds_alternative<ElasticRestitution>(c.restitution) ||
+                                    (constant && constant->e == 1.0) || (power && power->beta == 0.0));
+  const bool cooling_only = !medium_present(c) && !diffuse_walls && !elastic;
   // a blocked error that did not reach a plateau is unreliable (a lower bound for a series
   // correlated over the window; a drifting series has no steady mean): flagged in summary.json
   // (`*.stderr_plateau`) and said on stderr (the run's log)

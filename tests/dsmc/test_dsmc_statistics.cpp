@@ -231,6 +231,16 @@ steady_from = 2.0
   ASSERT_NE(run.summary.get("a2.stderr_plateau"), nullptr);
   EXPECT_FALSE(std::get<bool>(*run.summary.get("a2.stderr_plateau")));
   EXPECT_GT(run.summary.number("a2.stderr"), 0.0);
+  // elastic grains in the same box do not cool: their steady T keeps its window mean (the
+  // first version of this rule dropped it for every box without a medium)
+  std::string elastic = cooling;
+  elastic.replace(elastic.find("law = \"constant\"\ne = 0.8"), std::string("law = \"constant\"\ne = 0.8").size(),
+                  "law = \"elastic\"");
+  elastic.replace(elastic.find("t_end = 20.0"), 12, "t_end = 4.0");
+  elastic.replace(elastic.find("steady_from = 2.0"), 17, "steady_from = 1.0");
+  const auto eq = grainbath::testing::run_dsmc(elastic, 3, 1, "elastic-stats");
+  ASSERT_NE(eq.summary.get("temperature.mean"), nullptr);
+  EXPECT_NEAR(eq.summary.number("temperature.mean"), 1.0, 1e-9);  // elastic: T is conserved exactly
 }
 
 // The plateau test (m^3 > 2 n (e_m/e_1)^4, blocks of at most n/16 samples) cannot pass for
