@@ -53,11 +53,32 @@ def lower_bound(run, err_key):
     return bool(err_key) and run.get(err_key + "_plateau") is False
 
 
+# The DSMC window errors that the plateau test judges (src/dsmc/output.cpp); the CLI's run table
+# marks the same ones (src/cli/commands.cpp, print_table).
+PLATEAU_JUDGED = ("temperature.stderr", "a2.stderr", "rotation.R_stderr")
+
+
+def unchecked(run, err_key):
+    """True for a DSMC window error that carries no `<err_key>_plateau` flag: its window held too
+    few samples (≤ 90) for the plateau test to tell anything (the run's log says so once), or the
+    run predates the test (2026-12-05). The error is then the blocking's estimate, unjudged."""
+    return (bool(err_key) and run.solver == "dsmc" and err_key in PLATEAU_JUDGED
+            and run.num(err_key) is not None and run.get(err_key + "_plateau") is None)
+
+
+def error_mark(run, err_key):
+    """The mark after an error, as the CLI's run table prints it: " (no plateau)" for a flagged
+    (unreliable) error, " (few samples: unchecked)" for an unjudged one, else ""."""
+    if lower_bound(run, err_key):
+        return " (no plateau)"
+    return " (few samples: unchecked)" if unchecked(run, err_key) else ""
+
+
 def fmt_err(run, mean, err_key, digits=6):
-    """mean ± error, marked "(no plateau)" when the run flagged the error (lower_bound)."""
+    """mean ± error, marked as the CLI marks it (error_mark)."""
     e = run.num(err_key) if err_key else None
     text = fmt_pm(mean, e, digits)
-    return text + " (no plateau)" if e is not None and lower_bound(run, err_key) else text
+    return text + error_mark(run, err_key) if e is not None else text
 
 
 def deviation(sim, err, theory):
@@ -168,7 +189,7 @@ def overview(run, ctx):
         if v is None:
             return
         e = run.num(err_key) if err_key else None
-        mark = " (no plateau)" if e is not None and lower_bound(run, err_key) else ""
+        mark = error_mark(run, err_key) if e is not None else ""
         key_rows.append([label, f"`{key}`", fmt(v), fmt(e) + mark if e is not None else ""])
 
     if run.solver == "edmd":
@@ -212,7 +233,8 @@ def overview(run, ctx):
                 caption="Key numbers from summary.json (std. error from block averaging over the window; "
                         "\"no plateau\": the blocking reached no plateau, so the error is a lower bound if the "
                         "series is correlated over a good part of the window, and the mean no steady value if it "
-                        "drifts through it; take the error from independent replicas).")
+                        "drifts through it; take the error from independent replicas. \"few samples: unchecked\": "
+                        "the window held too few samples (≤ 90) to test the blocking for a plateau).")
     return s
 
 

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from .common import UNITS, fmt_err, lower_bound
+from .common import UNITS, fmt_err, lower_bound, unchecked
 from .data import RunData
 from .document import Section, fmt, fmt_pm
 from .edmd import close_packing, packing_label, z_henderson, z_reference
@@ -136,8 +136,10 @@ def ensemble_section(runs, quantities, paths):
                 th.append(f"{tlabel} {fmt(t)}" + (f" ({(t - mean) / scatter:+.1f}σ)" if scatter > 0 else ""))
         # runs that flagged their error (no plateau): so is the combination
         low = any(lower_bound(r, err_key) for r in runs)
+        unjudged = any(unchecked(r, err_key) for r in runs)
         rows.append([f"{label} [{unit}]", fmt_pm(mean, scatter),
-                     fmt(own_err) + (" (no plateau)" if low else "") if own_err is not None else "—",
+                     fmt(own_err) + (" (no plateau)" if low else " (few samples: unchecked)" if unjudged else "")
+                     if own_err is not None else "—",
                      "; ".join(th) or "—"])
     s.text(f"The {R} runs differ only in their seed: they are independent replicas. The mean of each quantity "
            "over them, with the standard error from their scatter (std/√R, honest whatever the correlations "
@@ -173,7 +175,8 @@ def build(paths, ctx):
                      for k in varied] +
                     [fmt_err(r, r.num(q[0]), q[1]) for q in quantities])
     s.table(headers, rows, caption="Key numbers of every run (± std. error where the run gives one; \"no plateau\": "
-                                   "the run's blocking reached none, the error is unreliable, see the runs' reports).")
+                                   "the run's blocking reached none, the error is unreliable, see the runs' reports; \"few samples: "
+                                   "unchecked\": the window was too short to test for a plateau).")
     have_reports = [r for r in runs if os.path.isfile(os.path.join(r.out_dir, "report", "report.html"))]
     s.text("Each run's own report: `grainbath report RUN_DIR`" +
            (f" (already made for {len(have_reports)} of the runs: RUN_DIR/report/report.html)." if have_reports

@@ -143,6 +143,13 @@ def get(summary, key):
     return node
 
 
+def get_opt(summary, key):
+    try:
+        return get(summary, key)
+    except (KeyError, TypeError):
+        return None
+
+
 def check_edmd_series(grainbath, out, env):
     """EDMD's time series: /timeseries/t and the rest under /timeseries (DSMC's layout), the
     former /series/<name> (/series/time for t) soft links to them reading the same data; and
@@ -257,6 +264,17 @@ def main():
         for k, v in leaves("", summary):
             if isinstance(v, (int, float)) and not isinstance(v, bool):
                 check(f"| `{k}` | {fmt(v)} |" in md, f"{case}: appendix lacks {k} = {fmt(v)}")
+        # the window errors are marked as the CLI's run table marks them: flagged (no plateau) or,
+        # without a flag, too few samples to judge (DSMC only)
+        for ek in ("temperature.stderr", "a2.stderr"):
+            if summary.get("solver") != "dsmc" or get_opt(summary, ek) is None:
+                continue
+            flag = get_opt(summary, ek + "_plateau")
+            if flag is False:
+                check("(no plateau)" in md, f"{case}: {ek} flagged (no plateau) but report.md does not say so")
+            elif flag is None:
+                check("(few samples: unchecked)" in md,
+                      f"{case}: {ek} has no plateau flag but report.md does not mark it unchecked")
         if "energy" in sections:  # the plotted budget closes (rough grains: with the spin energy)
             m = re.search(r"\| largest relative residual of the plotted budget[^|]*\| \(this plot\) \| ([^ |]+) \|", md)
             check(m is not None and abs(float(m.group(1))) < 1e-9,
@@ -298,6 +316,10 @@ def main():
         md = open(md_path).read()
         check('<a id="sweep-temperature-mean"></a>' in md and "`background.knudsen`" in md,
               "sweep report lacks T# against background.knudsen")
+        # 75 samples in each window: too few to test for a plateau, so unjudged and marked
+        s01 = json.load(open(os.path.join(sweep, "eps-0.1", "summary.json")))
+        check("stderr_plateau" not in s01["temperature"] and "(few samples: unchecked)" in md,
+              "sweep report does not mark the short windows' errors unchecked")
         for eps in ("0.1", "0.3"):
             t = json.load(open(os.path.join(sweep, f"eps-{eps}", "summary.json")))["temperature"]["mean"]
             check(fmt(t) in md, f"sweep report does not quote T# = {fmt(t)} of eps = {eps}")
