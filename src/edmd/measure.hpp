@@ -65,8 +65,9 @@ struct PairStatistics {
 // (Counters::vn_histogram, bins of width w from 0, counts at the centres (b + 1/2) w; the
 // midpoint rule is exact for the flux-weighted P_c(u) ~ u of the first bin and O(w^2)
 // elsewhere); collisions beyond the last bin count in `collisions` and add nothing (< 1/(bins w)
-// each). e_of(u) is the restitution applied at normal speed u: not valid with the TC guard
-// (some collisions made elastic), which the caller must exclude. NaN if e = 0 anywhere used.
+// each). e_of(u) is the law's restitution at normal speed u; collisions the TC guard made
+// elastic are corrected by receding_correction = Sum over them of (1 - 1/e_law(u))/u
+// (Counters::guard_receding), added to the receding sum. NaN if e = 0 anywhere used.
 struct CollisionContact {
   double g = std::nan(""), g_approaching = std::nan(""), g_receding = std::nan("");
   double inverse_speed = std::nan(""), inverse_receding_speed = std::nan("");  // <1/u>_c, <1/(e u)>_c
@@ -74,7 +75,8 @@ struct CollisionContact {
 template <class RestitutionOf>
 CollisionContact contact_from_collisions(int dims, double pair_density, double frequency,
                                          const std::vector<std::uint64_t>& vn_histogram, double bin_width,
-                                         std::uint64_t collisions, const RestitutionOf& e_of) {
+                                         std::uint64_t collisions, const RestitutionOf& e_of,
+                                         double receding_correction = 0.0) {
   CollisionContact out;
   if (collisions == 0 || !(bin_width > 0.0) || !(pair_density > 0.0)) return out;
   double s1 = 0.0, s2 = 0.0;
@@ -85,6 +87,8 @@ CollisionContact contact_from_collisions(int dims, double pair_density, double f
     s1 += static_cast<double>(vn_histogram[b]) / u;
     s2 += static_cast<double>(vn_histogram[b]) / (e * u);
   }
+  s2 += receding_correction;
+  if (!std::isfinite(s2)) return out;
   out.inverse_speed = s1 / static_cast<double>(collisions);
   out.inverse_receding_speed = s2 / static_cast<double>(collisions);
   const double surface = dims == 2 ? 2.0 * std::numbers::pi : 4.0 * std::numbers::pi;

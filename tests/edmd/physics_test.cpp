@@ -153,6 +153,14 @@ TEST(EdmdContactFromCollisions, ExactForKnownContactSpeedDistributions) {
     const auto b = contact_from_collisions(dims, pair_density, omega, hist, w, total,
                                            [&](double u) { return restitution(bizon, u).e; });
     EXPECT_NEAR(b.g_receding / (0.5 * g * inv_e), 1.0, 1e-4) << dims << " <1/e> = " << inv_e;
+    // a constant e = 0.6 law of which the TC guard made a quarter of the collisions (at every
+    // speed) elastic: Counters::guard_receding = Sum over those of (1 - 1/0.6)/u
+    double correction = 0.0;
+    for (std::size_t k = 0; k < hist.size(); ++k)
+      correction += 0.25 * static_cast<double>(hist[k]) * (1.0 - 1.0 / 0.6) / ((k + 0.5) * w);
+    const auto guarded = contact_from_collisions(dims, pair_density, omega, hist, w, total,
+                                                 [](double) { return 0.6; }, correction);
+    EXPECT_NEAR(guarded.g_receding / (0.5 * g * (0.75 / 0.6 + 0.25)), 1.0, 1e-4) << dims;
   }
 }
 
