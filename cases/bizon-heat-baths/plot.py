@@ -43,6 +43,7 @@ for name, d in runs.items():
     row = {"bath": name, "T": s["temperature"]["mean"], "T_err": s["temperature"]["stderr"],
            "Z": s["pressure"]["Z"], "Z_err": s["pressure"]["Z_stderr"], "G_s": s["pressure"]["G_s"],
            "G_s_over_G_cs": s["pressure"]["G_s"] / G_cs, "g_sigma_fit": s["g_r"]["contact_fit"],
+           "g_sigma_collisions": s["g_r"].get("contact_from_collisions", float("nan")),
            "G_s_over_nu": s["pressure"]["G_s"] / nu, "mean_e": s["restitution"]["mean_e"],
            "gamma_over_gamma0": s["loss"].get("gamma_over_gamma0", float("nan")),
            "gamma_over_gamma_e": s["loss"].get("gamma_over_gamma_e", float("nan")),

@@ -207,6 +207,7 @@ def overview(run, ctx):
     row("compressibility factor Z", "pressure.Z", "pressure.Z_stderr")
     row("g(σ) from Z", "pressure.g_contact")
     row("g(σ) from a quadratic fit of g(r)", "g_r.contact_fit")
+    row("g(σ⁺) from the collisions", "g_r.contact_from_collisions")
     row("a₂ (EDMD)", "velocity.a2")
     row("mean restitution ⟨e⟩", "restitution.mean_e")
     row("collision frequency / Enskog", "collision.frequency_over_enskog")

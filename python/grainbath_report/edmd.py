@@ -127,6 +127,8 @@ def equation_of_state(run, ctx):
     for label, key in [("g(σ) from Z (`pressure.g_contact`)", "pressure.g_contact"),
                        ("g(σ) from the EOS (`theory.g_contact`)", "theory.g_contact"),
                        ("g(σ) from the collision rate (`collision.g_contact_from_rate`)", "collision.g_contact_from_rate"),
+                       ("g(σ⁺) of g(r) from the collisions, approaching + receding pairs (`g_r.contact_from_collisions`)",
+                        "g_r.contact_from_collisions"),
                        ("collision frequency / Enskog (`collision.frequency_over_enskog`)", "collision.frequency_over_enskog"),
                        ("mean restitution ⟨e⟩ (`restitution.mean_e`)", "restitution.mean_e"),
                        ("loss rate γ / γ_e (`loss.gamma_over_gamma_e`)", "loss.gamma_over_gamma_e")]:
@@ -253,7 +255,8 @@ def pair_correlation(run, ctx):
     marks = [("theory.g_contact", "o", "#0072B2", "g(σ⁺) from the EOS"),
              ("pressure.g_contact", "s", "#E69F00", "g(σ⁺) from the measured Z"),
              ("pressure.g_contact_weighted_e", "^", "#009E73", "g(σ⁺) from Z, collision-weighted (1+e)"),
-             ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a quadratic fit of g(r) near contact")]
+             ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a quadratic fit of g(r) near contact"),
+             ("g_r.contact_from_collisions", "v", "#CC79A7", "g(σ⁺) from the collisions (approaching + receding)")]
     for key, mk, col, lab in marks:
         v = run.num(key)
         if v is not None:

@@ -17,7 +17,7 @@ namespace {
 // Guards against silently unsaved state: a member added to one of these structs changes
 // its size, and this fails to compile until the member is packed below and the size here
 // updated (x86-64 sizes).
-static_assert(sizeof(Counters) == 9 * 8 + 9 * 8 + 2 * 8 + 2 * 8 + 2 * 8 + sizeof(std::vector<std::uint64_t>),
+static_assert(sizeof(Counters) == 9 * 8 + 10 * 8 + 2 * 8 + 2 * 8 + 2 * 8 + sizeof(std::vector<std::uint64_t>),
               "Counters changed: save the new member in the checkpoint (pack/unpack below)");
 static_assert(sizeof(EngineState) == 7 * sizeof(std::vector<double>) + 3 * 8 + 5 * 8 + sizeof(Counters),
               "EngineState changed: save the new member in the checkpoint (arrays_of below)");
@@ -49,10 +49,10 @@ bool write_old_counter_layout() {
 PackedCounters pack(const Counters& c) {
   PackedCounters p{{c.virial, c.energy_lost, c.heating_energy, c.background_energy, c.wall_virial, c.sum_vn, c.sum_vn2,
                     c.sum_e, c.wall_energy[0], c.wall_energy[1], c.wall_momentum[0], c.wall_momentum[1],
-                    c.wall_energy_lost},
+                    c.wall_energy_lost, c.guard_receding},
                    {c.collisions, c.events, c.stale, c.cell_crossings, c.wall_collisions, c.background_candidates,
                     c.background_collisions, c.guard_elastic, c.clamped, c.wall_hits[0], c.wall_hits[1]}};
-  if (write_old_counter_layout()) p.real.pop_back();  // the wall loss is the 13th, the last
+  if (write_old_counter_layout()) p.real.resize(12);  // without the wall loss (13th) and guard_receding (14th)
   return p;
 }
 
@@ -60,7 +60,9 @@ void unpack(const PackedCounters& p, Counters& c) {
   // 12 reals: written before static-wall losses had their own counter (they were added to
   // energy_lost). Their wall loss is unknown (NaN): Engine::restore refuses such a checkpoint
   // if the case has lossy static walls and otherwise sets it to 0, the value it had.
-  if ((p.real.size() != 12 && p.real.size() != 13) || p.integer.size() != 11)
+  // 12 or 13 reals: written before guard_receding (2026-12-06). It is 0 if the TC guard had not
+  // acted, else unknown: NaN, so g_r.contact_from_collisions is null for such a run.
+  if ((p.real.size() < 12 || p.real.size() > 14) || p.integer.size() != 11)
     throw std::runtime_error("wrong counter layout");
   c.virial = p.real[0];
   c.energy_lost = p.real[1];
@@ -82,6 +84,9 @@ void unpack(const PackedCounters& p, Counters& c) {
   c.wall_energy = {p.real[8], p.real[9]};
   c.wall_momentum = {p.real[10], p.real[11]};
   c.wall_energy_lost = p.real.size() > 12 ? p.real[12] : std::numeric_limits<double>::quiet_NaN();
+  c.guard_receding = p.real.size() > 13 ? p.real[13]
+                     : c.guard_elastic == 0 ? 0.0
+                                            : std::numeric_limits<double>::quiet_NaN();
   c.wall_hits = {p.integer[9], p.integer[10]};
 }
 

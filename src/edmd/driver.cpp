@@ -881,6 +881,23 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
                    "sampling.gr_bin = %.4g gives fewer: use gr_bin <= 0.033\n",
                    c.gr_bin);
     summary.set("g_r.contact_fit", contact);
+    // g(sigma+) from the collisions (measure.hpp, contact_from_collisions): the approaching
+    // pairs' density at contact, omega <1/u>_c, and the receding ones', omega <1/(e u)>_c;
+    // exact in expectation for any pair velocity distribution. Collisions the TC guard made
+    // elastic enter through Counters::guard_receding (NaN, so null, after an older checkpoint).
+    if (f.collisions > 0) {
+      const CollisionContact cc =
+          contact_from_collisions(D, (N - 1.0) / volume, omega, f.vn_histogram, eng.vn_bin_width(), f.collisions,
+                                  [&](double u) { return restitution(law, u).e; },
+                                  f.guard_elastic > 0 ? f.guard_receding : 0.0);
+      summary.set("g_r.contact_from_collisions", cc.g);
+      // <1/u>_c against molecular chaos at T (sqrt(pi/T)/2 in 2D and 3D), and the receding
+      // pairs' excess <1/(e u)>_c / <1/u>_c (1 for elastic grains)
+      summary.set("collision.inv_vn_over_chaos", cc.inverse_speed / (0.5 * std::sqrt(std::numbers::pi / T_mean)));
+      summary.set("collision.receding_excess", cc.inverse_receding_speed / cc.inverse_speed);
+    } else {
+      summary.set("g_r.contact_from_collisions", std::nan(""));
+    }
   }
   // loss rate (Bizon eqs. 14, 29-31): grain-grain collisions only (energy_lost); losses at
   // static inelastic walls are energy.wall_loss_rate

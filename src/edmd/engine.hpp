@@ -140,6 +140,11 @@ struct Counters {
   std::array<double, 2> wall_momentum{0.0, 0.0};
   std::array<std::uint64_t, 2> wall_hits{0, 0};
   double sum_vn = 0.0, sum_vn2 = 0.0, sum_e = 0.0;
+  // Collisions the TC guard made elastic: Sum (1 - 1/e_law(g_n)) / g_n, what g_r.contact_from_collisions
+  // (measure.hpp) adds to its receding-pair sum, which takes every histogram entry at the law's e.
+  // NaN after a checkpoint written before this counter (2026-12-06): the key is then null if the
+  // guard acted.
+  double guard_receding = 0.0;
   std::vector<std::uint64_t> vn_histogram;
 };
 
@@ -445,6 +450,9 @@ void Engine::process_collision(const Law& law, std::uint32_t i, std::uint32_t j)
   double e = 1.0;
   if (tc_ > 0.0 && (now_ - sc_[i].last_collision < tc_ || now_ - sc_[j].last_collision < tc_)) {
     ++c_.guard_elastic;  // TC model (Luding-McNamara): collapse guard for constant e
+    const double e_law = restitution(law, gn).e;
+    if (e_law > 0.0) c_.guard_receding += (1.0 - 1.0 / e_law) / gn;
+    else c_.guard_receding = std::numeric_limits<double>::infinity();  // the law's receding pairs would stick
   } else {
     const RestitutionOutcome out = restitution(law, gn);
     e = out.e;

@@ -6,6 +6,10 @@
 // identical; a truncated newest checkpoint falls back to the previous one with a warning;
 // a changed case is refused.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <stdexcept>
 #include <unistd.h>
 
 #include <algorithm>
@@ -355,23 +359,70 @@ hsize_t dataset_length(const fs::path& file, const char* name) {
   return n;
 }
 
-// Without lossy static walls the old file is complete (the wall loss was 0): it resumes and
-// the run equals the uninterrupted one byte for byte.
+// The heated spheres with Bizon's e(v_n), which has no TC guard (constant e has one, and
+// acts in kHeatedSpheres).
+std::string heated_spheres_without_guard() {
+  std::string toml = kHeatedSpheres;
+  const std::string law = "law = \"constant\"\ne = 0.8\n";
+  const auto at = toml.find(law);
+  if (at == std::string::npos) throw std::logic_error("kHeatedSpheres changed");
+  return toml.replace(at, law.size(), "law = \"bizon\"\ne = 0.8\ncrossover = 1.0\n");
+}
+
+// Without lossy static walls and without the TC guard the old file is complete (the wall loss
+// was 0, and so was Counters::guard_receding, which it lacks): it resumes and the run equals
+// the uninterrupted one byte for byte.
 TEST(EdmdRestart, OldCounterLayoutResumesBitwiseWithoutLossyWalls) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-old-" + std::to_string(::getpid()));
   fs::remove_all(ck);
-  const EdmdRun reference = run_edmd(kHeatedSpheres, "old-reference", {}, false);
+  const std::string toml = heated_spheres_without_guard();
+  const EdmdRun reference = run_edmd(toml, "old-reference", {}, false);
   {
     OldCounterLayout old;
-    run_edmd(kHeatedSpheres, "old-full", ck, false);
+    run_edmd(toml, "old-full", ck, false);
   }
   auto files = checkpoints(ck);
   ASSERT_EQ(files.size(), 2u);
   for (const char* name : {"/counters/engine/real", "/counters/equilibration/real", "/counters/previous_sample/real"})
     EXPECT_EQ(dataset_length(files.front(), name), 12u) << name;  // the hook did write the old layout
   fs::remove(files.back());
-  const EdmdRun resumed = run_edmd(kHeatedSpheres, "old-resumed", ck, true);
+  const EdmdRun resumed = run_edmd(toml, "old-resumed", ck, true);
   expect_same(reference, resumed);
+  EXPECT_TRUE(std::isfinite(resumed.summary.number("g_r.contact_from_collisions")));
+  fs::remove_all(ck);
+}
+
+// Where the TC guard acted before an old checkpoint, its correction to the collisions' g(sigma+)
+// (Counters::guard_receding, 2026-12-06) is unknown: the resumed run gives null for
+// g_r.contact_from_collisions and its two ratios, and every other key as the uninterrupted run.
+TEST(EdmdRestart, OldCounterLayoutWithTheGuardLeavesTheCollisionContactValueNull) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-oldguard-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const EdmdRun reference = run_edmd(kHeatedSpheres, "oldguard-reference", {}, false);
+  {
+    OldCounterLayout old;
+    run_edmd(kHeatedSpheres, "oldguard-full", ck, false);
+  }
+  auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);
+  fs::remove(files.back());
+  const EdmdRun resumed = run_edmd(kHeatedSpheres, "oldguard-resumed", ck, true);
+  ASSERT_GT(reference.summary.number("guard.elastic_collisions"), 0.0);  // the guard acted
+  const std::set<std::string> unknown{"g_r.contact_from_collisions", "collision.inv_vn_over_chaos",
+                                      "collision.receding_excess"};
+  std::size_t compared = 0;
+  for (const auto& [k, v] : reference.summary.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
+    ASSERT_NE(resumed.summary.get(k), nullptr) << k;
+    if (unknown.count(k)) {
+      EXPECT_TRUE(std::isfinite(reference.summary.number(k))) << k;
+      EXPECT_TRUE(std::isnan(resumed.summary.number(k))) << k;
+    } else {
+      EXPECT_EQ(v, *resumed.summary.get(k)) << k;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 20u);
   fs::remove_all(ck);
 }
 
