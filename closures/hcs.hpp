@@ -11,7 +11,7 @@
 //
 // Units: the collision moments mu_p = -∫ c^p J[f, f] d3c (docs eq. H3) are those of the scaled
 // equation with hard-sphere diameter 1 and unit density; in them the cooling rate is
-// zeta = (2/3) n sigma^2 v_T mu_2 (docs eq. H4), so only ratios of mu_p enter a2, a3 and
+// zeta = (2/3) n sigma^2 v_T mu_2 (docs Sec. H.2), so only ratios of mu_p enter a2, a3 and
 // zeta / zeta0 (grainbath's cross-section pi sigma^2 = 1 is a common factor).
 #include <array>
 
