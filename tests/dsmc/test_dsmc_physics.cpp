@@ -242,6 +242,7 @@ struct FreeCoolingCase {
   // e = 0.6, 16 seeds (101-116): 0.00040 +- 0.00007
   double sigma;
 };
+void PrintTo(const FreeCoolingCase& c, std::ostream* os) { *os << "e = " << c.e; }  // ctest's test list
 class FreeCooling : public ::testing::TestWithParam<FreeCoolingCase> {};
 TEST_P(FreeCooling, HaffLawAndSecondSonineA2) {
   const double e = GetParam().e, n = 1.0, m = 1.0, T0 = 1.0;
