@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 #include "closures/closures.hpp"
@@ -98,6 +99,69 @@ Table build_table(int n_hermite, int n_laguerre, int n_legendre) {
   return tab;
 }
 
+// docs Sec. H.8: the linear hierarchy to order 6. lin.c[k][l][t]: coefficient of lambda^l in
+// mu_{2k} (k = 1..6) for the weight t = 0 (1) or t = j (S_j(x1) + S_j(x2), j = 2..6). Degrees:
+// <= 24 in G (S_6: 12, Delta c^12: 12), <= 13 in u, <= 14 in mu, so 14 Hermite nodes per axis,
+// 16 Laguerre and 14 Legendre are exact.
+constexpr int kMaxOrder = 6;
+struct LinearTable {
+  double c[kMaxOrder + 1][2 * kMaxOrder + 1][kMaxOrder + 1] = {};
+};
+
+// S_j = L_j^{(1/2)} by the three-term recurrence (j <= 6)
+void sonine_all(double x, double* S) {
+  S[0] = 1.0;
+  S[1] = 1.5 - x;
+  for (int j = 1; j < kMaxOrder; ++j) S[j + 1] = ((2 * j + 1.5 - x) * S[j] - (j + 0.5) * S[j - 1]) / (j + 1);
+}
+
+LinearTable build_linear_table() {
+  auto tab = std::make_unique<LinearTable>();
+  const Rule gh = gsl_fixed(gsl_integration_fixed_hermite, 14, 0.0, 1.0);
+  const Rule gl = gsl_fixed(gsl_integration_fixed_laguerre, 16, 0.0, 1.0);
+  const Rule lg = gsl_fixed(gsl_integration_fixed_legendre, 14, 0.0, 1.0);
+  const double s = 1.0 / std::sqrt(2.0), wn = 1.0 / std::sqrt(kPi);
+  const double norm = std::pow(2.0 * kPi, -1.5) * 4.0 * kPi * 2.0 * kPi;
+  for (std::size_t iu = 0; iu < gl.x.size(); ++iu) {
+    const double u = gl.x[iu], r = std::sqrt(2.0 * u);
+    for (std::size_t im = 0; im < lg.x.size(); ++im) {
+      const double mu = lg.x[im], sn = std::sqrt(1.0 - mu * mu), q = r * mu;
+      const double wq = -0.5 * norm * gl.w[iu] * lg.w[im] * r * q;
+      for (std::size_t a = 0; a < gh.x.size(); ++a)
+        for (std::size_t b = 0; b < gh.x.size(); ++b)
+          for (std::size_t c = 0; c < gh.x.size(); ++c) {
+            const double Gx = s * gh.x[a], Gy = s * gh.x[b], Gz = s * gh.x[c];
+            const double w = wq * gh.w[a] * gh.w[b] * gh.w[c] * wn * wn * wn;
+            const double z1 = Gz + 0.5 * r, z2 = Gz - 0.5 * r;
+            const double x1 = Gx * Gx + Gy * Gy + z1 * z1, x2 = Gx * Gx + Gy * Gy + z2 * z2;
+            const double c1n = Gx * sn + z1 * mu, c2n = Gx * sn + z2 * mu;
+            double S1[kMaxOrder + 1], S2v[kMaxOrder + 1], W[kMaxOrder + 1];
+            sonine_all(x1, S1);
+            sonine_all(x2, S2v);
+            W[0] = 1.0;
+            W[1] = 0.0;  // S_1 is not in the expansion (it would shift T)
+            for (int j = 2; j <= kMaxOrder; ++j) W[j] = S1[j] + S2v[j];
+            const double A1[3] = {x1, -2.0 * q * c1n, q * q}, A2[3] = {x2, 2.0 * q * c2n, q * q};
+            double P1[2 * kMaxOrder + 1] = {1.0}, P2[2 * kMaxOrder + 1] = {1.0};
+            for (int k = 1; k <= kMaxOrder; ++k) {
+              double N1[2 * kMaxOrder + 1] = {}, N2[2 * kMaxOrder + 1] = {};
+              for (int i = 0; i <= 2 * (k - 1); ++i)
+                for (int j = 0; j < 3; ++j) {
+                  N1[i + j] += P1[i] * A1[j];
+                  N2[i + j] += P2[i] * A2[j];
+                }
+              for (int i = 0; i <= 2 * k; ++i) P1[i] = N1[i], P2[i] = N2[i];
+              for (int l = 1; l <= 2 * k; ++l) {
+                const double d = w * (P1[l] + P2[l]);
+                for (int t = 0; t <= kMaxOrder; ++t) tab->c[k][l][t] += d * W[t];
+              }
+            }
+          }
+    }
+  }
+  return *tab;
+}
+
 const Table& table() {
   static const Table tab = build_table(10, 12, 10);  // thread-safe static initialisation
   return tab;
@@ -188,6 +252,70 @@ HcsSonine hcs_sonine2_nonlinear(double e) {
   std::ostringstream os;
   os << "hcs_sonine2_nonlinear: Newton did not converge at e = " << e;
   throw ClosureError(os.str());
+}
+
+std::vector<double> hcs_sonine_linear(double e, int K) {
+  check_e(e);
+  if (K < 2 || K > kMaxOrder) throw ClosureError("hcs_sonine_linear: K must be 2 ... 6");
+  static const LinearTable lin = build_linear_table();
+  const double lambda = 0.5 * (1.0 + e);
+  auto C = [&](int k, int t) {  // coefficient of mu_{2k} for weight t at this e
+    double v = 0.0, lk = 1.0;
+    for (int l = 0; l <= 2 * k; ++l, lk *= lambda) v += lk * lin.c[k][l][t];
+    return v;
+  };
+  // <x^k S_j> under phi (x = c^2, density x^{1/2} e^{-x} / Gamma(3/2)): 20-point generalised
+  // Gauss-Laguerre, exact for the degree <= 12 polynomials
+  static const Rule gla = [] {
+    std::unique_ptr<gsl_integration_fixed_workspace, decltype(&gsl_integration_fixed_free)> ws(
+        gsl_integration_fixed_alloc(gsl_integration_fixed_laguerre, 20, 0.0, 1.0, 0.5, 0.0),
+        &gsl_integration_fixed_free);
+    const double* x = gsl_integration_fixed_nodes(ws.get());
+    const double* w = gsl_integration_fixed_weights(ws.get());
+    Rule r{std::vector<double>(x, x + 20), std::vector<double>(w, w + 20)};
+    double sum = 0.0;
+    for (double wi : r.w) sum += wi;
+    for (double& wi : r.w) wi /= sum;
+    return r;
+  }();
+  auto moment = [&](int k, int j) {  // <x^k S_j> (j = 0: <x^k>)
+    double v = 0.0;
+    for (std::size_t i = 0; i < gla.x.size(); ++i) {
+      double S[kMaxOrder + 1];
+      sonine_all(gla.x[i], S);
+      v += gla.w[i] * std::pow(gla.x[i], k) * S[j];
+    }
+    return v;
+  };
+  if (e == 1.0) return std::vector<double>(K - 1, 0.0);
+  // E_k = mu_{2k} - (2k/3) mu_2 <x^k> to first order in the a_j (docs eq. H4 for every k)
+  const int n = K - 1;
+  std::vector<double> A(n * n), rhs(n);
+  for (int k = 2; k <= K; ++k) {
+    const double f = 2.0 * k / 3.0, m0 = moment(k, 0);
+    rhs[k - 2] = -(C(k, 0) - f * C(1, 0) * m0);
+    for (int j = 2; j <= K; ++j) A[(k - 2) * n + (j - 2)] = C(k, j) - f * (C(1, 0) * moment(k, j) + C(1, j) * m0);
+  }
+  // Gaussian elimination with partial pivoting (n <= 5)
+  for (int c = 0; c < n; ++c) {
+    int p = c;
+    for (int r = c + 1; r < n; ++r)
+      if (std::abs(A[r * n + c]) > std::abs(A[p * n + c])) p = r;
+    for (int j = 0; j < n; ++j) std::swap(A[c * n + j], A[p * n + j]);
+    std::swap(rhs[c], rhs[p]);
+    for (int r = c + 1; r < n; ++r) {
+      const double m = A[r * n + c] / A[c * n + c];
+      for (int j = c; j < n; ++j) A[r * n + j] -= m * A[c * n + j];
+      rhs[r] -= m * rhs[c];
+    }
+  }
+  std::vector<double> a(n);
+  for (int r = n - 1; r >= 0; --r) {
+    double v = rhs[r];
+    for (int j = r + 1; j < n; ++j) v -= A[r * n + j] * a[j];
+    a[r] = v / A[r * n + r];
+  }
+  return a;
 }
 
 double hcs_cooling_rate_ratio(const HcsSonine& s) {

@@ -14,6 +14,7 @@
 // zeta = (2/3) n sigma^2 v_T mu_2 (docs Sec. H.2), so only ratios of mu_p enter a2, a3 and
 // zeta / zeta0 (grainbath's cross-section pi sigma^2 = 1 is a common factor).
 #include <array>
+#include <vector>
 
 namespace grainbath::closures {
 
@@ -44,6 +45,13 @@ HcsSonine hcs_sonine2_linear(double e);
 // Second Sonine approximation with the full quadratic collision moments and the products in
 // mu_p = (p/3) mu_2 <c^p> kept (docs eq. H9): Newton from the linear solution.
 HcsSonine hcs_sonine2_nonlinear(double e);
+// The linear Sonine hierarchy to order K (2 <= K <= 6; docs Sec. H.8): f = phi [1 + sum_{k=2}^K
+// a_k S_k], the moment equations mu_{2k} = (2k/3) mu_2 <c^{2k}> for k = 2..K linearised in the a_k.
+// Returns {a_2, ..., a_K}. K = 2 is eq. H7, K = 3 eq. H8; the change from K = 3 to 6 is the
+// truncation estimate of the second Sonine value used by the free-cooling tests. (Exact Gauss
+// rules as in eq. H5 with 14 Hermite nodes per axis, 16 Laguerre, 14 Legendre; built once.)
+std::vector<double> hcs_sonine_linear(double e, int K);
+
 // zeta / zeta0 = mu_2(a2, a3) / mu_2(0, 0) = 1 + 3 a2/16 + a3/64 + 9 a2^2/1024
 //                                           + 15 a2 a3/2048 + 35 a3^2/16384 (docs eq. H10).
 double hcs_cooling_rate_ratio(const HcsSonine&);

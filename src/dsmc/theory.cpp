@@ -120,6 +120,10 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
         out.emplace_back("hcs.a2_sonine2_nonlinear", nl.a2);
         out.emplace_back("hcs.a3_sonine2_nonlinear", nl.a3);
         out.emplace_back("hcs.cooling_rate_ratio_sonine2", closures::hcs_cooling_rate_ratio(lin));
+        // the linear hierarchy to a6 (eq. H.8): the second Sonine value's truncation estimate
+        const std::vector<double> k6 = closures::hcs_sonine_linear(*e, 6);
+        out.emplace_back("hcs.a2_linear_to_a6", k6[0]);
+        out.emplace_back("hcs.a3_linear_to_a6", k6[1]);
       } catch (const closures::ClosureError& err) {
         std::fprintf(stderr, "note: no second-Sonine cooling state: %s\n", err.what());
       }

@@ -193,6 +193,32 @@ TEST(HcsSoninePredictions, NonlinearSecondSonineSolvesTheFullMomentEquations) {
   EXPECT_THROW(hcs_collision_moment(3, 0.5, 0, 0), ClosureError);
 }
 
+TEST(HcsSoninePredictions, LinearSeriesMatchesTheIndependentScript) {
+  // K = 2, 3 are eqs. H7, H8 from the other table
+  for (double e : {0.0, 0.4, 0.8, 0.95}) {
+    EXPECT_NEAR(hcs_sonine_linear(e, 2)[0], vne(e), 1e-11) << e;
+    const auto k3 = hcs_sonine_linear(e, 3);
+    EXPECT_NEAR(k3[0], hcs_sonine2_linear(e).a2, 1e-11) << e;
+    EXPECT_NEAR(k3[1], hcs_sonine2_linear(e).a3, 1e-11) << e;
+  }
+  // K = 4, 5, 6 against `/usr/bin/python3 scripts/hcs_sonine_series.py 0.8 0.6 0.4` (numpy/scipy,
+  // Sonine polynomials from scipy's generalised Laguerre), printed to 6 decimals
+  struct Row {
+    double e, a2[3], a3[3];
+  };
+  for (const Row& r : {Row{0.8, {-0.014284, -0.014314, -0.014319}, {-0.005206, -0.005274, -0.005284}},
+                       Row{0.6, {+0.021459, +0.021084, +0.021237}, {-0.006580, -0.007308, -0.007014}},
+                       Row{0.4, {+0.079162, +0.071628, +0.078875}, {-0.016840, -0.029468, -0.017438}}})
+    for (int K = 4; K <= 6; ++K) {
+      const auto a = hcs_sonine_linear(r.e, K);
+      ASSERT_EQ(a.size(), static_cast<std::size_t>(K - 1));
+      EXPECT_NEAR(a[0], r.a2[K - 4], 6e-7) << r.e << " K = " << K;
+      EXPECT_NEAR(a[1], r.a3[K - 4], 6e-7) << r.e << " K = " << K;
+    }
+  EXPECT_THROW(hcs_sonine_linear(0.5, 7), ClosureError);
+  EXPECT_THROW(hcs_sonine_linear(0.5, 1), ClosureError);
+}
+
 TEST(HcsSoninePredictions, CoolingRateRatio) {
   const HcsSonine s{0.1, -0.05};
   EXPECT_NEAR(hcs_cooling_rate_ratio(s), hcs_collision_moment(2, 0.7, 0.1, -0.05) / hcs_collision_moment(2, 0.7, 0, 0),

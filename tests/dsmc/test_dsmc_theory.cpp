@@ -109,6 +109,8 @@ t_end = %.17g
     EXPECT_EQ(value(th, "hcs.a2_sonine2_nonlinear"), nl.a2) << e;
     EXPECT_EQ(value(th, "hcs.a3_sonine2_nonlinear"), nl.a3) << e;
     EXPECT_NEAR(value(th, "hcs.cooling_rate_ratio_sonine2"), 1 + 3 * lin.a2 / 16 + lin.a3 / 64, 1e-4) << e;
+    EXPECT_EQ(value(th, "hcs.a2_linear_to_a6"), closures::hcs_sonine_linear(e, 6)[0]) << e;
+    EXPECT_EQ(value(th, "hcs.a3_linear_to_a6"), closures::hcs_sonine_linear(e, 6)[1]) << e;
     EXPECT_NEAR(value(th, "haff.temperature_at_t_end_no_a2") / plain, 1.0, 1e-8) << e;
     EXPECT_NEAR(value(th, "haff.temperature_at_t_end") / corrected, 1.0, 1e-8) << e;
     // the two are different curves (3 a2 / 16 is 0.24 % of the rate at e = 0.8)
