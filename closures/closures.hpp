@@ -152,4 +152,5 @@ std::vector<std::pair<std::string, double>> theory_values(const Parameters&);
 
 #include "closures/gaussian_moments.hpp"
 #include "closures/grad_moments.hpp"
+#include "closures/hcs.hpp"
 #include "closures/sonine.hpp"

@@ -290,6 +290,9 @@ def sonine_a2(run, ctx):
     vne = run.num("theory.haff.a2_van_noije_ernst") if homogeneous else None
     if vne is not None:
         ax.axhline(vne, **theory_style("haff", label=f"van Noije-Ernst a₂ = {vne:.4g}"))
+    hcs2 = run.num("theory.hcs.a2_sonine2") if homogeneous else None
+    if hcs2 is not None:
+        ax.axhline(hcs2, **theory_style("hcs", label=f"second Sonine a₂ = {hcs2:.4g}"))
     a2eq = run.num("theory.equilibrium.sonine.a2") if homogeneous else None
     if a2eq is not None and not run.has("theory/sonine/a2"):
         ax.axhline(a2eq, **theory_style("sonine", label=f"Sonine closure, steady a₂ = {a2eq:.4g}"))
@@ -310,6 +313,9 @@ def sonine_a2(run, ctx):
         rows.append(["Sonine closure (`theory.equilibrium.sonine.a2`)", fmt(a2eq), deviation(m, None if low else e, a2eq)])
     if vne is not None:
         rows.append(["van Noije-Ernst (`theory.haff.a2_van_noije_ernst`)", fmt(vne), deviation(m, None if low else e, vne)])
+    if hcs2 is not None:
+        rows.append(["second Sonine, cooling state (`theory.hcs.a2_sonine2`; docs/closures.md Sec. H)", fmt(hcs2),
+                     deviation(m, None if low else e, hcs2)])
     s.table(["source", "a₂", "theory − DSMC"], rows,
             caption=("Block averaging of a₂ reached no plateau (summary `a2.stderr_plateau` = false): a₂ is "
                      "correlated over a good part of the window (then its error is a lower bound; in free cooling "

@@ -16,6 +16,7 @@ THEORY = {
     "grad": dict(color="#E69F00", ls="-.", lw=1.8, label="Grad closure"),
     "sonine": dict(color="#009E73", ls=":", lw=2.2, label="Sonine closure"),
     "haff": dict(color="#D55E00", ls="--", lw=1.8, label="Haff's law"),
+    "hcs": dict(color="#56B4E9", ls="-.", lw=1.8, label="second Sonine (cooling state)"),
     "hydro": dict(color="#CC79A7", ls="--", lw=1.8, label="hydrodynamic limit"),
     "maxwell_dist": dict(color="#0072B2", ls="--", lw=1.6, label="Maxwellian"),
     "sonine_dist": dict(color="#009E73", ls=":", lw=2.0, label="Maxwellian × (1 + a₂ S₂), a₂ measured"),

@@ -45,7 +45,8 @@ DSMC_QUANTITIES = [
         ("theory.expansion.second_order_grad.T", None, "ε-expansion, 2nd order (Grad)")]),
     ("a2.mean", "a2.stderr", "Sonine coefficient a₂", "1", [
         ("theory.equilibrium.sonine.a2", "sonine", "Sonine closure"),
-        ("theory.haff.a2_van_noije_ernst", "haff", "van Noije-Ernst")]),
+        ("theory.haff.a2_van_noije_ernst", "haff", "van Noije-Ernst"),
+        ("theory.hcs.a2_sonine2", "hcs", "second Sonine")]),
     ("mode.decay_rate", "mode.decay_rate_stderr", "density-mode decay rate Γ", "√(E/m)/λ", [
         ("theory.hydro.decay_rate", "hydro", "drift-diffusion (paper)"),
         ("theory.hydro.decay_rate_kinetic", None, "drift-diffusion (kinetic)"),

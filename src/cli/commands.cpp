@@ -176,6 +176,8 @@ void print_table(const Summary& s) {
   row("theory: Haff T(t_end), Maxwellian", "theory.haff.temperature_at_t_end_no_a2", "");
   row("theory: Haff T(t_end), with a2", "theory.haff.temperature_at_t_end", "");
   row("theory: a2 van Noije-Ernst", "theory.haff.a2_van_noije_ernst", "");
+  row("theory: a2 second Sonine", "theory.hcs.a2_sonine2", "");
+  row("theory: a3 second Sonine", "theory.hcs.a3_sonine2", "");
   row("energy budget residual (rel.)", "energy.budget_relative_residual", "");
   row("wall time [s]", "performance.wall_seconds", "");
   row("  of which the step loop [s]", "performance.loop_seconds", "");

@@ -109,6 +109,24 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
     if (auto e = constant_e(c.restitution)) {
       out.emplace_back("haff.zeta0", haff_zeta0(*e, c.grains.density, c.grains.mass));
       out.emplace_back("haff.a2_van_noije_ernst", vne_a2(*e));
+      // the homogeneous cooling state beyond the first Sonine approximation (docs/closures.md
+      // Sec. H): second Sonine a2, a3, linear (eq. H8) and with the quadratic terms (eq. H9), and
+      // the cooling rate over the Maxwellian one, zeta/zeta0 (eq. H10) with the linear a2, a3
+      try {
+        const closures::HcsSonine lin = closures::hcs_sonine2_linear(*e);
+        const closures::HcsSonine nl = closures::hcs_sonine2_nonlinear(*e);
+        out.emplace_back("hcs.a2_sonine2", lin.a2);
+        out.emplace_back("hcs.a3_sonine2", lin.a3);
+        out.emplace_back("hcs.a2_sonine2_nonlinear", nl.a2);
+        out.emplace_back("hcs.a3_sonine2_nonlinear", nl.a3);
+        out.emplace_back("hcs.cooling_rate_ratio_sonine2", closures::hcs_cooling_rate_ratio(lin));
+        // the linear hierarchy to a6 (eq. H.8): the second Sonine value's truncation estimate
+        const std::vector<double> k6 = closures::hcs_sonine_linear(*e, 6);
+        out.emplace_back("hcs.a2_linear_to_a6", k6[0]);
+        out.emplace_back("hcs.a3_linear_to_a6", k6[1]);
+      } catch (const closures::ClosureError& err) {
+        std::fprintf(stderr, "note: no second-Sonine cooling state: %s\n", err.what());
+      }
       // with the homogeneous cooling state's a2, and the Maxwellian cooling rate alone
       out.emplace_back("haff.temperature_at_t_end",
                        haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass, true));

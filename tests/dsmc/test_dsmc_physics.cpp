@@ -9,6 +9,7 @@
 #include <numbers>
 #include <random>
 
+#include "closures/closures.hpp"
 #include "operators/random.hpp"
 #include "support.hpp"
 
@@ -227,12 +228,28 @@ TEST(DsmcPhysics, InitialSlopesMatchCollisionIntegrals) {
   EXPECT_NEAR(ls, loss_ref, 4 * std::hypot(ls_err, loss_ref_err) + 0.002 * std::abs(loss_ref));
 }
 
-// 4. Free cooling: Haff's law with the van Noije-Ernst a2 (d = 3), computed here.
-class FreeCooling : public ::testing::TestWithParam<double> {};
-TEST_P(FreeCooling, HaffLawWithVanNoijeErnstA2) {
-  const double e = GetParam(), n = 1.0, m = 1.0, T0 = 1.0;
+// 4. Free cooling: Haff's law with the van Noije-Ernst a2 (d = 3), computed here, and the
+//    homogeneous cooling state's a2 against the second Sonine approximation
+//    (closures::hcs_sonine2_linear, docs/closures.md Sec. H) within its truncation allowance
+//    (closures::hcs_sonine_linear up to K = 6) plus 4 measured standard deviations of this
+//    run's a2 (docs/dsmc.md D4).
+struct FreeCoolingCase {
+  double e;
+  // seed-to-seed standard deviation of this run's a2.mean at these settings (2e6 grains,
+  // dt = 0.04, t = 6..20), measured: e = 0.8, 24 seeds (101-124): 0.00022 +- 0.00003;
+  // e = 0.6, 16 seeds (101-116): 0.00040 +- 0.00007
+  double sigma;
+};
+void PrintTo(const FreeCoolingCase& c, std::ostream* os) { *os << "e = " << c.e; }  // ctest's test list
+class FreeCooling : public ::testing::TestWithParam<FreeCoolingCase> {};
+TEST_P(FreeCooling, HaffLawAndSecondSonineA2) {
+  const double e = GetParam().e, n = 1.0, m = 1.0, T0 = 1.0;
   const double a2_vne = 16 * (1 - e) * (1 - 2 * e * e) / (81 - 17 * e + 30 * e * e * (1 - e));
   const double zeta = 4 * n * (1 - e * e) / (3 * std::sqrt(std::numbers::pi * m)) * (1 + 3 * a2_vne / 16);
+  // 2e6 grains: one run's a2 must resolve the vNE discrepancy (0.0015 at e = 0.8); dt = 0.04
+  // (0.09 collisions per grain and step at T = 1) gives the a2 of dt = 0.01 (32 seeds of 2e5:
+  // -0.01427 +- 0.00011 and -0.01435 +- 0.00013); the window starts at t = 6, ~10 collisions
+  // per grain, after the transient from the Maxwellian start (~8 collisions per grain)
   char toml[1024];
   std::snprintf(toml, sizeof toml, R"(
 [grains]
@@ -244,12 +261,12 @@ density = 0.0
 law = "constant"
 e = %.17g
 [dsmc]
-particles = 400000
-dt = 0.01
-t_end = 12.0
+particles = 2000000
+dt = 0.04
+t_end = 20.0
 [sampling]
-every = 0.25
-steady_from = 3.0
+every = 0.2
+steady_from = 6.0
 )",
                 e);
   const auto run = run_dsmc(toml, 77);
@@ -260,13 +277,33 @@ steady_from = 3.0
     const double x = 1 + 0.5 * zeta * std::sqrt(T0) * t[k];
     worst = std::max(worst, std::abs(T[k] / (T0 / (x * x)) - 1));
   }
-  std::printf("e = %.2f: T(t_end) = %.6f, worst |T/T_Haff - 1| = %.4f; a2 = %.5f +- %.5f (vNE %.5f)\n", e, T.back(),
-              worst, run.summary.number("a2.mean"), run.summary.number("a2.stderr"), a2_vne);
+  const double a2 = run.summary.number("a2.mean");
+  const double a2_s2 = grainbath::closures::hcs_sonine2_linear(e).a2;
+  // truncation allowance: the hull of the linear Sonine series K = 3..6 (docs/closures.md
+  // Sec. H.8), which converges at e >= 0.6: e = 0.8 [-0.014319, -0.014082], e = 0.6
+  // [0.020774, 0.021459]; the exact HCS a2 lies in it
+  double k_lo = a2_s2, k_hi = a2_s2;
+  for (int K = 4; K <= 6; ++K) {
+    const double aK = grainbath::closures::hcs_sonine_linear(e, K)[0];
+    k_lo = std::min(k_lo, aK);
+    k_hi = std::max(k_hi, aK);
+  }
+  const double lo = k_lo - 4 * GetParam().sigma, hi = k_hi + 4 * GetParam().sigma;
+  std::printf("e = %.2f: T(t_end) = %.6f, worst |T/T_Haff - 1| = %.4f; a2 = %.5f (vNE %.5f, second Sonine %.5f, "
+              "accepted [%.5f, %.5f])\n",
+              e, T.back(), worst, a2, a2_vne, a2_s2, lo, hi);
   EXPECT_LT(T.back(), 0.4 * T0);  // it really cooled
   EXPECT_LT(worst, 0.005);
-  EXPECT_NEAR(run.summary.number("a2.mean"), a2_vne, 0.005);
+  EXPECT_GE(a2, lo);
+  EXPECT_LE(a2, hi);
+  // sharp enough: a theory (or a DSMC) off by the first-Sonine discrepancy, either way, fails
+  const double d = a2_vne - a2_s2;
+  EXPECT_TRUE(a2 < lo - std::abs(d) || a2 > hi - std::abs(d)) << "a theory lower by |vNE - Sonine2| would pass";
+  EXPECT_TRUE(a2 < lo + std::abs(d) || a2 > hi + std::abs(d)) << "a theory higher by |vNE - Sonine2| would pass";
 }
-INSTANTIATE_TEST_SUITE_P(Restitution, FreeCooling, ::testing::Values(0.8, 0.6));
+INSTANTIATE_TEST_SUITE_P(Restitution, FreeCooling,
+                         ::testing::Values(FreeCoolingCase{0.8, 0.00022}, FreeCoolingCase{0.6, 0.00040}),
+                         [](const auto& info) { return info.param.e == 0.8 ? "e08" : "e06"; });
 
 // 5. Steady state with a bath (delta = 0.2) vs the root of Bisi-Spiga eq. 27 (the
 //    local-Maxwellian energy balance at u = uB), re-derived here from the collision rule:

@@ -102,6 +102,15 @@ t_end = %.17g
     // zeta0 in dT/dt = -zeta0 T^(3/2): the Maxwellian rate at T = 1
     EXPECT_NEAR(value(th, "haff.zeta0"), (2.0 / 3.0) * loss_per_grain(1.0, k.n, k.m, e), 1e-9) << e;
     EXPECT_NEAR(value(th, "haff.a2_van_noije_ernst"), a2, 1e-14) << e;
+    // the second-Sonine cooling state (docs/closures.md Sec. H) beside it
+    const closures::HcsSonine lin = closures::hcs_sonine2_linear(e), nl = closures::hcs_sonine2_nonlinear(e);
+    EXPECT_EQ(value(th, "hcs.a2_sonine2"), lin.a2) << e;
+    EXPECT_EQ(value(th, "hcs.a3_sonine2"), lin.a3) << e;
+    EXPECT_EQ(value(th, "hcs.a2_sonine2_nonlinear"), nl.a2) << e;
+    EXPECT_EQ(value(th, "hcs.a3_sonine2_nonlinear"), nl.a3) << e;
+    EXPECT_NEAR(value(th, "hcs.cooling_rate_ratio_sonine2"), 1 + 3 * lin.a2 / 16 + lin.a3 / 64, 1e-4) << e;
+    EXPECT_EQ(value(th, "hcs.a2_linear_to_a6"), closures::hcs_sonine_linear(e, 6)[0]) << e;
+    EXPECT_EQ(value(th, "hcs.a3_linear_to_a6"), closures::hcs_sonine_linear(e, 6)[1]) << e;
     EXPECT_NEAR(value(th, "haff.temperature_at_t_end_no_a2") / plain, 1.0, 1e-8) << e;
     EXPECT_NEAR(value(th, "haff.temperature_at_t_end") / corrected, 1.0, 1e-8) << e;
     // the two are different curves (3 a2 / 16 is 0.24 % of the rate at e = 0.8)

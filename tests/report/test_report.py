@@ -35,7 +35,7 @@ CASES = [
     ("free-cooling", ["dsmc.particles=3000", "dsmc.t_end=3", "dsmc.dt=0.02", "sampling.steady_from=1"],
      ["overview", "temperature", "a2", "distribution", "appendix"],
      ["temperature.final", "a2.mean", "theory.haff.temperature_at_t_end", "theory.haff.temperature_at_t_end_no_a2",
-      "theory.haff.a2_van_noije_ernst"]),
+      "theory.haff.a2_van_noije_ernst", "theory.hcs.a2_sonine2"]),
     ("hot-walls", ["dsmc.particles=4000", "dsmc.t_end=1", "sampling.steady_from=0.5", "sampling.field_batches=2"],
      ["overview", "temperature", "a2", "distribution", "energy", "profiles", "appendix"],
      ["temperature.mean", "temperature.stderr", "a2.mean", "energy.wall_input_per_grain"]),

@@ -1,0 +1,82 @@
+#!/usr/bin/env python3
+"""a2 and a3 of the homogeneous cooling state from a seed sweep of cases/free-cooling
+(docs/dsmc.md D4), beside the theory in each run's summary.json (theory.haff.a2_van_noije_ernst,
+theory.hcs.*; docs/closures.md Sec. H).
+
+  grainbath sweep cases/free-cooling --set run.seed=1,...,R --set restitution.e=E \
+      --set checkpoint.every=10 --set checkpoint.keep=true -j1 --out D
+  /usr/bin/python3 scripts/hcs_a2_a3.py D [t_from]
+
+a2: each run's window mean (summary a2.mean, t >= sampling.steady_from) and, from
+/timeseries/a2, the window mean from t_from on (default 4, twice the case's steady_from) as a check that the
+initial transient does not bias it; errors are the replicas' scatter / sqrt(R).
+a3 = 1 + 3 a2 - <c^6>/(105 (T/m)^3) is not in the time series: it is computed from the grain
+velocities of the checkpoints the runs kept (variant-*.checkpoints/*.h5, particles/v{x,y,z};
+with every = 10 and t_end = 20 those of t = 10 and 20, ~ 10 collisions per grain apart, taken as
+independent), with a2 from the same snapshots beside it.
+"""
+import glob
+import json
+import os
+import sys
+
+import h5py
+import numpy as np
+
+
+def mean_se(x):
+    x = np.asarray(x, float)
+    return x.mean(), x.std(ddof=1) / np.sqrt(len(x))
+
+
+def snapshot(path):
+    with h5py.File(path, "r") as f:
+        v = np.stack([f["particles/vx"][:], f["particles/vy"][:], f["particles/vz"][:]], axis=1)
+    c = v - v.mean(axis=0)
+    c2 = (c * c).sum(axis=1)
+    th = c2.mean() / 3.0  # T/m
+    a2 = (c2 * c2).mean() / (15 * th * th) - 1
+    a3 = 1 + 3 * a2 - (c2 ** 3).mean() / (105 * th ** 3)
+    return a2, a3
+
+
+def main(sweep, t_from=None):
+    runs = sorted(d for d in glob.glob(os.path.join(sweep, "variant-*")) if os.path.isdir(d)
+                  and not d.endswith(".checkpoints"))
+    win, late, snaps_a2, snaps_a3, theory = [], [], [], [], None
+    tf = t_from if t_from is not None else 4.0
+    for d in runs:
+        try:
+            s = json.load(open(os.path.join(d, "summary.json")))
+        except OSError:
+            continue
+        theory = s.get("theory", {})
+        win.append(s["a2"]["mean"])
+        with h5py.File(os.path.join(d, "results.h5"), "r") as f:
+            t, a2 = f["/timeseries/t"][:], f["/timeseries/a2"][:]
+        late.append(a2[t >= tf].mean())
+        for cp in sorted(glob.glob(d + ".checkpoints/*.h5")):
+            x2, x3 = snapshot(cp)
+            snaps_a2.append(x2)
+            snaps_a3.append(x3)
+    R = len(win)
+    print(f"{sweep}: {R} runs, {len(snaps_a3)} snapshots")
+    m, e = mean_se(win)
+    print(f"  a2 window mean (summary)        {m:+.5f} +- {e:.5f}   (one run's scatter {e * np.sqrt(R):.5f})")
+    m, e = mean_se(late)
+    print(f"  a2 window mean from t = {tf:<5g}   {m:+.5f} +- {e:.5f}")
+    if snaps_a3:
+        m, e = mean_se(snaps_a2)
+        print(f"  a2 snapshots                    {m:+.5f} +- {e:.5f}")
+        m, e = mean_se(snaps_a3)
+        print(f"  a3 snapshots                    {m:+.5f} +- {e:.5f}")
+    if theory:
+        h, c = theory.get("haff", {}), theory.get("hcs", {})
+        print(f"  theory: a2 vNE {h.get('a2_van_noije_ernst', float('nan')):+.5f}, second Sonine "
+              f"{c.get('a2_sonine2', float('nan')):+.5f} (a3 {c.get('a3_sonine2', float('nan')):+.5f}), "
+              f"nonlinear {c.get('a2_sonine2_nonlinear', float('nan')):+.5f} "
+              f"(a3 {c.get('a3_sonine2_nonlinear', float('nan')):+.5f})")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], float(sys.argv[2]) if len(sys.argv) > 2 else None)
