@@ -368,8 +368,20 @@ TEST(DsmcPhysics, BathCollisionRateOfHeavyGrainsIsTheMeanRelativeSpeed) {
   const double mB = alpha * m / (1 - alpha);
   const double mean_g = std::sqrt(8 * TB * (1 / m + 1 / mB) / std::numbers::pi);
   const double expected = N * (nB / eps) * mean_g * t_end;
-  char toml[1024];
-  std::snprintf(toml, sizeof toml, R"(
+  // twice: the homogeneous bath (the driver's uniform state) and the per-grain local medium of a
+  // spatial run (src/dsmc/spatial.cpp local_background; an isobaric_sine profile of amplitude 0
+  // is uniform in law but takes that path): each builds the bath with the grain mass
+  for (const char* domain : {"", R"(
+[domain]
+dimensions = 1
+length = [4.0]
+cells = [16]
+boundaries = ["periodic", "periodic"]
+)"}) {
+  const bool spatial = *domain != '\0';
+  SCOPED_TRACE(spatial ? "spatial run, local medium" : "homogeneous bath");
+  char toml[1400];
+  std::snprintf(toml, sizeof toml, R"(%s
 [grains]
 density = 1.0
 mass = %.17g
@@ -379,6 +391,7 @@ mass_ratio = %.17g
 density = %.17g
 temperature = %.17g
 knudsen = %.17g
+%s
 [restitution]
 law = "elastic"
 [dsmc]
@@ -390,7 +403,7 @@ every = 0.5
 steady_from = 0.5
 relaxation_theory = false
 )",
-                m, TB, alpha, nB, TB, eps, N, t_end);
+                domain, m, TB, alpha, nB, TB, eps, spatial ? "profile = \"isobaric_sine\"" : "", N, t_end);
   // four seeds: the scatter of the count measures its error (a grain's count is not Poisson:
   // fast grains stay fast for a few collisions)
   std::vector<double> ratio;
@@ -411,6 +424,7 @@ relaxation_theory = false
   // rough estimate of the scatter)
   EXPECT_NEAR(mean, 1.0, 5 * std::max(sem, 2 / std::sqrt(4 * expected)));
   EXPECT_NEAR(T, TB, 5 * Terr + 1e-3);
+  }
 }
 
 // Issue #3 validation 3: the closures' relaxation ODEs against the DSMC transient from a
