@@ -24,6 +24,7 @@ Also printed: least-squares fits of the histogram's bins (shell averages, exact 
 PairStatistics::contact_value) over windows [1, 1 + h] and polynomial orders 1-4, on the run's
 bins and re-binned 4x, each as a ratio to the collisions' g(sigma+).
 """
+import importlib.util
 import json
 import os
 import sys
@@ -32,24 +33,13 @@ import h5py
 import numpy as np
 
 
-def shell_moments(lo, hi, r0, r1, h, order):
-    # int_lo^hi ((r - 1)/h)^k r dr / int_r0^r1 r dr (2D shell weight), exact polynomial integrals
-    def prim(x, k):  # int x^k (1 + x) dx, x = r - 1
-        return x ** (k + 1) / (k + 1) + x ** (k + 2) / (k + 2)
-    V = prim(r1 - 1, 0) - prim(r0 - 1, 0)
-    return [(prim(hi - 1, k) - prim(lo - 1, k)) / (V * h ** k) for k in range(order + 1)]
-
-
-def contact(edges, gbar, h, order):
-    rows, ys = [], []
-    for r0, r1, g in zip(edges[:-1], edges[1:], gbar):
-        if r1 <= 1.0 or 0.5 * (r0 + r1) > 1.0 + h + 1e-12:
-            continue
-        rows.append(shell_moments(max(r0, 1.0), r1, r0, r1, h, order))
-        ys.append(g)
-    if len(rows) < order + 1:
-        return np.nan
-    return np.linalg.lstsq(np.array(rows), np.array(ys), rcond=None)[0][0]
+# the fit of the bins' shell averages (exact moments), shared with the elastic check
+_spec = importlib.util.spec_from_file_location(
+    "hard_disk_contact_check",
+    os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "hard-disk-eos", "contact_check.py"))
+_elastic = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_elastic)
+shell_moments, contact = _elastic.shell_moments, _elastic.contact
 
 
 def rebin(edges, g, f):
