@@ -497,9 +497,7 @@ bool Engine::scan_neighbours_d(std::uint32_t i, int layer_dim, int layer_dir) {
       for (int o = lo[d]; o <= hi[d]; ++o) {
         int x = c[d] + o;
         double s = 0.0;
-        bool out = false;
-        if (x < 0) out = walls_[d], x += nc_[d], s = -comp(L_, d);
-        else if (x >= nc_[d]) out = walls_[d], x -= nc_[d], s = comp(L_, d);
+        const bool out = !image_cell(d, x, s);
         cc[d][o + 1] = x, sh[d][o + 1] = s, skip[d][o + 1] = out;
       }
     if constexpr (D == 2) cc[2][1] = 0, sh[2][1] = 0.0, skip[2][1] = false;
@@ -616,35 +614,15 @@ void Engine::scan_neighbours(std::uint32_t i, int layer_dim, int layer_dir) {
     for (int dz = lo[2]; dz <= hi[2]; ++dz) {
       int cz = c[2] + dz;
       double sz = 0.0;
-      if (dims_ == 3) {
-        if (cz < 0) {
-          if (walls_[2]) continue;
-          cz += nc_[2], sz = -L_.z;
-        } else if (cz >= nc_[2]) {
-          if (walls_[2]) continue;
-          cz -= nc_[2], sz = L_.z;
-        }
-      }
+      if (dims_ == 3 && !image_cell(2, cz, sz)) continue;
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
         int cy = c[1] + dy;
         double sy = 0.0;
-        if (cy < 0) {
-          if (walls_[1]) continue;
-          cy += nc_[1], sy = -L_.y;
-        } else if (cy >= nc_[1]) {
-          if (walls_[1]) continue;
-          cy -= nc_[1], sy = L_.y;
-        }
+        if (!image_cell(1, cy, sy)) continue;
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
           int cx = c[0] + dx;
           double sx = 0.0;
-          if (cx < 0) {
-            if (walls_[0]) continue;
-            cx += nc_[0], sx = -L_.x;
-          } else if (cx >= nc_[0]) {
-            if (walls_[0]) continue;
-            cx -= nc_[0], sx = L_.x;
-          }
+          if (!image_cell(0, cx, sx)) continue;
           scan_cell(i, ki, ai, cell_index(cx, cy, cz), Vec3{sx, sy, sz}, best);
         }
       }

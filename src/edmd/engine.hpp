@@ -329,6 +329,20 @@ class Engine {
   void insert_cell(std::uint32_t i);
   void remove_cell(std::uint32_t i);
   int cell_index(int cx, int cy, int cz) const { return (cz * nc_[1] + cy) * nc_[0] + cx; }
+  // A neighbour cell coordinate c along axis d (one cell beyond the grid at most) brought
+  // into the grid: across a periodic side it wraps and `shift` gets the image offset of its
+  // members (-L or +L); beyond a wall there is no cell (false).
+  bool image_cell(int d, int& c, double& shift) const {
+    const double l = d == 0 ? L_.x : d == 1 ? L_.y : L_.z;
+    if (c < 0) {
+      if (walls_[d]) return false;
+      c += nc_[d], shift = -l;
+    } else if (c >= nc_[d]) {
+      if (walls_[d]) return false;
+      c -= nc_[d], shift = l;
+    }
+    return true;
+  }
   void assign_cell(std::uint32_t i);
   double pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const;
   void process_cell(std::uint32_t i);
