@@ -10,10 +10,12 @@ theory.hcs.*; docs/closures.md Sec. H).
 a2: each run's window mean (summary a2.mean, t >= sampling.steady_from) and, from
 /timeseries/a2, the window mean from t_from on (default 4, twice the case's steady_from) as a check that the
 initial transient does not bias it; errors are the replicas' scatter / sqrt(R).
-a3 = 1 + 3 a2 - <c^6>/(105 (T/m)^3) is not in the time series: it is computed from the grain
-velocities of the checkpoints the runs kept (variant-*.checkpoints/*.h5, particles/v{x,y,z};
-with every = 10 and t_end = 20 those of t = 10 and 20, ~ 10 collisions per grain apart, taken as
-independent), with a2 from the same snapshots beside it.
+a3 = 1 + 3 a2 - <c^6>/(105 (T/m)^3) (docs/closures.md eq. H2): since 2026-12-06 in the time
+series (/timeseries/a3, summary a3.mean; src/dsmc/moments.cpp), averaged like a2 (window mean
+in the summary and from t_from); as a check, and for runs written before, also from the grain
+velocities of the checkpoints the runs kept, if any (variant-*.checkpoints/*.h5,
+particles/v{x,y,z}; with every = 10 and t_end = 20 those of t = 10 and 20, ~ 10 collisions per
+grain apart, taken as independent), with a2 from the same snapshots beside it.
 """
 import glob
 import json
@@ -44,6 +46,7 @@ def main(sweep, t_from=None):
     runs = sorted(d for d in glob.glob(os.path.join(sweep, "variant-*")) if os.path.isdir(d)
                   and not d.endswith(".checkpoints"))
     win, late, snaps_a2, snaps_a3, theory = [], [], [], [], None
+    win3, late3 = [], []
     tf = t_from if t_from is not None else 4.0
     for d in runs:
         try:
@@ -55,6 +58,12 @@ def main(sweep, t_from=None):
         with h5py.File(os.path.join(d, "results.h5"), "r") as f:
             t, a2 = f["/timeseries/t"][:], f["/timeseries/a2"][:]
         late.append(a2[t >= tf].mean())
+        if "a3" in s:
+            win3.append(s["a3"]["mean"])
+        with h5py.File(os.path.join(d, "results.h5"), "r") as f:
+            if "/timeseries/a3" in f:
+                a3 = f["/timeseries/a3"][:]
+                late3.append(np.nanmean(a3[t >= tf]))
         for cp in sorted(glob.glob(d + ".checkpoints/*.h5")):
             x2, x3 = snapshot(cp)
             snaps_a2.append(x2)
@@ -65,6 +74,12 @@ def main(sweep, t_from=None):
     print(f"  a2 window mean (summary)        {m:+.5f} +- {e:.5f}   (one run's scatter {e * np.sqrt(R):.5f})")
     m, e = mean_se(late)
     print(f"  a2 window mean from t = {tf:<5g}   {m:+.5f} +- {e:.5f}")
+    if len(win3) > 1:
+        m, e = mean_se(win3)
+        print(f"  a3 window mean (summary)        {m:+.5f} +- {e:.5f}   (one run's scatter {e * np.sqrt(len(win3)):.5f})")
+    if len(late3) > 1:
+        m, e = mean_se(late3)
+        print(f"  a3 window mean from t = {tf:<5g}   {m:+.5f} +- {e:.5f}   (one run's scatter {e * np.sqrt(len(late3)):.5f})")
     if snaps_a3:
         m, e = mean_se(snaps_a2)
         print(f"  a2 snapshots                    {m:+.5f} +- {e:.5f}")

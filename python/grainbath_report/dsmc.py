@@ -323,7 +323,50 @@ def sonine_a2(run, ctx):
                      "`sampling.steady_from`). Independent replicas (`grainbath sweep CASE --set "
                      "run.seed=1,2,...`) give the error."
                      if low else None))
+    _sonine_a3(run, ctx, s, t, N, homogeneous)
     return s
+
+
+def _sonine_a3(run, ctx, s, t, N, homogeneous):
+    """a3(t), the third Sonine coefficient 1 + 3a₂ − ⟨c⁶⟩/(105 (T/m)³) (docs/closures.md eq. H2),
+    beside the second Sonine a3 of the cooling state (runs written since 2026-12-06)."""
+    if not run.has("timeseries/a3"):
+        return
+    a3 = run.arr("timeseries/a3")
+    fig, ax = subplots(figsize=(7.0, 3.6))
+    _shade_window(ax, run, t)
+    k = len(t) // 40
+    if k >= 4:
+        ax.plot(t, a3, color="0.6", lw=0.8, label="DSMC")
+        ax.plot(_running(t, k), _running(a3, k), color="black", lw=2.0, label=f"DSMC, running mean of {k} samples")
+    else:
+        ax.plot(t, a3, **dict(SIM, label="DSMC"))
+    m, e = run.num("a3.mean"), run.num("a3.stderr")
+    t0 = run.param("sampling.steady_from")
+    if m is not None and isinstance(t0, (int, float)):
+        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_err(run, m, 'a3.stderr', 4)}")
+    hcs3 = run.num("theory.hcs.a3_sonine2") if homogeneous else None
+    if hcs3 is not None:
+        ax.axhline(hcs3, **theory_style("hcs", label=f"second Sonine a₃ = {hcs3:.4g}"))
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("a₃ = 1 + 3a₂ − ⟨c⁶⟩/(105⟨c²⟩³/27)")
+    ax.set_title("Third Sonine coefficient")
+    ax.legend(loc="best")
+    s.figure(ctx.save(fig, "a3"),
+             f"a₃(t) measured in DSMC (one sample has noise ≈ √(16/35N)"
+             f"{' = ' + fmt(math.sqrt(16 / (35 * N)), 2) if N else ''}, a Maxwellian's a₃ being 0)" +
+             (" beside the second Sonine a₃ of the homogeneous cooling state." if hcs3 is not None else "."))
+    if m is None:
+        return
+    low = lower_bound(run, "a3.stderr")
+    rows = [["DSMC, window mean (`a3.mean`)", fmt_err(run, m, "a3.stderr"), ""]]
+    if hcs3 is not None:
+        rows.append(["second Sonine, cooling state (`theory.hcs.a3_sonine2`; docs/closures.md Sec. H)", fmt(hcs3),
+                     deviation(m, None if low else e, hcs3)])
+    s.table(["source", "a₃", "theory − DSMC"], rows,
+            caption=("Block averaging of a₃ reached no plateau (`a3.stderr_plateau` = false): take the error "
+                     "from independent replicas." if low else None))
 
 
 # ---------------------------------------------------------------------------------------

@@ -94,6 +94,10 @@ TEST_P(DetailedBalance, ElasticGrainsReachTheBathMaxwellian) {
   EXPECT_LT(Terr, 3e-3);
   EXPECT_NEAR(T, 1.0, 5 * Terr);
   EXPECT_NEAR(a2, 0.0, 5 * a2err);
+  // and a3 (docs/closures.md eq. H2), the sixth moment, vanishes as well
+  const double a3 = run.summary.number("a3.mean"), a3err = run.summary.number("a3.stderr");
+  EXPECT_GT(a3err, 0.0);
+  EXPECT_NEAR(a3, 0.0, 5 * a3err);
   // the energy budget closes to round-off in a run with ~1e6 bath collisions
   EXPECT_LT(std::abs(run.summary.number("energy.budget_relative_residual")), 1e-9);
 }
