@@ -47,6 +47,7 @@ def main(sweep, t_from=None):
                   and not d.endswith(".checkpoints"))
     win, late, snaps_a2, snaps_a3, theory = [], [], [], [], None
     win3, late3 = [], []
+    Ts, slopes, haff = [], [], {}
     tf = t_from if t_from is not None else 4.0
     for d in runs:
         try:
@@ -61,6 +62,13 @@ def main(sweep, t_from=None):
         if "a3" in s:
             win3.append(s["a3"]["mean"])
         with h5py.File(os.path.join(d, "results.h5"), "r") as f:
+            T = f["/timeseries/temperature"][:]
+            Ts.append(T)
+            # late cooling rate: 1/sqrt(T) = 1/sqrt(T0) + zeta t / 2 in the cooling state
+            slopes.append(2 * np.polyfit(t[t >= tf], 1 / np.sqrt(T[t >= tf]), 1)[0])
+            for k in ("temperature", "temperature_sonine2"):
+                if "/theory/haff/" + k in f:
+                    haff[k] = f["/theory/haff/" + k][:]
             if "/timeseries/a3" in f:
                 a3 = f["/timeseries/a3"][:]
                 late3.append(np.nanmean(a3[t >= tf]))
@@ -85,6 +93,22 @@ def main(sweep, t_from=None):
         print(f"  a2 snapshots                    {m:+.5f} +- {e:.5f}")
         m, e = mean_se(snaps_a3)
         print(f"  a3 snapshots                    {m:+.5f} +- {e:.5f}")
+    if theory and len(slopes) > 1:
+        z0 = theory.get("haff", {}).get("zeta0")
+        if z0:
+            m, e = mean_se(np.array(slopes) / z0)
+            vne = 1 + 3 * theory["haff"].get("a2_van_noije_ernst", float("nan")) / 16
+            s2 = theory.get("hcs", {}).get("cooling_rate_ratio_sonine2", float("nan"))
+            print(f"  late cooling rate zeta/zeta0 (slope of 1/sqrt(T), t >= {tf:g})  {m:.5f} +- {e:.5f}: "
+                  f"vNE {vne:.5f} ({(vne - m) / e:+.1f} sigma), second Sonine {s2:.5f} ({(s2 - m) / e:+.1f} sigma)")
+        T = np.array(Ts)
+        mT, se = T.mean(0), T.std(0, ddof=1) / np.sqrt(len(T))
+        for k, label in (("temperature", "vNE"), ("temperature_sonine2", "second Sonine")):
+            if k in haff:
+                at = [tt for tt in (2, 4, 6, 10, 15, 20) if tt <= t[-1] + 1e-9]
+                idx = [int(np.argmin(abs(t - tt))) for tt in at]
+                print(f"  Haff ({label}) - DSMC T(t), in standard errors: " +
+                      ", ".join(f"t = {t[i]:g}: {(haff[k][i] - mT[i]) / se[i]:+.1f}" for i in idx))
     if theory:
         h, c = theory.get("haff", {}), theory.get("hcs", {})
         print(f"  theory: a2 vNE {h.get('a2_van_noije_ernst', float('nan')):+.5f}, second Sonine "
