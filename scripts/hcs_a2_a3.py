@@ -8,7 +8,7 @@ theory.hcs.*; docs/closures.md Sec. H).
   /usr/bin/python3 scripts/hcs_a2_a3.py D [t_from]
 
 a2: each run's window mean (summary a2.mean, t >= sampling.steady_from) and, from
-/timeseries/a2, the window mean from t_from on (default 4, twice the case's steady_from) as a check that the
+/timeseries/a2, the window mean from t_from on (default 8, two past the case's steady_from of 6; it was 4 when that was 2) as a check that the
 initial transient does not bias it; errors are the replicas' scatter / sqrt(R).
 a3 = 1 + 3 a2 - <c^6>/(105 (T/m)^3) (docs/closures.md eq. H2): since 2026-12-06 in the time
 series (/timeseries/a3, summary a3.mean; src/dsmc/moments.cpp), averaged like a2 (window mean
@@ -48,7 +48,7 @@ def main(sweep, t_from=None):
     win, late, snaps_a2, snaps_a3, theory = [], [], [], [], None
     win3, late3 = [], []
     Ts, slopes, haff = [], [], {}
-    tf = t_from if t_from is not None else 4.0
+    tf = t_from if t_from is not None else 8.0
     for d in runs:
         try:
             s = json.load(open(os.path.join(d, "summary.json")))
