@@ -50,6 +50,7 @@ def main(sweep):
     print(f"{'quantity':22s} {'mean':>12s} {'scatter SD':>18s} {'rms own error':>14s} {'SD/rms':>7s} {'lower bounds':>13s}")
     for key, err, flag in [("temperature.mean", "temperature.stderr", "temperature.stderr_plateau"),
                            ("a2.mean", "a2.stderr", "a2.stderr_plateau"),
+                           ("a3.mean", "a3.stderr", "a3.stderr_plateau"),
                            ("rotation.R", "rotation.R_stderr", "rotation.R_stderr_plateau"),
                            ("mode.decay_rate", "mode.decay_rate_stderr", None)]:
         v = [get(s, key) for _, s in summaries]

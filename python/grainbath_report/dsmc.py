@@ -167,11 +167,16 @@ def _temperature_haff(run, ctx, s, t, T, N):
         T0 = float(haff_a2[0])
         haff = T0 / (1.0 + 0.5 * zeta0 * math.sqrt(T0) * t) ** 2
     ref = haff if haff is not None else haff_a2
+    # /theory/haff/temperature_sonine2 (since 2026-12-06): the second Sonine cooling rate
+    # ζ₀ ζ/ζ₀ (docs/closures.md eq. H10), the one the DSMC's late cooling rate matches (docs/dsmc.md D4)
+    haff_s2 = run.arr("theory/haff/temperature_sonine2") if run.has("theory/haff/temperature_sonine2") else None
     fig, (ax, axr) = subplots(2, 1, figsize=(7.0, 6.0), sharex=True, gridspec_kw=dict(height_ratios=[2.2, 1]))
     ax.plot(t, T, **SIM)
     if haff is not None:
         ax.plot(t, haff, **theory_style("haff", label="Haff's law, Maxwellian cooling rate ζ₀"))
     ax.plot(t, haff_a2, **theory_style("sonine", label="Haff's law, cooling rate ζ₀(1 + 3a₂/16), a₂ van Noije-Ernst"))
+    if haff_s2 is not None:
+        ax.plot(t, haff_s2, **theory_style("hcs", label="Haff's law, second Sonine cooling rate (a₂, a₃)"))
     ax.set_yscale("log")
     ax.set_ylabel(f"temperature T  [{T_UNIT}]  (log scale)")
     ax.set_title("Free cooling: DSMC vs Haff's law")
@@ -179,17 +184,24 @@ def _temperature_haff(run, ctx, s, t, T, N):
     axr.plot(t, T / ref, **SIM)
     if haff is not None:
         axr.plot(t, haff_a2 / haff, **theory_style("sonine", label="with a₂ correction"))
+        if haff_s2 is not None:
+            axr.plot(t, haff_s2 / haff, **theory_style("hcs", label="second Sonine"))
     axr.axhline(1, **theory_style("haff" if haff is not None else "sonine", lw=1.2))
     axr.set_xlabel(TIME_LABEL)
     axr.set_ylabel("T / T_Haff (Maxwellian)" if haff is not None else "T / T_Haff (with a₂)")
     s.figure(ctx.save(fig, "temperature"),
              "Free cooling: T(t) from DSMC (black) beside Haff's law T₀/(1 + ζ√T₀ t/2)² with the Maxwellian "
              "cooling rate ζ = ζ₀ = 4n(1 − e²)/(3√(πm)) (dashed) and with the homogeneous cooling state's rate "
-             "ζ = ζ₀(1 + 3a₂/16), a₂ of van Noije and Ernst (dotted); lower panel: ratio to "
+             "ζ = ζ₀(1 + 3a₂/16), a₂ of van Noije and Ernst (dotted)"
+             + (", and with the second Sonine rate ζ₀(1 + 3a₂/16 + a₃/64 + …) (dash-dotted; docs/closures.md "
+                "eq. H10), which the measured late cooling rate matches (docs/dsmc.md D4)" if haff_s2 is not None else "")
+             + "; lower panel: ratio to "
              + ("the Maxwellian Haff's law." if haff is not None else "Haff's law with a₂."))
     rows = [["T(t_end), DSMC", fmt(float(T[-1])), ""]]
     for label, key, curve in [("Haff, Maxwellian cooling rate", "theory.haff.temperature_at_t_end_no_a2", haff),
-                              ("Haff with the van Noije-Ernst a₂", "theory.haff.temperature_at_t_end", haff_a2)]:
+                              ("Haff with the van Noije-Ernst a₂", "theory.haff.temperature_at_t_end", haff_a2),
+                              ("Haff with the second Sonine cooling rate", "theory.haff.temperature_at_t_end_sonine2",
+                               haff_s2)]:
         v = run.num(key)
         if v is not None:
             rows.append([f"T(t_end), {label} (`{key}`)", fmt(v), deviation(float(T[-1]), None, v)])
@@ -323,7 +335,50 @@ def sonine_a2(run, ctx):
                      "`sampling.steady_from`). Independent replicas (`grainbath sweep CASE --set "
                      "run.seed=1,2,...`) give the error."
                      if low else None))
+    _sonine_a3(run, ctx, s, t, N, homogeneous)
     return s
+
+
+def _sonine_a3(run, ctx, s, t, N, homogeneous):
+    """a3(t), the third Sonine coefficient 1 + 3a₂ − ⟨c⁶⟩/(105 (T/m)³) (docs/closures.md eq. H2),
+    beside the second Sonine a3 of the cooling state (runs written since 2026-12-06)."""
+    if not run.has("timeseries/a3"):
+        return
+    a3 = run.arr("timeseries/a3")
+    fig, ax = subplots(figsize=(7.0, 3.6))
+    _shade_window(ax, run, t)
+    k = len(t) // 40
+    if k >= 4:
+        ax.plot(t, a3, color="0.6", lw=0.8, label="DSMC")
+        ax.plot(_running(t, k), _running(a3, k), color="black", lw=2.0, label=f"DSMC, running mean of {k} samples")
+    else:
+        ax.plot(t, a3, **dict(SIM, label="DSMC"))
+    m, e = run.num("a3.mean"), run.num("a3.stderr")
+    t0 = run.param("sampling.steady_from")
+    if m is not None and isinstance(t0, (int, float)):
+        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_err(run, m, 'a3.stderr', 4)}")
+    hcs3 = run.num("theory.hcs.a3_sonine2") if homogeneous else None
+    if hcs3 is not None:
+        ax.axhline(hcs3, **theory_style("hcs", label=f"second Sonine a₃ = {hcs3:.4g}"))
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xlabel(TIME_LABEL)
+    ax.set_ylabel("a₃ = 1 + 3a₂ − ⟨c⁶⟩/(105⟨c²⟩³/27)")
+    ax.set_title("Third Sonine coefficient")
+    ax.legend(loc="best")
+    s.figure(ctx.save(fig, "a3"),
+             f"a₃(t) measured in DSMC (one sample has noise ≈ √(16/35N)"
+             f"{' = ' + fmt(math.sqrt(16 / (35 * N)), 2) if N else ''}, a Maxwellian's a₃ being 0)" +
+             (" beside the second Sonine a₃ of the homogeneous cooling state." if hcs3 is not None else "."))
+    if m is None:
+        return
+    low = lower_bound(run, "a3.stderr")
+    rows = [["DSMC, window mean (`a3.mean`)", fmt_err(run, m, "a3.stderr"), ""]]
+    if hcs3 is not None:
+        rows.append(["second Sonine, cooling state (`theory.hcs.a3_sonine2`; docs/closures.md Sec. H)", fmt(hcs3),
+                     deviation(m, None if low else e, hcs3)])
+    s.table(["source", "a₃", "theory − DSMC"], rows,
+            caption=("Block averaging of a₃ reached no plateau (`a3.stderr_plateau` = false): take the error "
+                     "from independent replicas." if low else None))
 
 
 # ---------------------------------------------------------------------------------------

@@ -142,7 +142,8 @@ void print_table(const Summary& s) {
     const Summary::Value* solver = s.get("solver");
     const bool unchecked = !err.empty() && !plateau && solver && std::holds_alternative<std::string>(*solver) &&
                            std::get<std::string>(*solver) == "dsmc" &&
-                           (err == "temperature.stderr" || err == "a2.stderr" || err == "rotation.R_stderr");
+                           (err == "temperature.stderr" || err == "a2.stderr" || err == "a3.stderr" ||
+                            err == "rotation.R_stderr");
     if (std::isnan(e))
       std::printf("  %-34s %14.8g\n", label, m);
     else
@@ -155,6 +156,7 @@ void print_table(const Summary& s) {
   row("temperature (window mean)", "temperature.mean", "temperature.stderr");
   row("temperature (final)", "temperature.final", "");
   row("a2 (window mean)", "a2.mean", "a2.stderr");
+  row("a3 (window mean)", "a3.mean", "a3.stderr");
   // the hydrodynamic predictions beside the measurement they predict
   if (!std::isnan(s.number("mode.decay_rate"))) {
     row("density-mode decay rate", "mode.decay_rate", "mode.decay_rate_stderr");

@@ -536,6 +536,8 @@ int command_sweep(const SweepArgs& a) {
                                              "temperature.stderr",
                                              "a2.mean",
                                              "a2.stderr",
+                                             "a3.mean",
+                                             "a3.stderr",
                                              "mode.decay_rate",
                                              "mode.decay_rate_stderr",
                                              "profile.exponent",

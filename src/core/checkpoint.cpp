@@ -298,6 +298,10 @@ void load_whole(const H5File& h, const CheckpointArrays& a, std::uint64_t* bytes
   Fnv1a sum;  // CheckpointArrays::checksum, as the arrays are read
   a.for_each([&](const std::string& name, auto& v) {
     using T = typename std::decay_t<decltype(v)>::value_type;
+    if (a.is_optional(name) && !h.exists("/" + name)) {  // an older file: not in its checksum either
+      v.clear();
+      return;
+    }
     assign(v, read_whole<T>(h, "/" + name));
     if (bytes_read) *bytes_read += v.size() * sizeof(T);
     sum.add_length(v.size());
@@ -309,15 +313,21 @@ void load_whole(const H5File& h, const CheckpointArrays& a, std::uint64_t* bytes
 // What a process read of one array (several processes).
 struct ReadPart {
   bool spread = false;     // a part of it (else: whole)
+  bool absent = false;     // an optional array the file does not hold (CheckpointArrays::optional)
   std::uint64_t total = 0; // the array's length in the file
   std::uint64_t lo = 0;    // the first element read (spread arrays)
 };
 
 template <class T, class A>
 ReadPart read_part(const H5File& h, const std::string& name, std::vector<T, A>& v, const CheckpointPart& part,
-                   std::uint64_t* bytes_read) {
+                   std::uint64_t* bytes_read, bool optional) {
   const std::string path = "/" + name;
   ReadPart r;
+  if (optional && !h.exists(path)) {
+    v.clear();
+    r.absent = true;
+    return r;
+  }
   std::uint64_t lo = 0, hi = 0;
   if (!part.range(name, lo, hi)) {
     assign(v, read_whole<T>(h, path));
@@ -359,6 +369,7 @@ constexpr std::uint64_t kNotInOrder = ~std::uint64_t{0};
 template <class T, class A>
 void add_part(const std::string& name, const std::vector<T, A>& v, const ReadPart& r, const CheckpointPart& part,
               ChecksumToken& sum, std::string& verdict) {
+  if (r.absent) return;  // not in the file's checksum either
   Fnv1a f{sum.h};
   if (!r.spread) {
     if (!part.first) return;
@@ -421,7 +432,7 @@ void load_in_parts(const fs::path& path, const RunContext& ctx, const std::strin
   if (part.plan) part.plan(*h);  // collective; throws alike on every process
   std::vector<ReadPart> reads;
   try {
-    a.for_each([&](const std::string& n, auto& v) { reads.push_back(read_part(*h, n, v, part, bytes_read)); });
+    a.for_each([&](const std::string& n, auto& v) { reads.push_back(read_part(*h, n, v, part, bytes_read, a.is_optional(n))); });
   } catch (const std::exception& e) {
     failed = e.what();
   }

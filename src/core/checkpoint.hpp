@@ -67,6 +67,15 @@ struct CheckpointArrays {
   using Integer = std::variant<std::vector<std::uint64_t>*, NoFillVector<std::uint64_t>*>;
   std::vector<std::pair<std::string, Real>> real;
   std::vector<std::pair<std::string, Integer>> integer;
+  // Arrays added after checkpoints were first written: always written, but a file without one
+  // (written by an earlier build) still loads: the array is read as empty and left out of the
+  // checksum, as the writer of that file left it out (the solver fills it in, e.g. with NaN).
+  std::vector<std::string> optional;
+  bool is_optional(const std::string& name) const {
+    for (const auto& n : optional)
+      if (n == name) return true;
+    return false;
+  }
   void add(std::string name, std::vector<double>& v) { real.emplace_back(std::move(name), &v); }
   void add(std::string name, std::vector<std::uint64_t>& v) { integer.emplace_back(std::move(name), &v); }
   // f(name, array) for every array in list order (the real ones, then the integer ones):

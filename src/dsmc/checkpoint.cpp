@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -111,7 +112,9 @@ CheckpointArrays arrays_of(State& s, Particles& p, Scalars& k, std::vector<std::
                  {"spins/wy", &s.wy},
                  {"spins/wz", &s.wz},
                  {"series/Trot", &t.Trot},
+                 {"series/a3", &t.a3},
                  {"scalars/real", &k.d}};
+  a.optional = {"series/a3"};  // from 2026-12-06 on (h-cool): earlier checkpoints resume without it
   a.integer = {{"particles/id", &p.id},
                {"series/bath_collisions", &t.bath_collisions},
                {"series/grain_collisions", &t.grain_collisions},
@@ -319,6 +322,10 @@ std::optional<State> read_newest_checkpoint(const fs::path& dir, const RunContex
       [&] {
         unpack(k, s);
         s.fields.batch_samples.assign(bs.begin(), bs.end());
+        // a checkpoint written before a3 was sampled: its samples have none (NaN; output.cpp
+        // averages a3 over the finite samples of the window)
+        TimeSeries& ts = s.series;
+        if (ts.a3.size() < ts.t.size()) ts.a3.insert(ts.a3.begin(), ts.t.size() - ts.a3.size(), std::nan(""));
       },
       warning, dec.size() > 1 ? &part : nullptr, &bytes_read);
   if (loaded.empty()) return std::nullopt;

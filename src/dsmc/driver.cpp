@@ -313,6 +313,7 @@ void sample(State& s, const Config& c, double t, const Decomposition& dec, std::
   ts.t.push_back(t);
   ts.T.push_back(mo.temperature);
   ts.a2.push_back(mo.a2);
+  ts.a3.push_back(mo.a3);
   ts.velocity.insert(ts.velocity.end(), {mo.mean_velocity.x, mo.mean_velocity.y, mo.mean_velocity.z});
   for (double x : mo.pressure) ts.pressure.push_back(density * x);
   ts.heat_flux.insert(ts.heat_flux.end(),

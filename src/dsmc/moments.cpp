@@ -43,6 +43,7 @@ void add_central_moment_sums(const Particles& p, std::size_t lo, std::size_t hi,
     const double c2 = cx * cx + cy * cy + cz * cz;
     s.c2 += c2;
     s.c4 += c2 * c2;
+    s.c6 += c2 * c2 * c2;
     s.p[0] += cx * cx;
     s.p[1] += cy * cy;
     s.p[2] += cz * cz;
@@ -77,6 +78,7 @@ void finish_moments(const std::vector<CentralMomentSums>& central, double mass, 
   for (const auto& s : central) {
     t.c2 += s.c2;
     t.c4 += s.c4;
+    t.c6 += s.c6;
     for (int k = 0; k < 6; ++k) t.p[k] += s.p[k];
     for (int k = 0; k < 3; ++k) t.q[k] += s.q[k];
   }
@@ -84,6 +86,10 @@ void finish_moments(const std::vector<CentralMomentSums>& central, double mass, 
   m.temperature = mass * t.c2 * inv / 3.0;
   const double theta = m.temperature / mass;
   m.a2 = theta > 0 ? t.c4 * inv / (15.0 * theta * theta) - 1.0 : 0.0;
+  // third Sonine coefficient (docs/closures.md eq. H2): with f = phi [1 + a2 S2 + a3 S3] in
+  // c = v / sqrt(2T/m), <c^6> = (105/8)(1 + 3 a2 - a3), i.e. <|v - u|^6> = 105 (T/m)^3 (1 + 3 a2 - a3)
+  // (<x^3 S2> = 315/8 and <x^3 S3> = -105/8 over phi, x = c^2); a Maxwellian has a3 = 0
+  m.a3 = theta > 0 ? 1.0 + 3.0 * m.a2 - t.c6 * inv / (105.0 * theta * theta * theta) : 0.0;
   for (int k = 0; k < 6; ++k) m.pressure[k] = mass * t.p[k] * inv;
   m.heat_flux = {0.5 * mass * t.q[0] * inv, 0.5 * mass * t.q[1] * inv, 0.5 * mass * t.q[2] * inv};
 }

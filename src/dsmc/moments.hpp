@@ -15,6 +15,7 @@ struct Moments {
   Vec3 mean_velocity;               // u
   double temperature = 0;           // T = m <|c|^2> / 3
   double a2 = 0;                    // <c^4> / (15 (T/m)^2) - 1
+  double a3 = 0;                    // 1 + 3 a2 - <c^6> / (105 (T/m)^3) (docs/closures.md eq. H2)
   std::array<double, 6> pressure{}; // P_ij / n = m <c_i c_j>: xx yy zz xy xz yz
   Vec3 heat_flux;                   // q / n = (m/2) <|c|^2 c>
   double kinetic_energy = 0;        // total (1/2) m sum |v|^2 (simulated particles)
@@ -34,7 +35,7 @@ struct RawMomentSums {
   double e = 0;      // sum |v|^2
 };
 struct CentralMomentSums {
-  double c2 = 0, c4 = 0;
+  double c2 = 0, c4 = 0, c6 = 0;
   double p[6] = {0, 0, 0, 0, 0, 0};
   double q[3] = {0, 0, 0};
 };
@@ -50,7 +51,7 @@ void central_moment_sums(const Particles& p, const std::vector<std::size_t>& bou
 // From the partials of every block, in block order: count, mean velocity and kinetic
 // energy (first pass) ...
 Moments moments_from_raw(const std::vector<RawMomentSums>& raw, double mass);
-// ... then temperature, a2, pressure and heat flux (second pass) into m.
+// ... then temperature, a2, a3, pressure and heat flux (second pass) into m.
 void finish_moments(const std::vector<CentralMomentSums>& central, double mass, Moments& m);
 
 }  // namespace grainbath::dsmc

@@ -239,7 +239,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   // cases/free-cooling, measured over 32 seeds on 2026-12-05), while in free cooling the
   // collision rate falls as sqrt(T) and samples at equal times get ever more correlated; in a
   // steady state the clock runs at a constant rate and the blocks are those in t.
-  std::vector<double> Tw, a2w, clock_w;
+  std::vector<double> Tw, a2w, clock_w, a3w, a3clock;
   double clock = 0.0;
   for (std::size_t k = 0; k < samples; ++k) {
     if (k > 0 && ts.count[k] > 0)
@@ -250,9 +250,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
       Tw.push_back(ts.T[k]);
       a2w.push_back(ts.a2[k]);
       clock_w.push_back(clock);
+      // a3 (docs/closures.md eq. H2) like a2; NaN in the samples of a run resumed from a
+      // checkpoint written before a3 was sampled (dsmc/checkpoint.cpp): those are left out
+      if (k < ts.a3.size() && std::isfinite(ts.a3[k])) a3w.push_back(ts.a3[k]), a3clock.push_back(clock);
     }
   }
   const MeanError Tm = block_average(Tw, clock_w), a2m = block_average(a2w, clock_w);
+  const MeanError a3m = block_average(a3w, a3clock);
   // A gas that only cools (no medium, no diffuse walls) has no steady temperature: a window
   // mean of its decaying T and a blocked error of that trend describe nothing (the error was
   // 0.026 against a seed-to-seed scatter of the mean of 0.0011 in cases/free-cooling), so
@@ -304,6 +308,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   };
   if (!cooling_only) warn_no_plateau("temperature.stderr", Tm);
   warn_no_plateau("a2.stderr", a2m);
+  warn_no_plateau("a3.stderr", a3m);
   const Moments& fin = grains.moments;
   const int nb = c.histogram_bins;
 
@@ -329,6 +334,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   f.write("/timeseries/t", ts.t);
   f.write("/timeseries/temperature", ts.T);
   f.write("/timeseries/a2", ts.a2);
+  f.write("/timeseries/a3", ts.a3);
   f.write("/timeseries/velocity", ts.velocity, {samples, 3});
   f.write("/timeseries/pressure_tensor", ts.pressure, {samples, 6});
   f.write("/timeseries/heat_flux", ts.heat_flux, {samples, 3});
@@ -364,6 +370,12 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   summary.set("a2.stderr", a2m.stderr_);
   set_plateau("a2.stderr_plateau", a2m);
   summary.set("a2.final", fin.a2);
+  if (a3m.samples > 0) {
+    summary.set("a3.mean", a3m.mean);
+    summary.set("a3.stderr", a3m.stderr_);
+    set_plateau("a3.stderr_plateau", a3m);
+  }
+  summary.set("a3.final", fin.a3);
   summary.set("velocity.final", norm(fin.mean_velocity - c.background.velocity));
   if (c.rough) {
     // Trot = q m <|a omega|^2> / 3; R = Trot/Ttr over the steady window (blocked) and at the end

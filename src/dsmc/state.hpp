@@ -26,6 +26,8 @@ struct TimeSeries {
   std::vector<double> count;            // simulated particles
   std::vector<std::uint64_t> bath_collisions, grain_collisions;
   std::vector<double> Trot;             // rough grains: rotational temperature
+  std::vector<double> a3;               // third Sonine coefficient (moments.hpp); NaN for the
+                                        // samples of a run resumed from a checkpoint without it
 };
 
 // Per-cell sums for time-averaged fields, in batches (for standard errors). Per cell and

@@ -41,11 +41,26 @@ double haff_zeta0(double e, double density, double mass) {
   return 4.0 * density * (1.0 - e * e) / (3.0 * std::sqrt(std::numbers::pi * mass));
 }
 
-double haff_temperature(double t, double T0, double e, double density, double mass, bool with_a2) {
-  const double zeta = haff_zeta0(e, density, mass) * (with_a2 ? 1.0 + 3.0 * vne_a2(e) / 16.0 : 1.0);
+double haff_temperature_with_ratio(double t, double T0, double e, double density, double mass, double ratio) {
+  const double zeta = haff_zeta0(e, density, mass) * ratio;
   const double x = 1.0 + 0.5 * zeta * std::sqrt(T0) * t;  // dT/dt = -zeta T^{3/2}
   return T0 / (x * x);
 }
+
+double haff_temperature(double t, double T0, double e, double density, double mass, bool with_a2) {
+  return haff_temperature_with_ratio(t, T0, e, density, mass, with_a2 ? 1.0 + 3.0 * vne_a2(e) / 16.0 : 1.0);
+}
+
+namespace {
+// zeta/zeta0 of the second Sonine cooling state (docs/closures.md eq. H10), if it exists
+std::optional<double> sonine2_rate_ratio(double e) {
+  try {
+    return closures::hcs_cooling_rate_ratio(closures::hcs_sonine2_linear(e));
+  } catch (const closures::ClosureError&) {
+    return std::nullopt;
+  }
+}
+}  // namespace
 
 static std::optional<double> constant_e(const RestitutionLaw& law) {
   if (std::holds_alternative<ElasticRestitution>(law)) return 1.0;
@@ -132,6 +147,11 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
                        haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass, true));
       out.emplace_back("haff.temperature_at_t_end_no_a2",
                        haff_temperature(c.t_end, c.grains.temperature, *e, c.grains.density, c.grains.mass, false));
+      // with the second Sonine cooling rate zeta0 (1 + 3 a2/16 + a3/64 + ...) (eq. H10)
+      if (const auto r = sonine2_rate_ratio(*e))
+        out.emplace_back("haff.temperature_at_t_end_sonine2",
+                         haff_temperature_with_ratio(c.t_end, c.grains.temperature, *e, c.grains.density,
+                                                     c.grains.mass, *r));
     }
   }
   return out;
@@ -169,6 +189,12 @@ std::vector<std::pair<std::string, std::vector<double>>> relaxation_series(const
       }
       out.emplace_back("haff/temperature", T);
       out.emplace_back("haff/temperature_no_a2", T_no_a2);
+      if (const auto r = sonine2_rate_ratio(*e)) {
+        std::vector<double> T2;
+        for (double t : times)
+          T2.push_back(haff_temperature_with_ratio(t, c.grains.temperature, *e, c.grains.density, c.grains.mass, *r));
+        out.emplace_back("haff/temperature_sonine2", T2);
+      }
     }
   }
   return out;

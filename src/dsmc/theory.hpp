@@ -29,10 +29,14 @@ std::optional<closures::Parameters> closure_parameters(const Config&);
 double vne_a2(double e, int dimension = 3);
 double haff_zeta0(double e, double density, double mass);
 double haff_temperature(double t, double T0, double e, double density, double mass, bool with_a2);
+// The same with the cooling rate zeta0 * ratio, ratio = zeta/zeta0 of the second Sonine
+// cooling state (closures::hcs_cooling_rate_ratio, docs/closures.md eq. H10):
+// theory.haff.temperature_at_t_end_sonine2 and /theory/haff/temperature_sonine2.
+double haff_temperature_with_ratio(double t, double T0, double e, double density, double mass, double ratio);
 
 // Relaxation of each closure, sampled at `times`: names like "maxwellian/temperature",
 // "grad/velocity" (3 per time), "sonine/a2", "haff/temperature" (with a2),
-// "haff/temperature_no_a2".
+// "haff/temperature_no_a2", "haff/temperature_sonine2".
 std::vector<std::pair<std::string, std::vector<double>>> relaxation_series(const Config&,
                                                                            const std::vector<double>& times);
 

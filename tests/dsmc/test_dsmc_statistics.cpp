@@ -10,6 +10,7 @@
 
 #include "core/run_support.hpp"
 #include "dsmc/mode_fit.hpp"
+#include "dsmc/moments.hpp"
 #include "support.hpp"
 
 namespace {
@@ -343,4 +344,46 @@ TEST(DsmcStats, SlowModeErrorMatchesAMonteCarloOfItsModel) {
   const double formula = grainbath::dsmc::slow_mode_error(x, w, r, L, h, N, D, W);
   std::printf("slow modes: Monte Carlo %.5f, formula %.5f (ratio %.4f)\n", std::sqrt(var), formula, formula / std::sqrt(var));
   EXPECT_NEAR(formula / std::sqrt(var), 1.0, 0.06);
+}
+
+// The third Sonine coefficient as measure_moments computes it (src/dsmc/moments.cpp),
+// a3 = 1 + 3 a2 - <c^6>/(105 (T/m)^3) (docs/closures.md eq. H2), on populations whose value is
+// known: an isotropic shell |c| = s (<c^4> = 9 (T/m)^2, <c^6> = 27 (T/m)^3: a2 = -2/5,
+// a3 = 1 - 6/5 - 9/35 = -16/35), drifting and with m = 2 (moments about the mean, T = m<c^2>/3);
+// and a Maxwellian sample, whose a3 is 0 up to its statistical error: to first order the
+// estimate is (16/35) times the sample mean of S3(m c^2/(2T)), of variance (16/35)^2 (35/16)/N
+// = 16/(35 N) (<S3^2> = 35/16 over the Maxwellian).
+TEST(DsmcMoments, ThirdSonineCoefficientOfKnownPopulations) {
+  using grainbath::dsmc::Particles;
+  const double mass = 2.0, s = 1.3;
+  const grainbath::Vec3 drift{0.4, -0.7, 0.2};
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> g;
+  Particles shell;
+  const std::size_t pairs = 50000;
+  shell.resize(2 * pairs, false);
+  for (std::size_t i = 0; i < pairs; ++i) {  // +n and -n: the mean is the drift exactly
+    double n[3] = {g(rng), g(rng), g(rng)};
+    const double r = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    for (double& x : n) x *= s / r;
+    shell.set_velocity(2 * i, {drift.x + n[0], drift.y + n[1], drift.z + n[2]});
+    shell.set_velocity(2 * i + 1, {drift.x - n[0], drift.y - n[1], drift.z - n[2]});
+  }
+  const auto ms = grainbath::dsmc::measure_moments(shell, 0, shell.size(), mass);
+  EXPECT_NEAR(ms.temperature, mass * s * s / 3, 1e-12);
+  EXPECT_NEAR(ms.a2, -0.4, 1e-12);
+  EXPECT_NEAR(ms.a3, -16.0 / 35.0, 1e-12);
+
+  const std::size_t N = 1000000;
+  Particles maxwell;
+  maxwell.resize(N, false);
+  const double sd = std::sqrt(1.7 / mass);  // T = 1.7
+  for (std::size_t i = 0; i < N; ++i)
+    maxwell.set_velocity(i, {drift.x + sd * g(rng), drift.y + sd * g(rng), drift.z + sd * g(rng)});
+  const auto mm = grainbath::dsmc::measure_moments(maxwell, 0, N, mass);
+  const double sigma = std::sqrt(16.0 / (35.0 * N));
+  std::printf("Maxwellian sample of %zu: a3 = %.5f (sigma %.5f), a2 = %.5f (sigma %.5f)\n", N, mm.a3, sigma, mm.a2,
+              std::sqrt(8.0 / (15.0 * N)));
+  EXPECT_NEAR(mm.a3, 0.0, 4 * sigma);
+  EXPECT_NEAR(mm.a2, 0.0, 4 * std::sqrt(8.0 / (15.0 * N)));
 }
