@@ -173,6 +173,15 @@ bool may_change(const std::string& key) {
 
 }  // namespace
 
+std::vector<std::string> checkpoint_array_names() {
+  State s;
+  Scalars k;
+  std::vector<std::uint64_t> batch_samples;
+  std::vector<std::string> names;
+  arrays_of(s, s.particles, k, batch_samples).for_each([&](const std::string& n, const auto&) { names.push_back(n); });
+  return names;
+}
+
 void write_checkpoint(const fs::path& dir, const State& state, const RunContext& ctx, const Decomposition& dec) {
   State& s = const_cast<State&>(state);  // arrays_of needs non-const pointers; nothing is modified
   State rest = dec.gather_cells(s);      // rank 0: all but the grains; other ranks: empty

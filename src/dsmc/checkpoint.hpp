@@ -38,4 +38,9 @@ std::optional<State> read_newest_checkpoint(const std::filesystem::path& dir, co
                                             std::string& warning, const Config& c, Decomposition& dec,
                                             std::uint64_t& bytes_read, std::string* saved_t_end = nullptr);
 
+// The names of a checkpoint's arrays in list order: the order of the file's checksum
+// (core/checkpoint.hpp, Fnv1a), for tools and tests that rewrite a checkpoint as an earlier
+// build would have written it (tests/dsmc/test_dsmc_restart.cpp).
+std::vector<std::string> checkpoint_array_names();
+
 }  // namespace grainbath::dsmc

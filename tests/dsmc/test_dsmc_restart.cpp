@@ -4,11 +4,14 @@
 // detected by its checksum and the previous one is used.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <iterator>
 
 #include <hdf5.h>
 
+#include "core/checkpoint.hpp"
+#include "dsmc/checkpoint.hpp"
 #include "support.hpp"
 
 using grainbath::testing::run_dsmc;
@@ -418,3 +421,87 @@ TEST(DsmcRestart, ResumeWithALaterEndSamplesTheFieldsToTheNewEnd) {
   fs::remove_all(ck);
 }
 
+
+// a3 (2026-12-06) was added to the checkpoint's series as an optional array: a checkpoint
+// written before it (no series/a3) resumes. End to end, with the averaging window opening
+// before the checkpoint: the samples before the resume carry NaN for a3, the later ones a3
+// as the uninterrupted run has it, a3.mean is the plain mean of the window's finite samples,
+// and every other output is bitwise that of the full run.
+TEST(DsmcRestart, CheckpointWithoutTheA3SeriesResumesWithA3FromLaterSamples) {
+  std::string toml = kHomogeneous;
+  toml.replace(toml.find("steady_from = 0.5"), 17, "steady_from = 0.2");
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-noa3-" + std::to_string(::getpid()));
+  fs::remove_all(ck);
+  const auto full = run_dsmc(toml, 21, 0, "noa3-full", ck);
+  std::vector<fs::path> files = checkpoint_files(ck);
+  ASSERT_EQ(files.size(), 2u);
+  fs::remove(files.back());
+  {  // make it the checkpoint an earlier build wrote: no a3 series, and a checksum without it
+    const std::string file = files.front().string();
+    std::vector<std::pair<std::string, bool>> arrays;  // name, integer
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    for (const std::string& name : grainbath::dsmc::checkpoint_array_names()) {
+      if (name == "series/a3") continue;
+      const hid_t d = H5Dopen2(f, ("/" + name).c_str(), H5P_DEFAULT);
+      ASSERT_GE(d, 0) << name;
+      const hid_t type = H5Dget_type(d);
+      arrays.emplace_back(name, H5Tget_class(type) == H5T_INTEGER);
+      H5Tclose(type);
+      H5Dclose(d);
+    }
+    H5Fclose(f);
+    grainbath::Fnv1a sum;  // core/checkpoint.hpp: the arrays in list order, each after its length
+    {
+      grainbath::H5File h(file, grainbath::H5File::Mode::update);
+      for (const auto& [name, integer] : arrays) {
+        if (integer) {
+          const auto v = h.read_u64("/" + name);
+          sum.add_length(v.size()), sum.add_elements(v);
+        } else {
+          const auto v = h.read_doubles("/" + name);
+          sum.add_length(v.size()), sum.add_elements(v);
+        }
+      }
+      char hex[24];
+      std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(sum.h));
+      h.attribute("/", "checksum", std::string(hex));
+    }
+    const hid_t g = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(g, 0);
+    ASSERT_GE(H5Ldelete(g, "/series/a3", H5P_DEFAULT), 0);
+    H5Fclose(g);
+  }
+  const auto resumed = run_dsmc(toml, 21, 0, "noa3-resumed", ck, true);
+  const auto t = full.series("/timeseries/t");
+  const auto a3_full = full.series("/timeseries/a3"), a3_resumed = resumed.series("/timeseries/a3");
+  ASSERT_EQ(a3_full.size(), t.size());
+  ASSERT_EQ(a3_resumed.size(), t.size());
+  std::size_t first = 0;  // the first sample after the resume
+  while (first < t.size() && std::isnan(a3_resumed[first])) ++first;
+  EXPECT_GT(first, 5u);        // the samples up to the checkpoint (t = 0.75)
+  EXPECT_LT(first, t.size());  // and a3 after it
+  double sum = 0.0, sum_full = 0.0;
+  int n = 0, n_full = 0;
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    EXPECT_TRUE(std::isfinite(a3_full[k])) << k;
+    if (k >= first) {
+      EXPECT_EQ(a3_resumed[k], a3_full[k]) << "t = " << t[k];
+    }
+    if (t[k] < 0.2 - 1e-9) continue;  // steady_from
+    sum_full += a3_full[k], ++n_full;
+    if (k >= first) sum += a3_full[k], ++n;
+  }
+  ASSERT_GT(n_full, n);  // the window holds samples without a3
+  for (const char* name : {"/timeseries/temperature", "/timeseries/a2", "/timeseries/velocity"})
+    EXPECT_EQ(full.series(name), resumed.series(name)) << name;
+  for (const auto& [k, v] : full.summary.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
+    ASSERT_NE(resumed.summary.get(k), nullptr) << k;
+    if (k.rfind("a3.", 0) == 0 && k != "a3.final") continue;
+    EXPECT_EQ(v, *resumed.summary.get(k)) << k;
+  }
+  EXPECT_NEAR(full.summary.number("a3.mean"), sum_full / n_full, 1e-12);
+  EXPECT_NEAR(resumed.summary.number("a3.mean"), sum / n, 1e-12);
+  fs::remove_all(ck);
+}
