@@ -46,7 +46,13 @@ DSMC_QUANTITIES = [
     ("a2.mean", "a2.stderr", "Sonine coefficient a₂", "1", [
         ("theory.equilibrium.sonine.a2", "sonine", "Sonine closure"),
         ("theory.haff.a2_van_noije_ernst", "haff", "van Noije-Ernst"),
-        ("theory.hcs.a2_sonine2", "hcs", "second Sonine")]),
+        ("theory.hcs.a2_sonine2", "hcs", "second Sonine"),
+        ("theory.hcs.a2_linear_to_a6", None, "linear Sonine series to a₆")]),
+    # a3 (docs/closures.md eq. H2): sampled by every DSMC run since 2026-12-06; theory only for
+    # the cooling state
+    ("a3.mean", "a3.stderr", "Sonine coefficient a₃", "1", [
+        ("theory.hcs.a3_sonine2", "hcs", "second Sonine"),
+        ("theory.hcs.a3_linear_to_a6", None, "linear Sonine series to a₆")]),
     ("mode.decay_rate", "mode.decay_rate_stderr", "density-mode decay rate Γ", "√(E/m)/λ", [
         ("theory.hydro.decay_rate", "hydro", "drift-diffusion (paper)"),
         ("theory.hydro.decay_rate_kinetic", None, "drift-diffusion (kinetic)"),
