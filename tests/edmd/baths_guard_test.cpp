@@ -30,20 +30,7 @@ using grainbath::edmd::testing::config_from;
 namespace {
 
 Summary run_case(const std::string& toml, std::uint64_t seed) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  RunContext ctx;
-  ctx.out_dir = std::filesystem::temp_directory_path() /
-                ("edmd_baths_guard_" + std::to_string(::getpid()) + "_" + std::to_string(seed));
-  std::filesystem::create_directories(ctx.out_dir);
-  ctx.seed = seed;
-  ctx.quiet = true;
-  ctx.case_text = toml;
-  Summary s;
-  run(c, ctx, s);
-  std::filesystem::remove_all(ctx.out_dir);
-  return s;
+  return grainbath::edmd::testing::run_summary(toml, seed, "edmd_baths_guard");
 }
 
 // mean and standard error of block means

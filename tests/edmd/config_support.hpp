@@ -1,9 +1,14 @@
 #pragma once
 // An EDMD case given as TOML text, read and checked the way the CLI reads case.toml (every
 // key validated, misspelt keys rejected), for the tests in tests/edmd.
+#include <cstdint>
+#include <filesystem>
 #include <string>
 
+#include <unistd.h>
+
 #include "core/case_file.hpp"
+#include "core/summary.hpp"
 #include "edmd/edmd.hpp"
 
 namespace grainbath::edmd::testing {
@@ -13,6 +18,24 @@ inline Config config_from(const std::string& toml) {
   Config c = read_config(r);
   r.finish();
   return c;
+}
+
+// Runs the case as `grainbath run` does, into a scratch directory that is removed afterwards,
+// and returns its summary. `tag` and the process id keep the directories of tests that run
+// at the same time apart.
+inline Summary run_summary(const std::string& toml, std::uint64_t seed, const std::string& tag) {
+  const Config c = config_from(toml);
+  RunContext ctx;
+  ctx.out_dir = std::filesystem::temp_directory_path() /
+                (tag + "_" + std::to_string(::getpid()) + "_" + std::to_string(seed));
+  std::filesystem::create_directories(ctx.out_dir);
+  ctx.seed = seed;
+  ctx.quiet = true;
+  ctx.case_text = toml;
+  Summary s;
+  run(c, ctx, s);
+  std::filesystem::remove_all(ctx.out_dir);
+  return s;
 }
 
 }  // namespace grainbath::edmd::testing

@@ -17,6 +17,7 @@
 #include "core/summary.hpp"
 #include "edmd/background2d.hpp"
 #include "edmd/edmd.hpp"
+#include "tests/edmd/config_support.hpp"
 #include "edmd/measure.hpp"
 #include "edmd/theory.hpp"
 #include "operators/random.hpp"
@@ -26,19 +27,7 @@ using namespace grainbath::edmd;
 
 namespace {
 Summary run_case(const std::string& toml, std::uint64_t seed = 1) {
-  CaseReader r(toml, "test.toml");
-  Config c = read_config(r);
-  r.finish();
-  RunContext ctx;
-  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_test_" + std::to_string(::getpid()) + "_" + std::to_string(seed));
-  std::filesystem::create_directories(ctx.out_dir);
-  ctx.seed = seed;
-  ctx.quiet = true;
-  ctx.case_text = toml;
-  Summary s;
-  run(c, ctx, s);
-  std::filesystem::remove_all(ctx.out_dir);
-  return s;
+  return grainbath::edmd::testing::run_summary(toml, seed, "edmd_test");
 }
 }  // namespace
 

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "edmd/edmd.hpp"
+#include "tests/edmd/config_support.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
@@ -52,18 +53,7 @@ TEST(EdmdLong, InelasticDrivenNoOverlapsAfterAMillionCollisions) {
 
 namespace {
 Summary run_long(const std::string& toml, std::uint64_t seed) {
-  CaseReader r(toml, "long.toml");
-  Config c = read_config(r);
-  r.finish();
-  RunContext ctx;
-  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_long_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(ctx.out_dir);
-  ctx.seed = seed;
-  ctx.quiet = true;
-  Summary s;
-  run(c, ctx, s);
-  std::filesystem::remove_all(ctx.out_dir);
-  return s;
+  return grainbath::edmd::testing::run_summary(toml, seed, "edmd_long");
 }
 }  // namespace
 

@@ -270,3 +270,62 @@ TEST(DrivingWalls, SlabEnergyBalanceNeedsTheCollisionalHeatFlux) {
   EXPECT_GT(worst_kin, 5.0);  // the collisional heat flux matters at nu = 0.3
   EXPECT_GT(qmax, 10.0 * q.stderr_[1]);  // a real heat flux, not noise
 }
+
+// The virial theorem of a closed box, exactly, one run at a time: with G = Σ r_i·v_i (unit
+// masses), dG/dt = Σ v_i² + Σ r_i·F_i. Integrated over a run of elastic grains between elastic
+// walls, in a cube of side L walled in every direction (centres confined to [σ/2, L − σ/2]):
+//   G(t) − G(0) = 2E t + W − (L − 1) M/2 + (L/2) Σ_d ΔP_d,
+// W = Σ r_ij·J_ij over the grain collisions (Counters::virial, positive for repulsion), M the
+// momentum the walls took (Counters::wall_virial), ΔP_d the change of the total momentum
+// along d: the walls of direction d at σ/2 and L − σ/2 took M_low and M_high with
+// M_low − M_high = ΔP_d, and Σ x J there is M_low/2 − (L − 1/2) M_high. Every term is a
+// sum the engine keeps or a state it reports, so the identity holds to round-off: it fails
+// if a wall hit or a collision books a wrong momentum, or a grain leaves the box.
+TEST(StaticWalls, VirialTheoremOfAClosedBoxHoldsExactly) {
+  for (int dims : {2, 3}) {
+    const double L = dims == 2 ? 30.0 : 12.0;
+    const int side = dims == 2 ? 20 : 6;
+    const double spacing = dims == 2 ? 1.45 : 1.6;
+    std::vector<Vec3> r, v;
+    CounterRng rng(11, Stream::initial_velocities, 0, 0);
+    for (int k = 0; k < (dims == 2 ? 1 : side); ++k)
+      for (int j = 0; j < side; ++j)
+        for (int i = 0; i < side; ++i) {
+          r.push_back({1.0 + spacing * i, 1.0 + spacing * j, dims == 2 ? 0.5 : 1.0 + spacing * k});
+          v.push_back({rng.normal(), rng.normal(), dims == 2 ? 0.0 : rng.normal()});
+        }
+    EngineSetup s;
+    s.dims = dims;
+    s.length = {L, L, dims == 2 ? 1.0 : L};
+    s.walls = {true, true, dims == 3};
+    Engine eng(s, r, v);
+    auto virial_g = [&] {
+      double g = 0.0;
+      for (std::size_t i = 0; i < r.size(); ++i) g += dot(eng.position(i), eng.velocity(i));
+      return g;
+    };
+    double E = 0.0;
+    for (const Vec3& w : v) E += 0.5 * dot(w, w);
+    eng.synchronize();
+    const double g0 = virial_g();
+    const Vec3 p0 = eng.momentum();
+    const double t_end = 40.0;
+    eng.advance(ElasticRestitution{}, t_end, ~std::uint64_t{0});
+    eng.synchronize();
+    const double g1 = virial_g();
+    const Vec3 dp = eng.momentum() - p0;
+    const Counters& c = eng.counters();
+    const double t = eng.time();
+    const double walls_term = -(L - 1.0) * c.wall_virial / 2.0 + (L / 2.0) * (dp.x + dp.y + (dims == 3 ? dp.z : 0.0));
+    const double rhs = 2.0 * E * t + c.virial + walls_term;
+    const double scale = 2.0 * E * t + c.virial + (L - 1.0) * c.wall_virial / 2.0;
+    std::printf("dims %d: %llu collisions, %llu wall hits; G(t) - G(0) = %.9f, 2Et + W + walls = %.9f "
+                "(2Et %.3f, W %.3f, walls %.3f)\n",
+                dims, static_cast<unsigned long long>(c.collisions), static_cast<unsigned long long>(c.wall_collisions),
+                g1 - g0, rhs, 2.0 * E * t, c.virial, walls_term);
+    EXPECT_GT(c.collisions, 20u * r.size());  // a dense run, not a few free flights
+    EXPECT_GT(c.wall_collisions, r.size());
+    EXPECT_NEAR(t, t_end, 1e-9);
+    EXPECT_NEAR(g1 - g0, rhs, 1e-10 * scale);
+  }
+}
