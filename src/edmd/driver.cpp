@@ -806,6 +806,22 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   summary.set("pressure.Z_stderr", Zm.stderr_);
   if (!c.free_cooling) {  // a window mean of a decaying T describes nothing (haff.* does)
     summary.set("pressure.P", n * T_mean * Z);
+    // The pressure on the walls: the normal momentum they took (Counters::wall_virial) per unit
+    // time and wall area (length in 2D), what a manometer in the wall reads. In a box walled in
+    // every direction it is, by the virial theorem of the closed box (StaticWalls.
+    // VirialTheoremOfAClosedBoxHoldsExactly; docs/edmd.md "Pressure on the walls"),
+    // pressure.P L/(L - sigma) for a square or cube of side L, the centres being confined to
+    // L - sigma; with walls in one direction it is the normal pressure the bulk exerts.
+    const double extent[3] = {box.x, box.y, box.z};
+    double wall_area = 0.0;
+    for (int d = 0; d < D; ++d) {
+      if (!c.walls[d]) continue;
+      double a = 2.0;  // the two walls of direction d
+      for (int e = 0; e < D; ++e)
+        if (e != d) a *= extent[e];
+      wall_area += a;
+    }
+    if (wall_area > 0.0 && t_run > 0.0) summary.set("pressure.wall", f.wall_virial / (t_run * wall_area));
     summary.set("temperature.mean", T_mean);
     summary.set("temperature.stderr", Tm.stderr_);
   }
