@@ -275,6 +275,25 @@ def velocity(run, ctx):
 
 
 # ---------------------------------------------------------------------------------------
+def _plot_sampled(ax, run, t, series, key):
+    """A sampled DSMC series (a2, a3) on ax: the averaging window shaded, the samples (with a
+    running mean of len/40 samples once that is >= 4) and the window mean `KEY.mean` ± its
+    `KEY.stderr` as a dashed line from `sampling.steady_from`. Returns (mean, stderr)."""
+    _shade_window(ax, run, t)
+    k = len(t) // 40
+    if k >= 4:
+        ax.plot(t, series, color="0.6", lw=0.8, label="DSMC")
+        ax.plot(_running(t, k), _running(series, k), color="black", lw=2.0, label=f"DSMC, running mean of {k} samples")
+    else:
+        ax.plot(t, series, **dict(SIM, label="DSMC"))
+    m, e = run.num(f"{key}.mean"), run.num(f"{key}.stderr")
+    t0 = run.param("sampling.steady_from")
+    if m is not None and isinstance(t0, (int, float)):
+        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--",
+                  label=f"DSMC window mean {fmt_err(run, m, f'{key}.stderr', 4)}")
+    return m, e
+
+
 def sonine_a2(run, ctx):
     """a2(t) beside the Sonine closure (or van Noije-Ernst for free cooling)."""
     if not _is_dsmc(run) or not run.has("timeseries/a2"):
@@ -284,18 +303,7 @@ def sonine_a2(run, ctx):
     N = _particles(run)
     s = Section("Non-Gaussianity: Sonine coefficient a₂(t)", "a2")
     fig, ax = subplots(figsize=(7.0, 4.2))
-    _shade_window(ax, run, t)
-    k = len(t) // 40
-    if k >= 4:
-        ax.plot(t, a2, color="0.6", lw=0.8, label="DSMC")
-        ax.plot(_running(t, k), _running(a2, k), color="black", lw=2.0,
-                label=f"DSMC, running mean of {k} samples")
-    else:
-        ax.plot(t, a2, **dict(SIM, label="DSMC"))
-    m, e = run.num("a2.mean"), run.num("a2.stderr")
-    t0 = run.param("sampling.steady_from")
-    if m is not None and isinstance(t0, (int, float)):
-        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_err(run, m, 'a2.stderr', 4)}")
+    m, e = _plot_sampled(ax, run, t, a2, "a2")
     homogeneous = homogeneous_state(run)  # else the homogeneous a2 is no prediction for the domain
     if run.has("theory/sonine/a2") and homogeneous:
         ax.plot(t, run.arr("theory/sonine/a2"), **theory_style("sonine"))
@@ -346,17 +354,7 @@ def _sonine_a3(run, ctx, s, t, N, homogeneous):
         return
     a3 = run.arr("timeseries/a3")
     fig, ax = subplots(figsize=(7.0, 3.6))
-    _shade_window(ax, run, t)
-    k = len(t) // 40
-    if k >= 4:
-        ax.plot(t, a3, color="0.6", lw=0.8, label="DSMC")
-        ax.plot(_running(t, k), _running(a3, k), color="black", lw=2.0, label=f"DSMC, running mean of {k} samples")
-    else:
-        ax.plot(t, a3, **dict(SIM, label="DSMC"))
-    m, e = run.num("a3.mean"), run.num("a3.stderr")
-    t0 = run.param("sampling.steady_from")
-    if m is not None and isinstance(t0, (int, float)):
-        ax.hlines(m, t0, t[-1], color="black", lw=1.2, ls="--", label=f"DSMC window mean {fmt_err(run, m, 'a3.stderr', 4)}")
+    m, e = _plot_sampled(ax, run, t, a3, "a3")
     hcs3 = run.num("theory.hcs.a3_sonine2") if homogeneous else None
     if hcs3 is not None:
         ax.axhline(hcs3, **theory_style("hcs", label=f"second Sonine a₃ = {hcs3:.4g}"))
