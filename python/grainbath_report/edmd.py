@@ -134,7 +134,19 @@ def equation_of_state(run, ctx):
                        ("loss rate γ / γ_e (`loss.gamma_over_gamma_e`)", "loss.gamma_over_gamma_e")]:
         if run.num(key) is not None:
             rows.append([label, fmt(run.num(key)), ""])
+    # the pressure on the walls (runs with walls, 2026-12-06): the walls' momentum per unit time and
+    # area; in a square or cube walled in every direction it is P L/(L - σ) (docs/edmd.md
+    # "Pressure on the walls"), with walls in fewer directions the bulk's normal pressure
+    P, Pw = run.num("pressure.P"), run.num("pressure.wall")
+    if Pw is not None:
+        if P is not None:
+            rows.append(["pressure n T Z, n = N/V of the whole box (`pressure.P`)  [E/σ^D]", fmt(P), ""])
+        rows.append(["pressure on the walls, their momentum per time and area (`pressure.wall`)  [E/σ^D]", fmt(Pw), ""])
     s.table(["quantity", "value", "theory − EDMD"], rows)
+    if Pw is not None:
+        s.text("`pressure.wall` needs no volume: it is the pressure of the confined gas. In a square or cube of "
+               "side L walled in every direction it equals `pressure.P` · L/(L − σ), the centres filling L − σ "
+               "(the virial theorem of the closed box, docs/edmd.md \"Pressure on the walls\").")
     s.text("Z is one point per run. To trace the curve, run the case at several packing fractions into "
            "directories below one folder (`--set edmd.packing_fraction=0.3 --out sweep/nu-0.3`, ...) and "
            "`grainbath report sweep`.")
