@@ -3,6 +3,7 @@
 // key validated, misspelt keys rejected), for the tests in tests/edmd.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <unistd.h>
@@ -22,8 +23,10 @@ inline Config config_from(const std::string& toml) {
 
 // Runs the case as `grainbath run` does, into a scratch directory that is removed afterwards,
 // and returns its summary. `tag` and the process id keep the directories of tests that run
-// at the same time apart.
-inline Summary run_summary(const std::string& toml, std::uint64_t seed, const std::string& tag) {
+// at the same time apart; `inspect`, if given, sees the output directory (results.h5) before
+// it is removed.
+inline Summary run_summary(const std::string& toml, std::uint64_t seed, const std::string& tag,
+                           const std::function<void(const std::filesystem::path&)>& inspect = {}) {
   const Config c = config_from(toml);
   RunContext ctx;
   ctx.out_dir = std::filesystem::temp_directory_path() /
@@ -34,6 +37,7 @@ inline Summary run_summary(const std::string& toml, std::uint64_t seed, const st
   ctx.case_text = toml;
   Summary s;
   run(c, ctx, s);
+  if (inspect) inspect(ctx.out_dir);
   std::filesystem::remove_all(ctx.out_dir);
   return s;
 }

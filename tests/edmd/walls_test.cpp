@@ -10,8 +10,7 @@
 #include <numbers>
 
 #include <filesystem>
-
-#include <unistd.h>
+#include <vector>
 
 #include "core/h5.hpp"
 #include "core/run_support.hpp"
@@ -390,20 +389,11 @@ corr_max = 3.0
 [profiles]
 slabs = 20
 )";
-  CaseReader r(toml, "test.toml");
-  const Config c = read_config(r);
-  r.finish();
-  RunContext ctx;
-  ctx.out_dir = std::filesystem::temp_directory_path() / ("edmd_wall_stress_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(ctx.out_dir);
-  ctx.seed = 1;
-  ctx.quiet = true;
-  ctx.case_text = toml;
-  Summary s;
-  run(c, ctx, s);
-  H5File h((ctx.out_dir / "results.h5").string(), H5File::Mode::read);
-  const auto P = h.read_doubles("/profiles/P_xx"), E = h.read_doubles("/profiles/P_xx_stderr");
-  std::filesystem::remove_all(ctx.out_dir);
+  std::vector<double> P, E;
+  const Summary s = grainbath::edmd::testing::run_summary(toml, 1, "edmd_wall_stress", [&](const std::filesystem::path& out) {
+    H5File h((out / "results.h5").string(), H5File::Mode::read);
+    P = h.read_doubles("/profiles/P_xx"), E = h.read_doubles("/profiles/P_xx_stderr");
+  });
   ASSERT_EQ(P.size(), 20u);
   double sw = 0.0, swp = 0.0;
   for (std::size_t k = 2; k + 2 < P.size(); ++k) {  // the wall slabs hold the walls' own layer
