@@ -26,6 +26,7 @@
 using namespace grainbath;
 using namespace grainbath::edmd;
 using grainbath::edmd::testing::config_from;
+using grainbath::edmd::testing::mean_se;
 
 namespace {
 
@@ -33,16 +34,6 @@ Summary run_case(const std::string& toml, std::uint64_t seed) {
   return grainbath::edmd::testing::run_summary(toml, seed, "edmd_baths_guard");
 }
 
-// mean and standard error of block means
-struct MeanSe {
-  double mean, se;
-};
-MeanSe mean_se(const std::vector<double>& x) {
-  double m = 0.0, ss = 0.0;
-  for (double v : x) m += v / x.size();
-  for (double v : x) ss += (v - m) * (v - m);
-  return {m, std::sqrt(ss / (x.size() - 1.0) / x.size())};
-}
 
 Vec3 minimum_image(Vec3 d, const Vec3& L, int dims) {
   d.x -= L.x * std::round(d.x / L.x);

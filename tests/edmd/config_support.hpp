@@ -1,10 +1,12 @@
 #pragma once
 // An EDMD case given as TOML text, read and checked the way the CLI reads case.toml (every
 // key validated, misspelt keys rejected), for the tests in tests/edmd.
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -40,6 +42,18 @@ inline Summary run_summary(const std::string& toml, std::uint64_t seed, const st
   if (inspect) inspect(ctx.out_dir);
   std::filesystem::remove_all(ctx.out_dir);
   return s;
+}
+
+// Mean and standard error of the mean of independent values (seeds, or blocks long against
+// the correlation time): the sample standard deviation over sqrt(n).
+struct MeanSe {
+  double mean, se;
+};
+inline MeanSe mean_se(const std::vector<double>& x) {
+  double m = 0.0, ss = 0.0;
+  for (double v : x) m += v / x.size();
+  for (double v : x) ss += (v - m) * (v - m);
+  return {m, std::sqrt(ss / (x.size() - 1.0) / x.size())};
 }
 
 }  // namespace grainbath::edmd::testing

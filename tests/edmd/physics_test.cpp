@@ -100,10 +100,7 @@ TEST(EdmdContactFit, MatchesTheVirialContactValueAtHighDensity) {
     const Summary s = run_case(toml, seed);
     ratio.push_back(s.number("g_r.contact_fit") / s.number("pressure.g_contact"));
   }
-  double m = 0.0, ss = 0.0;
-  for (double x : ratio) m += x / ratio.size();
-  for (double x : ratio) ss += (x - m) * (x - m);
-  const double se = std::sqrt(ss / (ratio.size() - 1.0) / ratio.size());
+  const auto [m, se] = grainbath::edmd::testing::mean_se(ratio);
   std::printf("g_r.contact_fit / pressure.g_contact at nu = 0.65: %.5f +- %.5f (6 seeds)\n", m, se);
   EXPECT_GT(se, 0.0);
   EXPECT_NEAR(m, 1.0, 5.0 * se);
@@ -170,10 +167,7 @@ TEST(EdmdContactFromCollisions, EqualsTheVirialContactValueForElasticDisks) {
     ratio.push_back(s.number("g_r.contact_from_collisions") / s.number("pressure.g_contact"));
     EXPECT_NEAR(s.number("collision.receding_excess"), 1.0, 1e-12);
   }
-  double m = 0.0, ss = 0.0;
-  for (double x : ratio) m += x / ratio.size();
-  for (double x : ratio) ss += (x - m) * (x - m);
-  const double se = std::sqrt(ss / (ratio.size() - 1.0) / ratio.size());
+  const auto [m, se] = grainbath::edmd::testing::mean_se(ratio);
   std::printf("g_r.contact_from_collisions / pressure.g_contact, elastic nu = 0.5: %.5f +- %.5f\n", m, se);
   EXPECT_GT(se, 0.0);
   EXPECT_NEAR(m, 1.0, 5.0 * se);
@@ -232,14 +226,8 @@ TEST(EdmdContactFromCollisions, MatchesTheContactLayerOfDrivenInelasticDisks) {
     narrow.push_back(p.contact_value(0.01) / cc.g);
     wide.push_back(p.contact_value(0.1) / cc.g);
   }
-  auto mean_se = [](const std::vector<double>& r) {
-    double m = 0.0, ss = 0.0;
-    for (double x : r) m += x / r.size();
-    for (double x : r) ss += (x - m) * (x - m);
-    return std::pair{m, std::sqrt(ss / (r.size() - 1.0) / r.size())};
-  };
-  const auto [m, se] = mean_se(narrow);
-  const auto [mw, sew] = mean_se(wide);
+  const auto [m, se] = grainbath::edmd::testing::mean_se(narrow);
+  const auto [mw, sew] = grainbath::edmd::testing::mean_se(wide);
   std::printf("Boltzmann bath: quadratic fit over [1, 1.01] / collisions' g(sigma+) = %.4f +- %.4f; over [1, 1.1]: "
               "%.4f +- %.4f (6 seeds)\n",
               m, se, mw, sew);
@@ -725,10 +713,7 @@ TEST(EdmdPairDistribution, TailObeysTheFiniteSystemSumRule) {
     }
     tail.push_back(num / den - 1.0);
   }
-  double m = 0.0, ss = 0.0;
-  for (double t : tail) m += t / tail.size();
-  for (double t : tail) ss += (t - m) * (t - m);
-  const double se = std::sqrt(ss / (tail.size() - 1.0) / tail.size());
+  const auto [m, se] = grainbath::edmd::testing::mean_se(tail);
   const double h = 1e-6;
   const double dnz = ((nu + h) * theory::z_reference(2, nu + h) - (nu - h) * theory::z_reference(2, nu - h)) / (2.0 * h);
   const double expect = (1.0 - 1.0 / dnz) / N;
