@@ -390,6 +390,19 @@ std::string H5File::read_attribute(const std::string& object, const std::string&
   return buf;
 }
 
+std::int64_t H5File::read_int_attribute(const std::string& object, const std::string& name) const {
+  Handle obj{H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose};
+  if (obj.id < 0 || H5Aexists(obj.id, name.c_str()) <= 0) fail("missing attribute " + object + "@" + name);
+  Handle a{H5Aopen(obj.id, name.c_str(), H5P_DEFAULT), H5Aclose};
+  Handle type{H5Aget_type(a.id), H5Tclose};
+  Handle space{H5Aget_space(a.id), H5Sclose};
+  if (H5Tget_class(type.id) != H5T_INTEGER || H5Sget_simple_extent_npoints(space.id) != 1)
+    fail("attribute " + object + "@" + name + " is not a scalar integer");
+  std::int64_t value = 0;
+  if (H5Aread(a.id, H5T_NATIVE_INT64, &value) < 0) fail("cannot read attribute " + name);
+  return value;
+}
+
 std::vector<std::string> H5File::attribute_names(const std::string& object) const {
   Handle obj{H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose};
   if (obj.id < 0) fail("missing object " + object);

@@ -71,6 +71,8 @@ class H5File {
   double read_scalar(const std::string& name) const;
   std::uint64_t read_scalar_u64(const std::string& name) const;
   std::string read_attribute(const std::string& object, const std::string& name) const;
+  // a scalar integer attribute (converted by HDF5 from any integer type)
+  std::int64_t read_int_attribute(const std::string& object, const std::string& name) const;
   // Names of the attributes of `object`, in creation-index or name order.
   std::vector<std::string> attribute_names(const std::string& object) const;
 

@@ -30,7 +30,7 @@ struct RunState {
   std::uint64_t phase = equilibrating;
   std::uint64_t eq_chunk = 1;  // equilibrating: the chunk being run (1..20)
   // set when the equilibration ends
-  double rate_eq = 0.0;        // collisions per unit time during the equilibration
+  double rate_eq = 0.0;        // collisions per unit time during the equilibration (0: none)
   double t0 = 0.0;             // engine time at the start of the measurements
   double T0 = 0.0;             // temperature at the end of the equilibration
   double e_initial = 0.0;      // kinetic energy at the start of the measurements

@@ -694,10 +694,20 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const double t0 = rs.t0, T0 = rs.T0, e_initial = rs.e_initial;
   const Vec3 p_initial = rs.p_initial;
 
-  // sampling interval in time (steady state) from the equilibration's collision rate;
-  // collision-based when cooling freely or when there was no equilibration
-  const bool by_collisions = c.free_cooling || rs.rate_eq <= 0.0;
-  const double dt_sample = by_collisions ? 0.0 : c.sample_interval * N / rs.rate_eq;
+  // Sampling interval in time (steady state) from the equilibration's collision rate, or,
+  // with no equilibration (edmd.equilibrate = 0), from the mean rate of the run so far at each
+  // sample (the state may still be settling; the first interval is taken by collisions);
+  // collision-based throughout when cooling freely (the rate falls). A snapshot taken at a
+  // collision count holds the pair that has just collided at contact (docs/edmd.md "Contact
+  // values"): such snapshots give the time series but not the pair statistics or the
+  // velocity histograms. Times decided from the past at the previous sample carry no such pair.
+  const bool rate_of_the_run = !c.free_cooling && rs.rate_eq <= 0.0;
+  auto interval_in_time = [&](const Counters& now, double t_now) {
+    if (c.free_cooling) return 0.0;
+    if (!rate_of_the_run) return c.sample_interval * N / rs.rate_eq;
+    return now.collisions > 0 && t_now > t0 ? c.sample_interval * N * (t_now - t0) / now.collisions : 0.0;
+  };
+  double dt_sample = interval_in_time(prev, t_prev);  // prev, t_prev: the last sample's (also after a resume)
   const std::uint64_t coll_sample = static_cast<std::uint64_t>(std::max(1.0, c.sample_interval * N));
   const std::uint64_t n_prod = static_cast<std::uint64_t>(c.collisions * N);
 
@@ -709,10 +719,11 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   while (eng.counters().collisions < n_prod) {
     // targets from the state at the last sample, so that a resumed run continues the
     // interpolated interval the checkpoint was taken in
-    if (by_collisions) advance_checked(kInf, std::min(n_prod, prev.collisions + coll_sample));
-    else advance_checked(t_prev + dt_sample, n_prod);
+    const std::uint64_t target = dt_sample > 0.0 ? n_prod : std::min(n_prod, prev.collisions + coll_sample);
+    advance_checked(dt_sample > 0.0 ? t_prev + dt_sample : kInf, target);
     T = snapshot();
     const Counters& cur = eng.counters();
+    const bool at_collision = cur.collisions >= target;  // stopped by the count, not the time
     const double dt = eng.time() - t_prev;
     ++sample_no;
     if (sample_no == fault_nonfinite_sample()) T = std::nan("");  // test hook (core/run_support.hpp)
@@ -757,7 +768,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
       profiles.end_interval(dt);
       tails.add(profiles, x, v_raw);
     }
-    if (!c.free_cooling) {
+    if (!c.free_cooling && !at_collision) {
       vhist.add(v, T, D);
       if (sample_no % pair_every == 0) pairs.add(x, v, T);
     }
@@ -771,6 +782,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     prev = cur;
     t_prev = eng.time();
     T_prev = T;
+    dt_sample = interval_in_time(prev, t_prev);
     char status[64];
     std::snprintf(status, sizeof status, "t=%.4g T=%.5g", eng.time() - t0, T);
     progress.update(c.equilibrate + static_cast<double>(cur.collisions) / N, status);
@@ -1109,6 +1121,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     h5.write("/observables/velocity_correlation/perpendicular", pairs.perpendicular());
     h5.write("/observables/velocity_distribution/v_over_sqrtT", vhist.centres());
     for (int d = 0; d < D; ++d) h5.write(std::string("/observables/velocity_distribution/") + "xyz"[d], vhist.density(d));
+    // how many snapshots each average holds (those at fixed times only), for error estimates
+    h5.attribute("/observables/gr", "snapshots", static_cast<std::int64_t>(pairs.snapshots));
+    h5.attribute("/observables/velocity_correlation", "snapshots", static_cast<std::int64_t>(pairs.snapshots));
+    h5.attribute("/observables/velocity_distribution", "snapshots", static_cast<std::int64_t>(std::llround(vhist.total / N)));
   }
   {
     std::vector<double> centres, dens;

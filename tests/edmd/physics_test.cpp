@@ -356,6 +356,61 @@ TEST(EdmdContactFromCollisions, BathKicksAtContactChangeItLittle) {
   }
 }
 
+// The driver's pair snapshots are taken at times, not at collision counts, also with no
+// equilibration (edmd.equilibrate = 0: each interval from the mean collision rate of the run so
+// far) and at the run's end (stopped by the collision target): a snapshot taken right after a
+// collision holds that pair at contact (docs/edmd.md "Contact values"). Bins of 1e-5 sigma make
+// the pair visible: at fixed times the two bins at sigma hold 0.5 N (N-1)/V 2 pi 1e-5 g(sigma+)
+// = 0.025 pairs per snapshot (400 disks, nu = 0.5, g = 3.1), g ~ 3 in the bin above sigma and
+// 0 below; a pair at contact in every snapshot adds ~125 to their sum, which the
+// equilibrate = 0 path did before 2026-12-06.
+TEST(EdmdContactSampling, PairSnapshotsAreAtFixedTimesWithoutEquilibration) {
+  for (const double equilibrate : {0.0, 20.0}) {
+    const std::string toml = "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.5\nequilibrate = " +
+                             std::to_string(equilibrate) +
+                             "\ncollisions = 1003.3\n[sampling]\ninterval = 0.5\ngr_max = 1.1\ngr_bin = 1e-5\n"
+                             "corr_max = 1.1\n";
+    const double N = 400.0;
+    double at_contact = 0.0, rule_error = 1.0;
+    std::size_t samples = 0;
+    grainbath::edmd::testing::run_summary(toml, 7, "edmd_gr_times", [&](const std::filesystem::path& out) {
+      H5File h((out / "results.h5").string(), H5File::Mode::read);
+      const auto r = h.read_doubles("/observables/gr/r"), g = h.read_doubles("/observables/gr/g");
+      for (std::size_t b = 0; b < r.size(); ++b)
+        if (std::abs(r[b] - 1.0) < 1e-5) at_contact += g[b];  // the bins [1 - 1e-5, 1] and [1, 1 + 1e-5]
+      // The sampling times follow their rule (all but the last interval, cut short by the
+      // target): equal steps after an equilibration; else step k+1 = 0.5 N t_k / C_k with the
+      // collisions C_k to sample k from the collision frequencies 2 dC / (N dt).
+      const auto t = h.read_doubles("/timeseries/t"), f = h.read_doubles("/timeseries/collision_frequency");
+      samples = t.size();
+      double worst = 0.0, C = 0.0;
+      for (std::size_t k = 1; k + 2 < t.size(); ++k) {
+        C += std::round(0.5 * f[k - 1] * N * (t[k] - t[k - 1]));
+        const double step = t[k + 1] - t[k], expected = equilibrate > 0 ? t[2] - t[1] : 0.5 * N * t[k] / C;
+        worst = std::max(worst, std::abs(step / expected - 1.0));
+      }
+      rule_error = worst;
+    });
+    std::printf("equilibrate = %g: g summed over the two 1e-5 bins at sigma %.2f; %zu samples at their times to %.1e\n",
+                equilibrate, at_contact, samples, rule_error);
+    EXPECT_GT(samples, 1500u);
+    EXPECT_LT(at_contact, 12.0) << "a pair snapshot held the pair that had just collided";
+    EXPECT_LT(rule_error, 1e-9) << "samples not at the times of the rule";
+  }
+  // The run's last sample, stopped by the collision target, is in the time series but in no
+  // snapshot average: with sampling.interval = 5 every sample is a pair snapshot, and 12.5
+  // collisions per particle end after two sampling intervals (t = 0, two times, the target).
+  const std::string last = "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.5\nequilibrate = 20\n"
+                           "collisions = 12.5\n[sampling]\ninterval = 5\n";
+  grainbath::edmd::testing::run_summary(last, 7, "edmd_gr_last", [&](const std::filesystem::path& out) {
+    H5File h((out / "results.h5").string(), H5File::Mode::read);
+    ASSERT_EQ(h.read_doubles("/timeseries/t").size(), 4u);
+    EXPECT_EQ(h.read_int_attribute("/observables/gr", "snapshots"), 2);
+    EXPECT_EQ(h.read_int_attribute("/observables/velocity_correlation", "snapshots"), 2);
+    EXPECT_EQ(h.read_int_attribute("/observables/velocity_distribution", "snapshots"), 2);
+  });
+}
+
 INSTANTIATE_TEST_SUITE_P(Fast, EdmdEos,
                          ::testing::Values(EosPoint{2, 0.1, 900}, EosPoint{2, 0.4, 900}, EosPoint{2, 0.6, 900},
                                            EosPoint{3, 0.1, 1000}, EosPoint{3, 0.3, 1000}, EosPoint{3, 0.45, 1000}));

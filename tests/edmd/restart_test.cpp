@@ -280,6 +280,28 @@ every = 20
 keep = true
 )";
 
+// no equilibration: the sampling times come from the mean collision rate of the run so far
+// (checkpointed through the counters and the last sample), and the first interval by collisions
+const char* kNoEquilibration = R"(
+[edmd]
+dimensions = 2
+particles = 900
+packing_fraction = 0.55
+equilibrate = 0
+collisions = 80
+[restitution]
+law = "constant"
+e = 0.9
+[heating]
+model = "white_noise"
+kick = 0.3
+[sampling]
+interval = 0.7
+[checkpoint]
+every = 20
+keep = true
+)";
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -308,6 +330,7 @@ TEST(EdmdRestart, TransportBookkeepingContinuesBitwise) { check_exact_continuati
 TEST(EdmdRestart, TransportResumedInTheEquilibrationContinuesBitwise) {
   check_exact_continuation(kTransportFromEquilibration, "transport-eq");
 }
+TEST(EdmdRestart, NoEquilibrationContinuesBitwise) { check_exact_continuation(kNoEquilibration, "no-eq"); }
 TEST(EdmdRestart, DrivingWallsWithProfilesContinueBitwise) {
   check_exact_continuation(kDrivingWallsProfiles, "driven");
 }
