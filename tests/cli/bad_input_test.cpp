@@ -707,6 +707,41 @@ TEST_F(BadInput, SamplingLongerThanTheWindowAndUnusedWallTemperature) {
       << r.err;
 }
 
+TEST_F(BadInput, BackgroundKeysWithoutADensityAreNoMedium) {
+  // nB defaults to 0, no medium: a [background] that sets eps, TB, alpha but forgets nB would
+  // run free cooling without a word (found 2026-12-06); it is an error naming the first such key
+  Case c = dsmc_case();
+  c.erase("background", "density");
+  expect_rejected(c.text(), {{c.line_of("background", "knudsen"), "background.knudsen",
+                              "given without background.density, whose default 0 means no medium (the grains would "
+                              "cool freely; also without effect: temperature, mass_ratio)"}},
+                  {}, "check");
+  // the same from --set on a case without [background], and in EDMD
+  Case f = dsmc_case();
+  f.erase("background", "density").erase("background", "mass_ratio").erase("background", "temperature");
+  f.erase("background", "knudsen");
+  write_text(case_file(), f.text());
+  expect_rejected(std::nullopt, {{0, "background.knudsen", "given without background.density"}},
+                  {"--set", "background.knudsen=0.05"}, "check", "--set");
+  Case e = edmd_case();
+  e.set("background", "temperature", "2.0");
+  expect_rejected(e.text(), {{e.line_of("background", "temperature"), "background.temperature",
+                              "given without background.density"}},
+                  {}, "check");
+  // an explicit density = 0 is a deliberate "no medium" (a sweep over nB); a spatial run's
+  // diffuse walls take TB as their temperature
+  c.set("background", "density", "0.0");
+  write_text(case_file(), c.text());
+  auto r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  Case w = spatial_case();
+  w.erase("background", "density").erase("background", "mass_ratio").erase("background", "knudsen");
+  w.set("domain", "boundaries", "[\"diffuse\"]");
+  write_text(case_file(), w.text());
+  r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+}
+
 // ---------------------------------------------------------------- case directories
 
 TEST_F(BadInput, CaseDirectoryProblems) {
