@@ -101,11 +101,18 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return prev[b.size()];
 }
 
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
 std::string suggestion(std::string_view word, const std::set<std::string>& known) {
   std::string best;
   std::size_t best_d = 3;  // suggest only close matches
   for (const auto& k : known) {
-    const std::size_t d = edit_distance(word, k);
+    // a word that differs only in case is the closest match ("EDMD" for "edmd")
+    const std::size_t d = lower(word) == lower(k) ? 0 : edit_distance(word, k);
     if (d < best_d) { best_d = d; best = k; }
   }
   return best;
@@ -507,6 +514,10 @@ struct CaseReader::Impl {
   std::map<std::string, std::string> file_strings;  // "section.key" -> the file's string a --set replaced
   std::map<std::string, std::string> elsewhere;     // "section.key" ("section." for a section) -> message
   std::map<std::string, std::string> ignored;       // "section.key" -> note
+  // sections one of whose choice() keys has an unknown value (already reported): which other
+  // keys the section takes depends on that choice (law, profile, model), so finish() does not
+  // call them unknown; an unknown run.solver leaves every section and key unjudged
+  std::set<std::string> unsettled;
   std::string file;
 
   const toml::table* section(std::string_view s) const {
@@ -812,6 +823,7 @@ std::string CaseReader::choice(std::string_view section, std::string_view key, s
     problem(section, key, "unknown value \"" + v + "\"" + (hint.empty() ? "" : " (did you mean \"" + hint + "\"?)") +
                               "; valid values are: " + join(s));
     about_names_ = true;
+    impl_->unsettled.insert(std::string(section));
     return std::string(fallback);
   }
   return v;
@@ -923,6 +935,12 @@ void CaseReader::finish() {
     const std::lock_guard<std::mutex> lock(g_said_mutex);
     if (g_said.insert(note).second) std::fprintf(stderr, "note: %s\n", note.c_str());
   }
+  // an unknown solver: which sections and keys are right depends on it (the reader read the
+  // case as the default solver's), so the only problems are those already found
+  if (impl_->unsettled.count("run")) {
+    if (!problems_.empty()) throw CaseError(problems_, about_names_);
+    return;
+  }
   std::set<std::string> known_sections;
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);
   // The sections are the solver's: a section of the other solver is not a typo.
@@ -974,6 +992,9 @@ void CaseReader::finish() {
       for (const auto& [s2, keys] : impl_->known)
         if (s2 != section && keys.count(key)) holders.insert("[" + s2 + "]");
       std::string hint = suggestion(key, it->second);
+      // a key of a law, profile or model that an unknown value of the section's choice
+      // (reported above) did not select: not judged; a misspelt valid key still is
+      if (holders.empty() && hint.empty() && impl_->unsettled.count(section)) continue;
       std::string why = !holders.empty() ? " (" + key + " is a key of " + join(holders) + ")"
                         : hint.empty()    ? ""
                                           : " (did you mean '" + hint + "'?)";

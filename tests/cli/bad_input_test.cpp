@@ -742,6 +742,34 @@ TEST_F(BadInput, BackgroundKeysWithoutADensityAreNoMedium) {
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
 }
 
+TEST_F(BadInput, AnUnknownChoiceLeavesTheKeysItWouldSelectUnjudged) {
+  // an unknown law, profile or model: its keys are not "unknown keys" (the section's valid keys
+  // depend on the choice), so the one problem is the one reported; a case-only difference is
+  // suggested
+  Case c = dsmc_case();
+  c.set("restitution", "law", "\"Power\"").erase("restitution", "e");
+  c.set("restitution", "beta", "0.2").set("restitution", "delta", "0.2");
+  auto r = expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law",
+                                       "unknown value \"Power\" (did you mean \"power\"?)"}},
+                           {}, "check");
+  EXPECT_EQ(r.err.find("restitution.beta"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 problem(s)"), std::string::npos) << r.err;
+  // ... while a misspelt key elsewhere is still reported
+  c.set("dsmc", "t_ned", "1.0");
+  expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law", "unknown value \"Power\""},
+                             {c.line_of("dsmc", "t_ned"), "dsmc.t_ned", "did you mean 't_end'"}},
+                  {}, "check");
+  // an unknown solver leaves every section unjudged: no "[edmd] is a section of solver = dsmc"
+  write_text(case_file(), edmd_case().text());
+  r = expect_rejected(std::nullopt, {{0, "run.solver", "unknown value \"EDMD\" (did you mean \"edmd\"?)"}},
+                      {"--set", "run.solver=EDMD"}, "check", "--set");
+  EXPECT_NE(r.err.find("1 problem(s)"), std::string::npos) << r.err;
+  // an EDMD heating model (read in src/edmd/driver.cpp through the same reader)
+  r = expect_rejected(std::nullopt, {{0, "heating.model", "unknown value \"whitenoise\" (did you mean \"white_noise\"?)"}},
+                      {"--set", "heating.model=whitenoise"}, "check", "--set");
+  EXPECT_EQ(r.err.find("heating.kick"), std::string::npos) << r.err;
+}
+
 // ---------------------------------------------------------------- case directories
 
 TEST_F(BadInput, CaseDirectoryProblems) {
