@@ -62,7 +62,8 @@ int cli_main(int argc, char** argv) {
   sweep->add_option("case_dir", sweep_args.case_dir, "Case directory holding case.toml")->required();
   sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
   sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
-  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once (default: number of cores)");
+  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once, >= 1 (default: number of cores)")
+      ->check(CLI::Range(1, 4096));
   sweep->add_flag("--quiet,-q", sweep_args.quiet,
                   "No progress lines (a failed variant, warnings and errors are still reported)");
   sweep->add_flag("--resume", sweep_args.resume,
@@ -72,13 +73,21 @@ int cli_main(int argc, char** argv) {
   grainbath::cli::ReportArgs report_args;
   auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
   report->add_option("dir", report_args.dir, "Case directory or output directory")->required();
-  report->add_option("--out", report_args.out_dir, "Report directory (default OUTPUT_DIR/report)");
+  report->add_option("--out", report_args.out_dir,
+                     "Report directory (default OUTPUT_DIR/report): a new or empty directory, or one a report wrote");
   report->add_flag("--strict", report_args.strict, "Exit with an error when a section cannot be made");
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // a command-line mistake (unknown option, missing argument, a value out of range) is bad
+    // input like any other: exit 2 (docs/RELIABILITY.md), named by the subcommand it was for
+    std::string command = "grainbath";
+    for (const CLI::App* sub : app.get_subcommands()) command += " " + sub->get_name();
+    std::fprintf(stderr, "error: %s: %s\nRun '%s --help' for more information.\n", command.c_str(), e.what(),
+                 command.c_str());
+    return 2;
   }
   // GRAINBATH_SIMD chooses the SIMD paths of the hot DSMC kernels (operators/random.hpp,
   // Philox4x32Lanes::have_avx2, have_avx512): unset or "auto" = AVX2 (and the AVX-512

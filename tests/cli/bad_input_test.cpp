@@ -770,6 +770,33 @@ TEST_F(BadInput, AnUnknownChoiceLeavesTheKeysItWouldSelectUnjudged) {
   EXPECT_EQ(r.err.find("heating.kick"), std::string::npos) << r.err;
 }
 
+TEST_F(BadInput, CommandLineMistakesExitTwoAndNameTheSubcommand) {
+  // a missing argument, an unknown option, a bad --jobs: bad input, exit 2 like every other
+  // (CLI11's own codes 104-109 before 2026-12-06; -j 0 and -j -3 ran with the default)
+  write_text(case_file(), dsmc_case().text());
+  const auto before = listing(tmp.path());
+  auto r = grainbath({"run"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: grainbath run: case_dir is required"), std::string::npos) << r.err;
+  r = grainbath({"run", case_dir().string(), "--bogus"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: grainbath run: "), std::string::npos) << r.err;
+  for (const char* jobs : {"0", "-3", "abc"}) {
+    r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "-j", jobs, "-q"});
+    EXPECT_TRUE(r.exited && r.code == 2) << "-j " << jobs << ": " << r.describe();
+    EXPECT_NE(r.err.find("error: grainbath sweep: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("jobs"), std::string::npos) << r.err;
+  }
+  r = grainbath({});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_EQ(listing(tmp.path()), before);
+  r = grainbath({"--help"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  r = grainbath({"sweep", "--help"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.out.find(">= 1"), std::string::npos) << r.out;
+}
+
 // ---------------------------------------------------------------- case directories
 
 TEST_F(BadInput, CaseDirectoryProblems) {
