@@ -174,10 +174,23 @@ std::string sanitize(const std::string& s) {
 int command_sweep(const SweepArgs& a) {
   // parse the swept keys
   std::vector<std::pair<std::string, std::vector<std::string>>> axes;
+  std::map<std::string, std::string> given;  // key (spaces trimmed, as the run reads it) -> its --set
   for (const auto& o : a.overrides) {
     const auto eq = o.find('=');
     if (eq == std::string::npos) {
       std::fprintf(stderr, "error: --set %s: expected section.key=value1,value2,...\n", o.c_str());
+      return 2;
+    }
+    // A key in two --set options: each run would take the later value, so a fixed value was
+    // dropped without a word, or two axes over one key made runs that differ only in name
+    std::string key = o.substr(0, eq);
+    key.erase(0, key.find_first_not_of(" \t"));
+    key.erase(key.find_last_not_of(" \t") + 1);
+    if (const auto [at, fresh] = given.emplace(key, o); !fresh) {
+      std::fprintf(stderr,
+                   "error: --set %s: %s is also given by --set %s; give each key once, with all its values "
+                   "(section.key=v1,v2,...)\n",
+                   o.c_str(), key.c_str(), at->second.c_str());
       return 2;
     }
     axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));

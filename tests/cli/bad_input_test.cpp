@@ -797,6 +797,21 @@ TEST_F(BadInput, CommandLineMistakesExitTwoAndNameTheSubcommand) {
   EXPECT_NE(r.out.find(">= 1"), std::string::npos) << r.out;
 }
 
+TEST_F(BadInput, SweepRefusesAKeyGivenTwice) {
+  // each run takes the later of two values of a key: `--set dsmc.dt=0.01,0.02 --set dsmc.dt=0.03`
+  // ran dt = 0.01 and 0.02 and dropped 0.03 without a word; two lists made runs differing only
+  // in name. Refused before anything is run or written.
+  write_text(case_file(), dsmc_case().text());
+  const auto before = listing(tmp.path());
+  for (const auto& second : {"dsmc.dt=0.03", " dsmc.dt =0.03,0.04"}) {
+    auto r = grainbath({"sweep", case_dir().string(), "--set", "dsmc.dt=0.01,0.02", "--set", second, "-q"});
+    EXPECT_TRUE(r.exited && r.code == 2) << second << ": " << r.describe();
+    EXPECT_NE(r.err.find("dsmc.dt is also given by --set dsmc.dt=0.01,0.02; give each key once"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(listing(tmp.path()), before) << r.describe();
+  }
+}
+
 // ---------------------------------------------------------------- case directories
 
 TEST_F(BadInput, CaseDirectoryProblems) {
