@@ -14,7 +14,9 @@
 
 namespace {
 const char* kUnits = R"(Units (scaled, Bisi & Spiga):
-  DSMC:  lengths in grain-grain mean free paths (both collision cross-sections = 1),
+  DSMC:  lengths in grain-grain mean free paths (both collision cross-sections = 1:
+         the path 1/(n sigma) at n = 1; the measured mean free path of a Maxwellian
+         gas, resolution.mean_free_path, is 1/sqrt(2) = 0.71 of it),
          grain mass m ([grains] mass, default 1), temperatures in energy units (k_B = 1),
          velocities in sqrt(energy/mass), time in length/velocity.
          Background mass mB = alpha m / (1 - alpha), alpha = [background] mass_ratio;
