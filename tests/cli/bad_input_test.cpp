@@ -620,6 +620,25 @@ TEST_F(BadInput, KeyOfAnotherProfileIsNamedAsSuch) {
   EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
+TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
+  // [sampling] fields, field_batches (spatial runs) and mode_fit_from/_to (a density mode) in a
+  // run without them: whose keys they are, not "unknown key; valid keys in [sampling]: ..."
+  // (until 2026-12-06)
+  Case c = dsmc_case();
+  c.set("sampling", "fields", "false").set("sampling", "mode_fit_to", "0.2");
+  expect_rejected(c.text(), {{c.line_of("sampling", "fields"), "sampling.fields",
+                              "not used by a homogeneous run (a key of spatial runs, with a [domain] section"},
+                             {c.line_of("sampling", "mode_fit_to"), "sampling.mode_fit_to",
+                              "not used without [grains] profile = \"mode\" in a spatial run"}},
+                  {}, "check");
+  Case s = spatial_case();  // uniform grains: fields yes, mode fit no
+  s.set("sampling", "fields", "false").set("sampling", "mode_fit_from", "0.0");
+  auto r = expect_rejected(s.text(), {{s.line_of("sampling", "mode_fit_from"), "sampling.mode_fit_from",
+                                       "not used without [grains] profile = \"mode\""}},
+                           {}, "check");
+  EXPECT_EQ(r.err.find("sampling.fields"), std::string::npos) << r.err;
+}
+
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
   // --set restitution.law switches the law: the file's keys of its own law are ignored, with a note
   write_text(case_file(), dsmc_case().text());
