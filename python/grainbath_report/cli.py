@@ -66,6 +66,25 @@ def _write_marker(report_dir, ctx):
         f.write("".join(n + "\n" for n in names))
 
 
+def _context(report_dir):
+    """The plotting context, with the marker kept up to date as each plot is saved: a report
+    that stops half-way (a failed section with --strict, an error) still leaves a directory
+    the next report recognises as its own."""
+    from .plotting import Context
+    ctx = Context(report_dir)
+    _write_marker(report_dir, ctx)
+    save = ctx.save
+
+    def save_and_list(fig, name):
+        path = save(fig, name)
+        with open(os.path.join(report_dir, MARKER), "a", encoding="utf-8") as f:
+            f.write(os.path.basename(path) + "\n")
+        return path
+
+    ctx.save = save_and_list
+    return ctx
+
+
 def main(argv):
     ap = argparse.ArgumentParser(prog="grainbath report",
                                  description="Plots and report.md/report.html from a grainbath run's output.")
@@ -87,7 +106,6 @@ def main(argv):
 
     from .data import ReportError, RunData, locate_output
     from .document import write_html, write_markdown
-    from .plotting import Context
     from .sections import SECTIONS
 
     from .sweep import discover
@@ -112,7 +130,11 @@ def main(argv):
         run.close()
         return _fail(problem)
 
-    ctx = Context(report_dir)
+    try:
+        ctx = _context(report_dir)
+    except OSError as e:
+        run.close()
+        return _fail(f"{report_dir}: cannot write the report ({e})")
     sections, failures = [], []
     for fn in SECTIONS:
         try:
@@ -166,14 +188,16 @@ def sweep_report(base, runs, out):
     """Report over several runs found below `base`."""
     from .data import ReportError
     from .document import write_html, write_markdown
-    from .plotting import Context
     from .sweep import build
 
     report_dir = os.path.abspath(out) if out else os.path.join(base, "report")
     problem = _prepare_report_dir(report_dir)
     if problem:
         return _fail(problem)
-    ctx = Context(report_dir)
+    try:
+        ctx = _context(report_dir)
+    except OSError as e:
+        return _fail(f"{report_dir}: cannot write the report ({e})")
     try:
         sections = build(runs, ctx)
     except ReportError as e:

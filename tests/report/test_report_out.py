@@ -91,6 +91,21 @@ left = set(os.listdir(legacy))
 check("edmd_series.png" not in left and "a2.png" in left and "user.png" in left,
       f"after replacing a report without marker: {sorted(left)}")
 
+# a report that stopped half-way (a section failed under --strict, a crash) leaves plots but no
+# report.md: its marker, kept up to date as each plot is saved, still names them
+half = os.path.join(a.work, "half")
+code = ("import sys; sys.path.insert(0, sys.argv[1]); import matplotlib; matplotlib.use('Agg'); "
+        "import matplotlib.pyplot as plt; from grainbath_report.cli import _prepare_report_dir, _context; "
+        "assert _prepare_report_dir(sys.argv[2]) is None; ctx = _context(sys.argv[2]); "
+        "ctx.save(plt.figure(), 'stale_plot')")
+python_dir = os.environ.get("GRAINBATH_PYTHON_DIR") or os.path.join(os.path.dirname(a.cases), "python")
+r = subprocess.run([sys.executable, "-c", code, python_dir, half], capture_output=True, text=True)
+check(r.returncode == 0 and os.path.isfile(os.path.join(half, "stale_plot.png")),
+      f"could not make a half-written report: {r.stderr[-800:]}")
+r = run("report", dsmc_out, "--out", half)
+check(r.returncode == 0, f"report into a half-written report's directory failed: {r.stderr[-500:]}")
+check(not os.path.exists(os.path.join(half, "stale_plot.png")), "the half-written report's plot was left behind")
+
 if failures:
     print(f"{len(failures)} failure(s)")
     sys.exit(1)
