@@ -669,7 +669,9 @@ int command_sweep(const SweepArgs& a) {
   for (const fs::path& cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
     if (fs::exists(cand)) {
       const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-      const std::string cmd = python + " '" + cand.string() + "' '" + out.string() + "' >/dev/null 2>&1";
+      // quoted for the shell whatever the paths hold (a "'" in --out broke the command, and
+      // could have run a command of its own)
+      const std::string cmd = python + " " + quote_arg(cand.string()) + " " + quote_arg(out.string()) + " >/dev/null 2>&1";
       if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out.string().c_str());
       break;
     }

@@ -630,3 +630,19 @@ free_cooling = true
   for (const char* row : {"Haff time t0 (fit)", "theory: Haff t0, with a2", "theory: Haff t0, Maxwellian"})
     EXPECT_NE(r.out.find(row), std::string::npos) << row << " missing in:\n" << r.out;
 }
+
+// The sweep's plot is made by a shell command: a "'" in the sweep directory's path broke it
+// ("sh: 1: Syntax error: Unterminated quoted string", no sweep.png) and could have run a command
+// of its own, until 2026-12-06. Needs /usr/bin/python3 with matplotlib (as the plot does).
+TEST_F(OutputDir, SweepPlotsIntoAPathWithAQuote) {
+  if (run_binary({"/usr/bin/python3", "-c", "import matplotlib"}, {}).code != 0)
+    GTEST_SKIP() << "no /usr/bin/python3 with matplotlib: the sweep makes no plot";
+  const fs::path out = work() / "it's; touch pwned '";
+  // (a medium: the plot needs a headline such as the steady temperature)
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "--out", out.string(), "-j", "1",
+                                 "-q", "--set", "run.threads=1", "--set", "background.density=1.0"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_TRUE(fs::exists(out / "sweep.png")) << r.out << r.err;
+  EXPECT_EQ(r.err.find("Syntax error"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(work() / "pwned"));
+}
