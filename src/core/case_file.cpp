@@ -108,6 +108,15 @@ std::string lower(std::string_view s) {
 }
 
 std::string suggestion(std::string_view word, const std::set<std::string>& known) {
+  // a word that is part of exactly one name ("sine" of "isobaric_sine", "temp" of
+  // "temperature") means that name, rather than another a few letters away ("file")
+  if (word.size() >= 3) {
+    std::string part;
+    int parts = 0;
+    for (const auto& k : known)
+      if (k.size() > word.size() && lower(k).find(lower(word)) != std::string::npos) part = k, ++parts;
+    if (parts == 1) return part;
+  }
   std::string best;
   std::size_t best_d = 3;  // suggest only close matches
   for (const auto& k : known) {

@@ -783,6 +783,14 @@ TEST_F(BadInput, AnUnknownChoiceLeavesTheKeysItWouldSelectUnjudged) {
   r = expect_rejected(std::nullopt, {{0, "run.solver", "unknown value \"EDMD\" (did you mean \"edmd\"?)"}},
                       {"--set", "run.solver=EDMD"}, "check", "--set");
   EXPECT_NE(r.err.find("1 problem(s)"), std::string::npos) << r.err;
+  // part of exactly one name means that name ("sine": "isobaric_sine", not "file")
+  write_text(case_file(), dsmc_case().text());
+  expect_rejected(std::nullopt,
+                  {{0, "background.profile", "unknown value \"sine\" (did you mean \"isobaric_sine\"?)"}},
+                  {"--set", "background.profile=sine"}, "check", "--set");
+  expect_rejected(std::nullopt, {{0, "grains.temp", "unknown key (did you mean 'temperature'?)"}},
+                  {"--set", "grains.temp=1.0"}, "check", "--set");
+  write_text(case_file(), edmd_case().text());
   // an EDMD heating model (read in src/edmd/driver.cpp through the same reader)
   r = expect_rejected(std::nullopt, {{0, "heating.model", "unknown value \"whitenoise\" (did you mean \"white_noise\"?)"}},
                       {"--set", "heating.model=whitenoise"}, "check", "--set");
