@@ -571,8 +571,26 @@ CaseReader CaseReader::from_directory(const std::string& case_dir) {
     throw CaseError({{case_dir, 0, "", "case directory does not exist"}});
   if (!fs::is_directory(dir, ec))
     throw CaseError({{case_dir, 0, "", "not a directory (expected a case directory holding case.toml)"}});
-  if (!fs::exists(path, ec))
-    throw CaseError({{path.string(), 0, "", "missing: a case directory must hold case.toml"}});
+  if (!fs::exists(path, ec)) {
+    // a study directory (cases/bizon-heat-baths) holds its cases one level down: name them
+    std::set<std::string> inner;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (fs::is_regular_file(it->path() / "case.toml", ec)) inner.insert(it->path().filename().string());
+    std::string hint;
+    if (!inner.empty()) {
+      std::size_t shown = 0;
+      for (const auto& name : inner) {
+        if (shown == 8) {
+          hint += ", ...";
+          break;
+        }
+        hint += (shown++ ? ", " : "") + (dir / name).string();
+      }
+      hint = "; the case directories here are " + hint +
+             (fs::exists(dir / "run.sh", ec) ? " (" + (dir / "run.sh").string() + " runs the study)" : "");
+    }
+    throw CaseError({{path.string(), 0, "", "missing: a case directory must hold case.toml" + hint}});
+  }
   if (!fs::is_regular_file(path, ec))
     throw CaseError({{path.string(), 0, "", "not a regular file (expected the case's TOML text)"}});
   std::ifstream in(path, std::ios::binary);

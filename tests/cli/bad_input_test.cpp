@@ -859,6 +859,16 @@ TEST_F(BadInput, CaseDirectoryProblems) {
   // no case.toml
   fs::create_directories(case_dir());
   expect_rejected(std::nullopt, {{0, "", "missing: a case directory must hold case.toml"}});
+  // a study's directory (cases/bizon-heat-baths): its case directories are named
+  write_text(case_dir() / "nu0.3" / "case.toml", dsmc_case().text());
+  write_text(case_dir() / "nu0.5" / "case.toml", dsmc_case().text());
+  write_text(case_dir() / "run.sh", "#!/bin/sh\n");
+  expect_rejected(std::nullopt, {{0, "", "missing: a case directory must hold case.toml; the case directories here are " +
+                                              (case_dir() / "nu0.3").string() + ", " + (case_dir() / "nu0.5").string() +
+                                              " (" + (case_dir() / "run.sh").string() + " runs the study)"}});
+  fs::remove_all(case_dir() / "nu0.3");
+  fs::remove_all(case_dir() / "nu0.5");
+  fs::remove(case_dir() / "run.sh");
   // case.toml is a directory
   fs::create_directories(case_file());
   expect_rejected(std::nullopt, {{0, "", "not a regular file"}});
