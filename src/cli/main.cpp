@@ -29,6 +29,21 @@ them; the results are the same bits).)";
 }
 
 namespace {
+// `--out ""` (an unset shell variable: --out "$DIR") would silently mean the default directory,
+// whose earlier output.previous a run then deletes; and CLI11 reads `--out=` (--out="$DIR") as
+// taking the next word, so `--out= -q` wrote into a directory named "-q". Both are refused.
+const CLI::Validator kNotEmpty(
+    [](const std::string& s) {
+      if (s.empty())
+        return std::string("an empty path (an unset shell variable?): give a directory, or leave --out out for the "
+                           "default");
+      if (s.front() == '-')
+        return "'" + s + "' looks like an option (an empty --out= takes the next word): give a directory (./" + s +
+               " for one so named)";
+      return std::string();
+    },
+    "", "not empty");
+
 int cli_main(int argc, char** argv) {
   // A file-size limit (ulimit -f) must surface as a failed write with a clear message,
   // not kill the run and leave its temporary output behind.
@@ -42,7 +57,7 @@ int cli_main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "Run the case in CASE_DIR/case.toml; write OUT/results.h5 and OUT/summary.json");
   run->add_option("case_dir", run_args.case_dir, "Case directory holding case.toml")->required();
   run->add_option("--set", run_args.overrides, "Override a case key: section.key=value (repeatable)");
-  run->add_option("--out", run_args.out_dir, "Output directory (default CASE_DIR/output)");
+  run->add_option("--out", run_args.out_dir, "Output directory (default CASE_DIR/output)")->check(kNotEmpty);
   run->add_flag("--quiet,-q", run_args.quiet, "No progress line");
   run->add_flag("--resume", run_args.resume, "Continue from the newest valid checkpoint");
   run->footer(kUnits);
@@ -63,7 +78,7 @@ int cli_main(int argc, char** argv) {
   auto* sweep = app.add_subcommand("sweep", "Run every combination of --set section.key=v1,v2,... and tabulate the results");
   sweep->add_option("case_dir", sweep_args.case_dir, "Case directory holding case.toml")->required();
   sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
-  sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
+  sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)")->check(kNotEmpty);
   sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once, >= 1 (default: number of cores)")
       ->check(CLI::Range(1, 4096));
   sweep->add_flag("--quiet,-q", sweep_args.quiet,
@@ -76,7 +91,8 @@ int cli_main(int argc, char** argv) {
   auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
   report->add_option("dir", report_args.dir, "Case directory or output directory")->required();
   report->add_option("--out", report_args.out_dir,
-                     "Report directory (default OUTPUT_DIR/report): a new or empty directory, or one a report wrote");
+                     "Report directory (default OUTPUT_DIR/report): a new or empty directory, or one a report wrote")
+      ->check(kNotEmpty);
   report->add_flag("--strict", report_args.strict, "Exit with an error when a section cannot be made");
 
   try {

@@ -816,6 +816,19 @@ TEST_F(BadInput, CommandLineMistakesExitTwoAndNameTheSubcommand) {
   }
   r = grainbath({});
   EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  // an empty --out (an unset variable: --out "$DIR") meant the default directory, and --out=
+  // took the next word (`sweep ... --out= -q` wrote into "-q"): refused, nothing written
+  for (const std::string& command : {"run", "sweep", "report"}) {
+    std::vector<std::string> args = {command, case_dir().string()};
+    if (command == "sweep") args.insert(args.end(), {"--set", "run.seed=1,2"});
+    for (const std::vector<std::string>& out : {std::vector<std::string>{"--out", ""}, {"--out=", "-q"}}) {
+      std::vector<std::string> a = args;
+      a.insert(a.end(), out.begin(), out.end());
+      r = grainbath(a);
+      EXPECT_TRUE(r.exited && r.code == 2) << command << " " << out[0] << ": " << r.describe();
+      EXPECT_NE(r.err.find("error: grainbath " + command + ": --out: "), std::string::npos) << r.err;
+    }
+  }
   EXPECT_EQ(listing(tmp.path()), before);
   r = grainbath({"--help"});
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
