@@ -55,6 +55,12 @@ std::vector<std::string> split_values(const std::string& s) {
     }
   }
   out.push_back(cur);
+  // "1, 2" is 1 and 2, as each run reads them (spaces around a value are the shell quoting's):
+  // untrimmed, "1, 1" passed the repeated-value check and names and tables carried the space
+  for (auto& v : out) {
+    v.erase(0, v.find_first_not_of(" \t"));
+    v.erase(v.find_last_not_of(" \t") + 1);
+  }
   return out;
 }
 
@@ -193,7 +199,7 @@ int command_sweep(const SweepArgs& a) {
                    o.c_str(), key.c_str(), at->second.c_str());
       return 2;
     }
-    axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));
+    axes.emplace_back(key, split_values(o.substr(eq + 1)));
     // A value given twice makes the same run twice: over run.seed, identical copies counted
     // as independent replicas (the ensemble error then too small: sqrt(3) with 1,1,2,2).
     const auto& values = axes.back().second;

@@ -850,6 +850,12 @@ TEST_F(BadInput, SweepRefusesAKeyGivenTwice) {
         << r.err;
     EXPECT_EQ(listing(tmp.path()), before) << r.describe();
   }
+  // a value given twice is refused also with spaces around it ("1, 1": the same seed twice,
+  // counted as two replicas until 2026-12-06)
+  auto r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1, 1", "-q"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("the value 1 is given twice"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before) << r.describe();
 }
 
 // ---------------------------------------------------------------- case directories
