@@ -2,6 +2,7 @@
 import argparse
 import datetime
 import os
+import re
 import sys
 import traceback
 
@@ -9,6 +10,79 @@ import traceback
 def _fail(msg, code=2):
     print(f"grainbath report: error: {msg}", file=sys.stderr)
     return code
+
+
+# Names the files a report wrote into its directory, so that the next report there removes
+# exactly those (stale plots of sections that no longer apply) and nothing of the user's.
+MARKER = ".grainbath-report"
+
+
+def _own_files(report_dir):
+    """The files an earlier report wrote in report_dir, or None if it is not a report directory.
+    Reports written before the marker (2026-12-06) are recognised by report.md's title; their
+    plots are the PNGs report.md shows."""
+    marker = os.path.join(report_dir, MARKER)
+    if os.path.isfile(marker):
+        with open(marker, encoding="utf-8") as f:
+            return [MARKER] + [line.strip() for line in f if line.strip()]
+    try:
+        with open(os.path.join(report_dir, "report.md"), encoding="utf-8") as f:
+            text = f.read()
+    except (OSError, ValueError):
+        return None
+    if not text.startswith("# grainbath "):
+        return None
+    return ["report.md", "report.html"] + re.findall(r"\]\(([^()/\s]+\.png)\)", text)
+
+
+def _prepare_report_dir(report_dir):
+    """Creates report_dir, or empties it of an earlier report's files. A directory holding other
+    files is refused (they are the user's: --out takes a new or empty directory, or one a report
+    wrote). Returns an error message, or None."""
+    if os.path.lexists(report_dir) and not os.path.isdir(report_dir):
+        return f"{report_dir}: not a directory (--out takes a new or empty directory, or one a report wrote)"
+    try:
+        os.makedirs(report_dir, exist_ok=True)
+        entries = os.listdir(report_dir)
+        if not entries:
+            return None
+        own = _own_files(report_dir)
+        if own is None:
+            shown = ", ".join(sorted(entries)[:3]) + (", ..." if len(entries) > 3 else "")
+            return (f"{report_dir}: holds files no report wrote ({shown}); --out takes a new or empty "
+                    f"directory, or one a report wrote, so that nothing of yours is replaced or removed")
+        for name in own:
+            path = os.path.join(report_dir, name)
+            if os.sep not in name and name not in (".", "..") and os.path.isfile(path) and not os.path.islink(path):
+                os.remove(path)
+    except OSError as e:
+        return f"{report_dir}: cannot create the report directory ({e})"
+    return None
+
+
+def _write_marker(report_dir, ctx):
+    names = [os.path.basename(p) for p in ctx.saved] + ["report.md", "report.html"]
+    with open(os.path.join(report_dir, MARKER), "w", encoding="utf-8") as f:
+        f.write("".join(n + "\n" for n in names))
+
+
+def _context(report_dir):
+    """The plotting context, with the marker kept up to date as each plot is saved: a report
+    that stops half-way (a failed section with --strict, an error) still leaves a directory
+    the next report recognises as its own."""
+    from .plotting import Context
+    ctx = Context(report_dir)
+    _write_marker(report_dir, ctx)
+    save = ctx.save
+
+    def save_and_list(fig, name):
+        path = save(fig, name)
+        with open(os.path.join(report_dir, MARKER), "a", encoding="utf-8") as f:
+            f.write(os.path.basename(path) + "\n")
+        return path
+
+    ctx.save = save_and_list
+    return ctx
 
 
 def main(argv):
@@ -32,7 +106,6 @@ def main(argv):
 
     from .data import ReportError, RunData, locate_output
     from .document import write_html, write_markdown
-    from .plotting import Context
     from .sections import SECTIONS
 
     from .sweep import discover
@@ -52,15 +125,16 @@ def main(argv):
         return _fail(str(e))
 
     report_dir = os.path.abspath(args.out) if args.out else os.path.join(out_dir, "report")
-    try:
-        os.makedirs(report_dir, exist_ok=True)
-        for f in os.listdir(report_dir):  # stale plots of an earlier report
-            if f.endswith(".png"):
-                os.remove(os.path.join(report_dir, f))
-    except OSError as e:
-        return _fail(f"{report_dir}: cannot create the report directory ({e})")
+    problem = _prepare_report_dir(report_dir)  # stale plots of an earlier report go, nothing else
+    if problem:
+        run.close()
+        return _fail(problem)
 
-    ctx = Context(report_dir)
+    try:
+        ctx = _context(report_dir)
+    except OSError as e:
+        run.close()
+        return _fail(f"{report_dir}: cannot write the report ({e})")
     sections, failures = [], []
     for fn in SECTIONS:
         try:
@@ -101,6 +175,7 @@ def main(argv):
     try:
         write_markdown(md, title, intro, sections)
         write_html(htm, title, intro, sections)
+        _write_marker(report_dir, ctx)
     except OSError as e:
         return _fail(f"{report_dir}: cannot write the report ({e})")
     finally:
@@ -113,18 +188,16 @@ def sweep_report(base, runs, out):
     """Report over several runs found below `base`."""
     from .data import ReportError
     from .document import write_html, write_markdown
-    from .plotting import Context
     from .sweep import build
 
     report_dir = os.path.abspath(out) if out else os.path.join(base, "report")
+    problem = _prepare_report_dir(report_dir)
+    if problem:
+        return _fail(problem)
     try:
-        os.makedirs(report_dir, exist_ok=True)
-        for f in os.listdir(report_dir):
-            if f.endswith(".png"):
-                os.remove(os.path.join(report_dir, f))
+        ctx = _context(report_dir)
     except OSError as e:
-        return _fail(f"{report_dir}: cannot create the report directory ({e})")
-    ctx = Context(report_dir)
+        return _fail(f"{report_dir}: cannot write the report ({e})")
     try:
         sections = build(runs, ctx)
     except ReportError as e:
@@ -136,6 +209,7 @@ def sweep_report(base, runs, out):
     try:
         write_markdown(os.path.join(report_dir, "report.md"), title, intro, sections)
         write_html(os.path.join(report_dir, "report.html"), title, intro, sections)
+        _write_marker(report_dir, ctx)
     except OSError as e:
         return _fail(f"{report_dir}: cannot write the report ({e})")
     print(f"report: {os.path.join(report_dir, 'report.html')}  (sweep of {len(runs)} runs, {len(ctx.saved)} plots; "

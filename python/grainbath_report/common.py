@@ -6,7 +6,9 @@ import numpy as np
 from .document import Section, fmt, fmt_pm
 
 UNITS = {
-    "dsmc": ("Units (scaled, Bisi-Spiga): lengths in grain-grain mean free paths λ, grain mass m, "
+    "dsmc": ("Units (scaled, Bisi-Spiga): lengths in grain-grain mean free paths λ (both collision "
+             "cross-sections 1: λ = 1/(nσ) at n = 1; the measured mean free path of a Maxwellian gas, "
+             "`resolution.mean_free_path`, is λ/√2), grain mass m, "
              "temperatures in energy units E (k_B = 1), velocities in √(E/m), time in λ/√(E/m)."),
     "edmd": ("Units: lengths in grain diameters σ, grain mass m = 1, temperatures in energy units E "
              "(k_B = 1), time in σ√(m/E)."),

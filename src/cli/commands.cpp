@@ -177,6 +177,11 @@ void print_table(const Summary& s) {
   row("theory: a2 Sonine", "theory.equilibrium.sonine.a2", "");
   row("theory: Haff T(t_end), Maxwellian", "theory.haff.temperature_at_t_end_no_a2", "");
   row("theory: Haff T(t_end), with a2", "theory.haff.temperature_at_t_end", "");
+  row("theory: Haff T(t_end), Sonine 2", "theory.haff.temperature_at_t_end_sonine2", "");
+  // EDMD free cooling: the fitted Haff time against Enskog theory
+  row("Haff time t0 (fit)", "haff.t0_measured", "");
+  row("theory: Haff t0, with a2", "haff.t0_theory", "");
+  row("theory: Haff t0, Maxwellian", "haff.t0_theory_no_a2", "");
   row("theory: a2 van Noije-Ernst", "theory.haff.a2_van_noije_ernst", "");
   row("theory: a2 second Sonine", "theory.hcs.a2_sonine2", "");
   row("theory: a3 second Sonine", "theory.hcs.a3_sonine2", "");

@@ -14,7 +14,9 @@
 
 namespace {
 const char* kUnits = R"(Units (scaled, Bisi & Spiga):
-  DSMC:  lengths in grain-grain mean free paths (both collision cross-sections = 1),
+  DSMC:  lengths in grain-grain mean free paths (both collision cross-sections = 1:
+         the path 1/(n sigma) at n = 1; the measured mean free path of a Maxwellian
+         gas, resolution.mean_free_path, is 1/sqrt(2) = 0.71 of it),
          grain mass m ([grains] mass, default 1), temperatures in energy units (k_B = 1),
          velocities in sqrt(energy/mass), time in length/velocity.
          Background mass mB = alpha m / (1 - alpha), alpha = [background] mass_ratio;
@@ -27,6 +29,21 @@ them; the results are the same bits).)";
 }
 
 namespace {
+// `--out ""` (an unset shell variable: --out "$DIR") would silently mean the default directory,
+// whose earlier output.previous a run then deletes; and CLI11 reads `--out=` (--out="$DIR") as
+// taking the next word, so `--out= -q` wrote into a directory named "-q". Both are refused.
+const CLI::Validator kNotEmpty(
+    [](const std::string& s) {
+      if (s.empty())
+        return std::string("an empty path (an unset shell variable?): give a directory, or leave --out out for the "
+                           "default");
+      if (s.front() == '-')
+        return "'" + s + "' looks like an option (an empty --out= takes the next word): give a directory (./" + s +
+               " for one so named)";
+      return std::string();
+    },
+    "", "not empty");
+
 int cli_main(int argc, char** argv) {
   // A file-size limit (ulimit -f) must surface as a failed write with a clear message,
   // not kill the run and leave its temporary output behind.
@@ -40,7 +57,7 @@ int cli_main(int argc, char** argv) {
   auto* run = app.add_subcommand("run", "Run the case in CASE_DIR/case.toml; write OUT/results.h5 and OUT/summary.json");
   run->add_option("case_dir", run_args.case_dir, "Case directory holding case.toml")->required();
   run->add_option("--set", run_args.overrides, "Override a case key: section.key=value (repeatable)");
-  run->add_option("--out", run_args.out_dir, "Output directory (default CASE_DIR/output)");
+  run->add_option("--out", run_args.out_dir, "Output directory (default CASE_DIR/output)")->check(kNotEmpty);
   run->add_flag("--quiet,-q", run_args.quiet, "No progress line");
   run->add_flag("--resume", run_args.resume, "Continue from the newest valid checkpoint");
   run->footer(kUnits);
@@ -61,8 +78,9 @@ int cli_main(int argc, char** argv) {
   auto* sweep = app.add_subcommand("sweep", "Run every combination of --set section.key=v1,v2,... and tabulate the results");
   sweep->add_option("case_dir", sweep_args.case_dir, "Case directory holding case.toml")->required();
   sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
-  sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)");
-  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once (default: number of cores)");
+  sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)")->check(kNotEmpty);
+  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once, >= 1 (default: number of cores)")
+      ->check(CLI::Range(1, 4096));
   sweep->add_flag("--quiet,-q", sweep_args.quiet,
                   "No progress lines (a failed variant, warnings and errors are still reported)");
   sweep->add_flag("--resume", sweep_args.resume,
@@ -72,13 +90,22 @@ int cli_main(int argc, char** argv) {
   grainbath::cli::ReportArgs report_args;
   auto* report = app.add_subcommand("report", "Make plots and report.md/report.html from a run's output");
   report->add_option("dir", report_args.dir, "Case directory or output directory")->required();
-  report->add_option("--out", report_args.out_dir, "Report directory (default OUTPUT_DIR/report)");
+  report->add_option("--out", report_args.out_dir,
+                     "Report directory (default OUTPUT_DIR/report): a new or empty directory, or one a report wrote")
+      ->check(kNotEmpty);
   report->add_flag("--strict", report_args.strict, "Exit with an error when a section cannot be made");
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // a command-line mistake (unknown option, missing argument, a value out of range) is bad
+    // input like any other: exit 2 (docs/RELIABILITY.md), named by the subcommand it was for
+    std::string command = "grainbath";
+    for (const CLI::App* sub : app.get_subcommands()) command += " " + sub->get_name();
+    std::fprintf(stderr, "error: %s: %s\nRun '%s --help' for more information.\n", command.c_str(), e.what(),
+                 command.c_str());
+    return 2;
   }
   // GRAINBATH_SIMD chooses the SIMD paths of the hot DSMC kernels (operators/random.hpp,
   // Philox4x32Lanes::have_avx2, have_avx512): unset or "auto" = AVX2 (and the AVX-512

@@ -55,6 +55,12 @@ std::vector<std::string> split_values(const std::string& s) {
     }
   }
   out.push_back(cur);
+  // "1, 2" is 1 and 2, as each run reads them (spaces around a value are the shell quoting's):
+  // untrimmed, "1, 1" passed the repeated-value check and names and tables carried the space
+  for (auto& v : out) {
+    v.erase(0, v.find_first_not_of(" \t"));
+    v.erase(v.find_last_not_of(" \t") + 1);
+  }
   return out;
 }
 
@@ -174,13 +180,26 @@ std::string sanitize(const std::string& s) {
 int command_sweep(const SweepArgs& a) {
   // parse the swept keys
   std::vector<std::pair<std::string, std::vector<std::string>>> axes;
+  std::map<std::string, std::string> given;  // key (spaces trimmed, as the run reads it) -> its --set
   for (const auto& o : a.overrides) {
     const auto eq = o.find('=');
     if (eq == std::string::npos) {
       std::fprintf(stderr, "error: --set %s: expected section.key=value1,value2,...\n", o.c_str());
       return 2;
     }
-    axes.emplace_back(o.substr(0, eq), split_values(o.substr(eq + 1)));
+    // A key in two --set options: each run would take the later value, so a fixed value was
+    // dropped without a word, or two axes over one key made runs that differ only in name
+    std::string key = o.substr(0, eq);
+    key.erase(0, key.find_first_not_of(" \t"));
+    key.erase(key.find_last_not_of(" \t") + 1);
+    if (const auto [at, fresh] = given.emplace(key, o); !fresh) {
+      std::fprintf(stderr,
+                   "error: --set %s: %s is also given by --set %s; give each key once, with all its values "
+                   "(section.key=v1,v2,...)\n",
+                   o.c_str(), key.c_str(), at->second.c_str());
+      return 2;
+    }
+    axes.emplace_back(key, split_values(o.substr(eq + 1)));
     // A value given twice makes the same run twice: over run.seed, identical copies counted
     // as independent replicas (the ensemble error then too small: sqrt(3) with 1,1,2,2).
     const auto& values = axes.back().second;
@@ -656,7 +675,9 @@ int command_sweep(const SweepArgs& a) {
   for (const fs::path& cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
     if (fs::exists(cand)) {
       const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-      const std::string cmd = python + " '" + cand.string() + "' '" + out.string() + "' >/dev/null 2>&1";
+      // quoted for the shell whatever the paths hold (a "'" in --out broke the command, and
+      // could have run a command of its own)
+      const std::string cmd = python + " " + quote_arg(cand.string()) + " " + quote_arg(out.string()) + " >/dev/null 2>&1";
       if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out.string().c_str());
       break;
     }

@@ -101,11 +101,27 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return prev[b.size()];
 }
 
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
 std::string suggestion(std::string_view word, const std::set<std::string>& known) {
+  // a word that is part of exactly one name ("sine" of "isobaric_sine", "temp" of
+  // "temperature") means that name, rather than another a few letters away ("file")
+  if (word.size() >= 3) {
+    std::string part;
+    int parts = 0;
+    for (const auto& k : known)
+      if (k.size() > word.size() && lower(k).find(lower(word)) != std::string::npos) part = k, ++parts;
+    if (parts == 1) return part;
+  }
   std::string best;
   std::size_t best_d = 3;  // suggest only close matches
   for (const auto& k : known) {
-    const std::size_t d = edit_distance(word, k);
+    // a word that differs only in case is the closest match ("EDMD" for "edmd")
+    const std::size_t d = lower(word) == lower(k) ? 0 : edit_distance(word, k);
     if (d < best_d) { best_d = d; best = k; }
   }
   return best;
@@ -507,6 +523,10 @@ struct CaseReader::Impl {
   std::map<std::string, std::string> file_strings;  // "section.key" -> the file's string a --set replaced
   std::map<std::string, std::string> elsewhere;     // "section.key" ("section." for a section) -> message
   std::map<std::string, std::string> ignored;       // "section.key" -> note
+  // sections one of whose choice() keys has an unknown value (already reported): which other
+  // keys the section takes depends on that choice (law, profile, model), so finish() does not
+  // call them unknown; an unknown run.solver leaves every section and key unjudged
+  std::set<std::string> unsettled;
   std::string file;
 
   const toml::table* section(std::string_view s) const {
@@ -551,8 +571,26 @@ CaseReader CaseReader::from_directory(const std::string& case_dir) {
     throw CaseError({{case_dir, 0, "", "case directory does not exist"}});
   if (!fs::is_directory(dir, ec))
     throw CaseError({{case_dir, 0, "", "not a directory (expected a case directory holding case.toml)"}});
-  if (!fs::exists(path, ec))
-    throw CaseError({{path.string(), 0, "", "missing: a case directory must hold case.toml"}});
+  if (!fs::exists(path, ec)) {
+    // a study directory (cases/bizon-heat-baths) holds its cases one level down: name them
+    std::set<std::string> inner;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+      if (fs::is_regular_file(it->path() / "case.toml", ec)) inner.insert(it->path().filename().string());
+    std::string hint;
+    if (!inner.empty()) {
+      std::size_t shown = 0;
+      for (const auto& name : inner) {
+        if (shown == 8) {
+          hint += ", ...";
+          break;
+        }
+        hint += (shown++ ? ", " : "") + (dir / name).string();
+      }
+      hint = "; the case directories here are " + hint +
+             (fs::exists(dir / "run.sh", ec) ? " (" + (dir / "run.sh").string() + " runs the study)" : "");
+    }
+    throw CaseError({{path.string(), 0, "", "missing: a case directory must hold case.toml" + hint}});
+  }
   if (!fs::is_regular_file(path, ec))
     throw CaseError({{path.string(), 0, "", "not a regular file (expected the case's TOML text)"}});
   std::ifstream in(path, std::ios::binary);
@@ -812,6 +850,7 @@ std::string CaseReader::choice(std::string_view section, std::string_view key, s
     problem(section, key, "unknown value \"" + v + "\"" + (hint.empty() ? "" : " (did you mean \"" + hint + "\"?)") +
                               "; valid values are: " + join(s));
     about_names_ = true;
+    impl_->unsettled.insert(std::string(section));
     return std::string(fallback);
   }
   return v;
@@ -923,6 +962,12 @@ void CaseReader::finish() {
     const std::lock_guard<std::mutex> lock(g_said_mutex);
     if (g_said.insert(note).second) std::fprintf(stderr, "note: %s\n", note.c_str());
   }
+  // an unknown solver: which sections and keys are right depends on it (the reader read the
+  // case as the default solver's), so the only problems are those already found
+  if (impl_->unsettled.count("run")) {
+    if (!problems_.empty()) throw CaseError(problems_, about_names_);
+    return;
+  }
   std::set<std::string> known_sections;
   for (const auto& [s, _] : impl_->known) known_sections.insert(s);
   // The sections are the solver's: a section of the other solver is not a typo.
@@ -974,6 +1019,9 @@ void CaseReader::finish() {
       for (const auto& [s2, keys] : impl_->known)
         if (s2 != section && keys.count(key)) holders.insert("[" + s2 + "]");
       std::string hint = suggestion(key, it->second);
+      // a key of a law, profile or model that an unknown value of the section's choice
+      // (reported above) did not select: not judged; a misspelt valid key still is
+      if (holders.empty() && hint.empty() && impl_->unsettled.count(section)) continue;
       std::string why = !holders.empty() ? " (" + key + " is a key of " + join(holders) + ")"
                         : hint.empty()    ? ""
                                           : " (did you mean '" + hint + "'?)";

@@ -165,6 +165,28 @@ BackgroundParameters read_background(CaseReader& r) {
   b.temperature = r.real("background", "temperature", 1.0, Bounds::positive(), "energy");
   b.velocity = r.vec3("background", "velocity", {});
   b.knudsen = r.real("background", "knudsen", 1.0, Bounds::positive(), "eps");
+  // [background] keys without a density describe a medium that is not there: the default
+  // nB = 0 means none, and the grains would cool freely. Say so instead of running free
+  // cooling silently. An explicit density = 0 is a deliberate "no medium" (a sweep over nB);
+  // profile = "file" takes nB from its grid; the diffuse walls of a spatial DSMC run take TB as
+  // their default wall_temperature.
+  if (!r.has("background", "density") && !r.has("background", "file")) {
+    std::vector<std::string> given;
+    for (const char* key : {"knudsen", "temperature", "mass_ratio", "velocity"}) {
+      if (!r.has("background", key)) continue;
+      if (std::string_view(key) == "temperature" && r.has_section("domain") && !r.has("domain", "wall_temperature"))
+        continue;
+      given.push_back(key);
+    }
+    if (!given.empty()) {
+      std::string also;
+      for (std::size_t i = 1; i < given.size(); ++i) also += (also.empty() ? "" : ", ") + given[i];
+      r.problem("background", given.front(),
+                "given without background.density, whose default 0 means no medium (the grains would cool freely" +
+                    (also.empty() ? std::string(")") : "; also without effect: " + also + ")") +
+                    "; give density = nB > 0 for a medium, or density = 0 to run without one");
+    }
+  }
   return b;
 }
 

@@ -308,6 +308,20 @@ Config read_config(CaseReader& r) {
       c.mode_fit_from = r.real("sampling", "mode_fit_from", 0.0, Bounds::non_negative(), "time");
       c.mode_fit_to = r.real("sampling", "mode_fit_to", c.t_end, Bounds::positive(), "time");
     }
+  }
+  // keys of a spatial run or of its density mode, where this run has neither: say whose they
+  // are rather than "unknown key" (as for the keys of another law or profile)
+  const char* mode_fit = "not used without [grains] profile = \"mode\" in a spatial run (the fit of the density mode's decay)";
+  if (!c.spatial()) {
+    const char* spatial = "not used by a homogeneous run (a key of spatial runs, with a [domain] section: the per-cell fields)";
+    r.used_elsewhere("sampling", "fields", spatial);
+    r.used_elsewhere("sampling", "field_batches", spatial);
+  }
+  if (!c.spatial() || c.grains.profile != GrainProfile::mode) {
+    r.used_elsewhere("sampling", "mode_fit_from", mode_fit);
+    r.used_elsewhere("sampling", "mode_fit_to", mode_fit);
+  }
+  if (c.spatial()) {
     const double per_cell = static_cast<double>(c.particles) / static_cast<double>(c.domain.cell_count());
     if (per_cell < 2.0)
       r.problem("dsmc", "particles", "expected at least 2 particles per cell on average (" +

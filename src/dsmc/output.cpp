@@ -349,7 +349,9 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   if (c.rough) f.write("/timeseries/rotational_temperature", ts.Trot);
   f.attribute("/timeseries/pressure_tensor", "components", std::string("xx yy zz xy xz yz"));
   f.attribute("/timeseries", "units",
-              std::string("t: time; temperature: energy; velocity: sqrt(energy/mass); per_grain: energy per initial grain"));
+              std::string("t: time; temperature, rotational_temperature: energy; a2, a3: 1; velocity: sqrt(energy/mass); "
+                          "pressure_tensor: energy/length^3; heat_flux: energy sqrt(energy/mass)/length^3; "
+                          "*_per_grain: energy per initial grain; particles, bath_collisions, grain_collisions: count"));
   f.write("/histogram/component_edges", grains.edges);
   f.write("/histogram/components", grains.components, {3, static_cast<hsize_t>(nb)});
   f.write("/histogram/speed_edges", grains.speed_edges);

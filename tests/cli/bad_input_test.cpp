@@ -620,6 +620,25 @@ TEST_F(BadInput, KeyOfAnotherProfileIsNamedAsSuch) {
   EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
+TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
+  // [sampling] fields, field_batches (spatial runs) and mode_fit_from/_to (a density mode) in a
+  // run without them: whose keys they are, not "unknown key; valid keys in [sampling]: ..."
+  // (until 2026-12-06)
+  Case c = dsmc_case();
+  c.set("sampling", "fields", "false").set("sampling", "mode_fit_to", "0.2");
+  expect_rejected(c.text(), {{c.line_of("sampling", "fields"), "sampling.fields",
+                              "not used by a homogeneous run (a key of spatial runs, with a [domain] section"},
+                             {c.line_of("sampling", "mode_fit_to"), "sampling.mode_fit_to",
+                              "not used without [grains] profile = \"mode\" in a spatial run"}},
+                  {}, "check");
+  Case s = spatial_case();  // uniform grains: fields yes, mode fit no
+  s.set("sampling", "fields", "false").set("sampling", "mode_fit_from", "0.0");
+  auto r = expect_rejected(s.text(), {{s.line_of("sampling", "mode_fit_from"), "sampling.mode_fit_from",
+                                       "not used without [grains] profile = \"mode\""}},
+                           {}, "check");
+  EXPECT_EQ(r.err.find("sampling.fields"), std::string::npos) << r.err;
+}
+
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
   // --set restitution.law switches the law: the file's keys of its own law are ignored, with a note
   write_text(case_file(), dsmc_case().text());
@@ -707,6 +726,138 @@ TEST_F(BadInput, SamplingLongerThanTheWindowAndUnusedWallTemperature) {
       << r.err;
 }
 
+TEST_F(BadInput, BackgroundKeysWithoutADensityAreNoMedium) {
+  // nB defaults to 0, no medium: a [background] that sets eps, TB, alpha but forgets nB would
+  // run free cooling without a word (found 2026-12-06); it is an error naming the first such key
+  Case c = dsmc_case();
+  c.erase("background", "density");
+  expect_rejected(c.text(), {{c.line_of("background", "knudsen"), "background.knudsen",
+                              "given without background.density, whose default 0 means no medium (the grains would "
+                              "cool freely; also without effect: temperature, mass_ratio)"}},
+                  {}, "check");
+  // the same from --set on a case without [background], and in EDMD
+  Case f = dsmc_case();
+  f.erase("background", "density").erase("background", "mass_ratio").erase("background", "temperature");
+  f.erase("background", "knudsen");
+  write_text(case_file(), f.text());
+  expect_rejected(std::nullopt, {{0, "background.knudsen", "given without background.density"}},
+                  {"--set", "background.knudsen=0.05"}, "check", "--set");
+  Case e = edmd_case();
+  e.set("background", "temperature", "2.0");
+  expect_rejected(e.text(), {{e.line_of("background", "temperature"), "background.temperature",
+                              "given without background.density"}},
+                  {}, "check");
+  // an explicit density = 0 is a deliberate "no medium" (a sweep over nB); a spatial run's
+  // diffuse walls take TB as their temperature
+  c.set("background", "density", "0.0");
+  write_text(case_file(), c.text());
+  auto r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  Case w = spatial_case();
+  w.erase("background", "density").erase("background", "mass_ratio").erase("background", "knudsen");
+  w.set("domain", "boundaries", "[\"diffuse\"]");
+  write_text(case_file(), w.text());
+  r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+}
+
+TEST_F(BadInput, AnUnknownChoiceLeavesTheKeysItWouldSelectUnjudged) {
+  // an unknown law, profile or model: its keys are not "unknown keys" (the section's valid keys
+  // depend on the choice), so the one problem is the one reported; a case-only difference is
+  // suggested
+  Case c = dsmc_case();
+  c.set("restitution", "law", "\"Power\"").erase("restitution", "e");
+  c.set("restitution", "beta", "0.2").set("restitution", "delta", "0.2");
+  auto r = expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law",
+                                       "unknown value \"Power\" (did you mean \"power\"?)"}},
+                           {}, "check");
+  EXPECT_EQ(r.err.find("restitution.beta"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("1 problem(s)"), std::string::npos) << r.err;
+  // ... while a misspelt key elsewhere is still reported
+  c.set("dsmc", "t_ned", "1.0");
+  expect_rejected(c.text(), {{c.line_of("restitution", "law"), "restitution.law", "unknown value \"Power\""},
+                             {c.line_of("dsmc", "t_ned"), "dsmc.t_ned", "did you mean 't_end'"}},
+                  {}, "check");
+  // an unknown solver leaves every section unjudged: no "[edmd] is a section of solver = dsmc"
+  write_text(case_file(), edmd_case().text());
+  r = expect_rejected(std::nullopt, {{0, "run.solver", "unknown value \"EDMD\" (did you mean \"edmd\"?)"}},
+                      {"--set", "run.solver=EDMD"}, "check", "--set");
+  EXPECT_NE(r.err.find("1 problem(s)"), std::string::npos) << r.err;
+  // part of exactly one name means that name ("sine": "isobaric_sine", not "file")
+  write_text(case_file(), dsmc_case().text());
+  expect_rejected(std::nullopt,
+                  {{0, "background.profile", "unknown value \"sine\" (did you mean \"isobaric_sine\"?)"}},
+                  {"--set", "background.profile=sine"}, "check", "--set");
+  expect_rejected(std::nullopt, {{0, "grains.temp", "unknown key (did you mean 'temperature'?)"}},
+                  {"--set", "grains.temp=1.0"}, "check", "--set");
+  write_text(case_file(), edmd_case().text());
+  // an EDMD heating model (read in src/edmd/driver.cpp through the same reader)
+  r = expect_rejected(std::nullopt, {{0, "heating.model", "unknown value \"whitenoise\" (did you mean \"white_noise\"?)"}},
+                      {"--set", "heating.model=whitenoise"}, "check", "--set");
+  EXPECT_EQ(r.err.find("heating.kick"), std::string::npos) << r.err;
+}
+
+TEST_F(BadInput, CommandLineMistakesExitTwoAndNameTheSubcommand) {
+  // a missing argument, an unknown option, a bad --jobs: bad input, exit 2 like every other
+  // (CLI11's own codes 104-109 before 2026-12-06; -j 0 and -j -3 ran with the default)
+  write_text(case_file(), dsmc_case().text());
+  const auto before = listing(tmp.path());
+  auto r = grainbath({"run"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: grainbath run: case_dir is required"), std::string::npos) << r.err;
+  r = grainbath({"run", case_dir().string(), "--bogus"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: grainbath run: "), std::string::npos) << r.err;
+  for (const char* jobs : {"0", "-3", "abc"}) {
+    r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "-j", jobs, "-q"});
+    EXPECT_TRUE(r.exited && r.code == 2) << "-j " << jobs << ": " << r.describe();
+    EXPECT_NE(r.err.find("error: grainbath sweep: "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("jobs"), std::string::npos) << r.err;
+  }
+  r = grainbath({});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  // an empty --out (an unset variable: --out "$DIR") meant the default directory, and --out=
+  // took the next word (`sweep ... --out= -q` wrote into "-q"): refused, nothing written
+  for (const std::string& command : {"run", "sweep", "report"}) {
+    std::vector<std::string> args = {command, case_dir().string()};
+    if (command == "sweep") args.insert(args.end(), {"--set", "run.seed=1,2"});
+    for (const std::vector<std::string>& out : {std::vector<std::string>{"--out", ""}, {"--out=", "-q"}}) {
+      std::vector<std::string> a = args;
+      a.insert(a.end(), out.begin(), out.end());
+      r = grainbath(a);
+      EXPECT_TRUE(r.exited && r.code == 2) << command << " " << out[0] << ": " << r.describe();
+      EXPECT_NE(r.err.find("error: grainbath " + command + ": --out: "), std::string::npos) << r.err;
+    }
+  }
+  EXPECT_EQ(listing(tmp.path()), before);
+  r = grainbath({"--help"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  r = grainbath({"sweep", "--help"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.out.find(">= 1"), std::string::npos) << r.out;
+}
+
+TEST_F(BadInput, SweepRefusesAKeyGivenTwice) {
+  // each run takes the later of two values of a key: `--set dsmc.dt=0.01,0.02 --set dsmc.dt=0.03`
+  // ran dt = 0.01 and 0.02 and dropped 0.03 without a word; two lists made runs differing only
+  // in name. Refused before anything is run or written.
+  write_text(case_file(), dsmc_case().text());
+  const auto before = listing(tmp.path());
+  for (const auto& second : {"dsmc.dt=0.03", " dsmc.dt =0.03,0.04"}) {
+    auto r = grainbath({"sweep", case_dir().string(), "--set", "dsmc.dt=0.01,0.02", "--set", second, "-q"});
+    EXPECT_TRUE(r.exited && r.code == 2) << second << ": " << r.describe();
+    EXPECT_NE(r.err.find("dsmc.dt is also given by --set dsmc.dt=0.01,0.02; give each key once"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(listing(tmp.path()), before) << r.describe();
+  }
+  // a value given twice is refused also with spaces around it ("1, 1": the same seed twice,
+  // counted as two replicas until 2026-12-06)
+  auto r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1, 1", "-q"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("the value 1 is given twice"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before) << r.describe();
+}
+
 // ---------------------------------------------------------------- case directories
 
 TEST_F(BadInput, CaseDirectoryProblems) {
@@ -727,6 +878,16 @@ TEST_F(BadInput, CaseDirectoryProblems) {
   // no case.toml
   fs::create_directories(case_dir());
   expect_rejected(std::nullopt, {{0, "", "missing: a case directory must hold case.toml"}});
+  // a study's directory (cases/bizon-heat-baths): its case directories are named
+  write_text(case_dir() / "nu0.3" / "case.toml", dsmc_case().text());
+  write_text(case_dir() / "nu0.5" / "case.toml", dsmc_case().text());
+  write_text(case_dir() / "run.sh", "#!/bin/sh\n");
+  expect_rejected(std::nullopt, {{0, "", "missing: a case directory must hold case.toml; the case directories here are " +
+                                              (case_dir() / "nu0.3").string() + ", " + (case_dir() / "nu0.5").string() +
+                                              " (" + (case_dir() / "run.sh").string() + " runs the study)"}});
+  fs::remove_all(case_dir() / "nu0.3");
+  fs::remove_all(case_dir() / "nu0.5");
+  fs::remove(case_dir() / "run.sh");
   // case.toml is a directory
   fs::create_directories(case_file());
   expect_rejected(std::nullopt, {{0, "", "not a regular file"}});

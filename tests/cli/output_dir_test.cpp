@@ -600,3 +600,49 @@ steady_from = 0.1
   r = grainbath(resume);
   EXPECT_EQ(r.code, 0) << r.describe();
 }
+
+// The table `grainbath run` prints ends with each case's headline beside its theory: in free
+// cooling Haff's law. EDMD's fitted Haff time (`haff.t0_measured`, the number
+// cases/free-cooling-disks is about) and DSMC's second-Sonine Haff temperature were missing
+// until 2026-12-06 (the EDMD table showed only Z).
+TEST_F(OutputDir, TheRunTableShowsTheFreeCoolingHeadlines) {
+  RunResult r = run(work() / "dsmc");
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.out.find("theory: Haff T(t_end), Sonine 2"), std::string::npos) << r.out;
+  write_text(tmp / "edmd" / "case.toml", R"([run]
+solver = "edmd"
+seed = 1
+[edmd]
+dimensions = 2
+particles = 400
+packing_fraction = 0.1
+equilibrate = 1
+collisions = 4
+[restitution]
+law = "constant"
+e = 0.9
+[sampling]
+interval = 0.5
+free_cooling = true
+)");
+  r = grainbath({"run", (tmp / "edmd").string(), "--out", (work() / "edmd").string(), "--quiet"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  for (const char* row : {"Haff time t0 (fit)", "theory: Haff t0, with a2", "theory: Haff t0, Maxwellian"})
+    EXPECT_NE(r.out.find(row), std::string::npos) << row << " missing in:\n" << r.out;
+}
+
+// The sweep's plot is made by a shell command: a "'" in the sweep directory's path broke it
+// ("sh: 1: Syntax error: Unterminated quoted string", no sweep.png) and could have run a command
+// of its own, until 2026-12-06. Needs /usr/bin/python3 with matplotlib (as the plot does).
+TEST_F(OutputDir, SweepPlotsIntoAPathWithAQuote) {
+  if (run_binary({"/usr/bin/python3", "-c", "import matplotlib"}, {}).code != 0)
+    GTEST_SKIP() << "no /usr/bin/python3 with matplotlib: the sweep makes no plot";
+  const fs::path out = work() / "it's; touch pwned '";
+  // (a medium: the plot needs a headline such as the steady temperature)
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "--out", out.string(), "-j", "1",
+                                 "-q", "--set", "run.threads=1", "--set", "background.density=1.0"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_TRUE(fs::exists(out / "sweep.png")) << r.out << r.err;
+  EXPECT_EQ(r.err.find("Syntax error"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(work() / "pwned"));
+}

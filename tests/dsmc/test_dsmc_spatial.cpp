@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include <hdf5.h>
+
+#include "core/h5.hpp"
 #include "dsmc/spatial.hpp"
 #include "hydro/hydro.hpp"
 #include "support.hpp"
@@ -61,6 +64,35 @@ TEST(DsmcSpatial, ParticleNumberUnderEachBoundaryRule) {
   EXPECT_GT(left, 1000.0);
   EXPECT_EQ(open.summary.number("counters.particles_final") + left, 6000.0);
   EXPECT_LT(std::abs(open.summary.number("energy.budget_relative_residual")), 1e-10);
+}
+
+// /timeseries carries a `units` attribute (docs/OUTPUT.md): it names every dataset of the group
+// (until 2026-12-06 it left out a2, a3, the pressure tensor, the heat flux and the counts)
+TEST(DsmcSpatial, TimeseriesUnitsNameEveryDataset) {
+  const auto run = run_dsmc(box(R"(["open", "diffuse"])"), 3, 0, "units");
+  const std::string file = (run.dir / "results.h5").string();
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  std::vector<std::string> names;
+  const hid_t g = H5Gopen2(f, "/timeseries", H5P_DEFAULT);
+  ASSERT_GE(g, 0);
+  H5G_info_t info;
+  H5Gget_info(g, &info);
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    char name[256] = {};
+    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, i, name, sizeof name, H5P_DEFAULT);
+    names.emplace_back(name);
+  }
+  H5Gclose(g);
+  H5Fclose(f);
+  ASSERT_GE(names.size(), 15u);
+  const std::string units = grainbath::H5File(file, grainbath::H5File::Mode::read).read_attribute("/timeseries", "units");
+  for (const auto& n : names) {
+    const bool per_grain = n.ends_with("_per_grain");
+    EXPECT_TRUE(per_grain || units.find(n + ":") != std::string::npos || units.find(n + ",") != std::string::npos)
+        << "/timeseries/" << n << " has no unit in: " << units;
+  }
+  EXPECT_NE(units.find("*_per_grain: energy per initial grain"), std::string::npos) << units;
 }
 
 TEST(DsmcSpatial, GrainsAdvectWithTheBackgroundDrift) {
