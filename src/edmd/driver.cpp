@@ -173,6 +173,14 @@ Config read_config(CaseReader& r) {
     r.problem("walls", "driving_speed",
               "driving walls (or per-wall restitution) need exactly one wall direction in [walls] directions, found " +
                   std::to_string(n_wall_dirs));
+  if (n_wall_dirs == 0 && !c.driving_walls())  // (driving walls without a direction: the error above)
+    for (const char* key : {"restitution", "restitution_low", "restitution_high", "driving_speed", "driving_speed_low",
+                            "driving_speed_high"})
+      if (r.has("walls", key))
+        r.problem("walls", key,
+                  "there are no walls to apply it to: [walls] directions is " +
+                      std::string(r.has("walls", "directions") ? "empty" : "not given") +
+                      " (every direction periodic); add directions = [\"x\"] (or y, z) or remove the key");
   {
     const Vec3 b = c.box();
     const double e[3] = {b.x, b.y, b.z};
@@ -215,6 +223,51 @@ Config read_config(CaseReader& r) {
     c.heating.kind = HeatingKind::boltzmann;
     c.heating.rate = static_cast<int>(r.integer("heating", "rate", 1, 1, 1000));
     c.heating.temperature = r.real("heating", "temperature", 1.0, Bounds::positive(), "energy");
+  }
+  const auto named_model = r.resolved().find("heating.model");
+  // (a model that is no model, already reported, says nothing about which keys are right)
+  if (named_model == r.resolved().end() || named_model->second == "\"" + model + "\"") {
+    // a key of another heating model (or profile) is not "unknown": say whose key it is
+    const std::string prof = c.heating.profile == ForcingProfile::tent    ? "tent"
+                             : c.heating.profile == ForcingProfile::shear ? "shear"
+                                                                          : "uniform";
+    struct Owner {
+      const char* key;
+      std::vector<std::string> models;
+      const char* profiles;  // air_table keys that need a profile ("" = any)
+    };
+    const Owner owners[] = {{"rate", {"white_noise", "air_table", "boltzmann"}, ""},
+                            {"kick", {"white_noise"}, ""},
+                            {"acceleration", {"air_table"}, ""},
+                            {"profile", {"air_table"}, ""},
+                            {"axis", {"air_table"}, "tent or shear"},
+                            {"bias", {"air_table"}, "shear"},
+                            {"component", {"air_table"}, "shear"},
+                            {"temperature", {"boltzmann"}, ""}};
+    for (const Owner& o : owners) {
+      const bool mine = std::find(o.models.begin(), o.models.end(), model) != o.models.end();
+      const std::string need = o.profiles;
+      if (mine && (need.empty() || (prof != "uniform" && need.find(prof) != std::string::npos))) continue;
+      std::string message;
+      if (mine)
+        message = std::string("used only with profile = ") + (need == "shear" ? "\"shear\"" : "\"tent\" or \"shear\"") +
+                  ", found profile = \"" + prof + "\"";
+      else {
+        std::string list;
+        for (const auto& m : o.models) list += (list.empty() ? "" : " or ") + ("\"" + m + "\"");
+        message = "not used by model = \"" + model + "\" (a key of model = " + list + ")";
+      }
+      // --set heating.model switched the model (a sweep over baths): the file's keys of the
+      // model it replaced are ignored with a note, as for restitution laws
+      const std::string file_model = r.overridden("heating", "model") ? r.file_string("heating", "model") : "";
+      if (!file_model.empty() && file_model != model && r.has("heating", o.key) && !r.overridden("heating", o.key) &&
+          std::find(o.models.begin(), o.models.end(), file_model) != o.models.end())
+        r.ignore("heating", o.key,
+                 "ignored: a key of the file's model = \"" + file_model + "\", which --set heating.model = \"" + model +
+                     "\" replaces");
+      else
+        r.used_elsewhere("heating", o.key, message);
+    }
   }
   c.background = read_background(r);
   if (c.dims == 2 && c.background.velocity.z != 0.0)

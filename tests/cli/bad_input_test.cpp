@@ -661,6 +661,35 @@ TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
                   {"--set", "restitution.law=bizon", "--set", "restitution.delta=0.1"}, "check", "--set");
 }
 
+TEST_F(BadInput, HeatingKeysOfAnotherModelOrProfileAndWallKeysWithoutWalls) {
+  // whose keys they are (until 2026-12-06: rate with model "none" said "valid keys: model",
+  // temperature with white noise "is a key of [background], [edmd]", bias with the uniform
+  // profile "unknown key"), and wall keys with no wall direction did nothing
+  Case c = edmd_case();
+  c.set("heating", "temperature", "2.0");
+  expect_rejected(c.text(), {{c.line_of("heating", "temperature"), "heating.temperature",
+                              "not used by model = \"white_noise\" (a key of model = \"boltzmann\")"}},
+                  {}, "check");
+  Case a = edmd_case();
+  a.set("heating", "model", "\"air_table\"").set("heating", "acceleration", "1.0");
+  a.set("heating", "bias", "0.1");
+  a.set("walls", "restitution", "0.9");
+  // (kick: a key of white noise, not of the air table)
+  expect_rejected(a.text(),
+                  {{a.line_of("heating", "kick"), "heating.kick", "not used by model = \"air_table\" (a key of model = \"white_noise\")"},
+                   {a.line_of("heating", "bias"), "heating.bias", "used only with profile = \"shear\", found profile = \"uniform\""},
+                   {a.line_of("walls", "restitution"), "walls.restitution", "there are no walls to apply it to"}},
+                  {}, "check");
+  // --set heating.model switches the bath: the file's keys of the bath it replaced are ignored
+  // with a note, but a key of a third model is still an error
+  write_text(case_file(), edmd_case().text());
+  auto r = grainbath({"check", case_dir().string(), "--set", "heating.model=\"boltzmann\""});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("heating.kick: ignored: a key of the file's model = \"white_noise\""), std::string::npos) << r.err;
+  expect_rejected(std::nullopt, {{0, "heating.rate", "not used by model = \"none\""}},
+                  {"--set", "heating.model=\"none\"", "--set", "heating.rate=2"}, "check", "--set");
+}
+
 TEST_F(BadInput, KeyOrSectionOfAnotherTableOrSolver) {
   write_text(case_file(), dsmc_case().text());
   expect_rejected(std::nullopt, {{0, "dsmc.knudsen", "unknown key (knudsen is a key of [background])"}},
