@@ -84,36 +84,39 @@ def table(out, times):
     print(f"{out}: runs per dt " + ", ".join(f"{dt:g}: {len(data[dt])}" for dt in dts))
     for t in times:
         print(f"\nt = {t:g}")
-        ms, es, ns = [], [], []
+        ms, es, ns, used = [], [], [], []
         for dt in dts:
             x = np.array([at(r, "temperature", t) for r in data[dt]])
             x = x[np.isfinite(x)]
+            if len(x) < 2:  # this dt's runs are not sampled at t
+                continue
+            used.append(dt)
             ns.append(len(x))
             ms.append(x.mean())
             es.append(x.std(ddof=1) / np.sqrt(len(x)))
-        ms, es = np.array(ms), np.array(es)
+        ms, es, dts_t = np.array(ms), np.array(es), used
         # local cooling rate from the smallest dt's mean series (central difference over 0.08)
-        r0 = [r for r in data[dts[0]] if np.isfinite(at(r, "temperature", t))]
+        r0 = [r for r in data[dts_t[0]] if np.isfinite(at(r, "temperature", t))]
         tt = r0[0]["t"]
         Tm = np.mean([r["temperature"] for r in r0], axis=0)
         i = int(np.argmin(abs(tt - t)))
         slope = (Tm[min(i + 1, len(tt) - 1)] - Tm[max(i - 1, 0)]) / (tt[min(i + 1, len(tt) - 1)] - tt[max(i - 1, 0)])
-        for dt, m, e, n in zip(dts, ms, es, ns):
+        for dt, m, e, n in zip(dts_t, ms, es, ns):
             d, de = m - ms[0], np.hypot(e, es[0])
-            print(f"  dt {dt:<6g} ({n:3d} runs) T {m:.7f} +- {e:.7f}   - T(dt {dts[0]:g}) = {d:+.7f} +- {de:.7f} "
+            print(f"  dt {dt:<6g} ({n:3d} runs) T {m:.7f} +- {e:.7f}   - T(dt {dts_t[0]:g}) = {d:+.7f} +- {de:.7f} "
                   f"({d / ms[0] * 100:+.4f} %, {d / de if de > 0 else 0:+.1f} sigma)  delta t {-d / slope:+.5f}")
         w = 1 / es ** 2
         for deg in (1, 2):
-            if len(dts) <= deg:
+            if len(dts_t) <= deg + 1:
                 continue
-            A = np.vander(np.array(dts), deg + 1, increasing=True)
+            A = np.vander(np.array(dts_t), deg + 1, increasing=True)
             cov = np.linalg.inv(A.T @ (A * w[:, None]))
             c = cov @ (A.T @ (w * ms))
             chi2 = float(((A @ c - ms) ** 2 * w).sum())
             terms = ", ".join(f"c{k} = {c[k]:+.6f} +- {np.sqrt(cov[k, k]):.6f}" for k in range(deg + 1))
-            print(f"  fit degree {deg}: {terms}; chi2 {chi2:.1f} / {len(dts) - deg - 1}; "
+            print(f"  fit degree {deg}: {terms}; chi2 {chi2:.1f} / {len(dts_t) - deg - 1}; "
                   f"c1/T0 = {c[1] / c[0]:+.5f} +- {np.sqrt(cov[1, 1]) / c[0]:.5f} per unit dt, "
-                  f"c1/(dT/dt) = {-c[1] / slope:+.4f} (time shift per unit dt)")
+                  f"c1/(dT/dt) = {-c[1] / slope:+.4f} +- {np.sqrt(cov[1, 1]) / abs(slope):.4f} (time shift per unit dt)")
 
 
 if __name__ == "__main__":
