@@ -93,6 +93,16 @@ namespace {
 
 using SolverConfig = std::variant<dsmc::Config, edmd::Config>;
 
+// What an error says: std::bad_alloc's own what() ("std::bad_alloc") tells a user nothing.
+std::string error_text(const std::exception& e) {
+  if (dynamic_cast<const std::bad_alloc*>(&e))
+    return std::string("out of memory (") + e.what() +
+           "): the case needs more memory than the process can have. Fewer grains (dsmc.particles, "
+           "edmd.particles), cells or bins, or a larger machine; docs/PERFORMANCE.md gives the memory per particle "
+           "(DSMC about 56 bytes, EDMD about 400 bytes per disk)";
+  return e.what();
+}
+
 // Solver dispatch: one overload per engine.
 std::vector<std::pair<std::string, double>> solver_theory(const dsmc::Config& c) { return dsmc::theory_values(c); }
 std::vector<std::pair<std::string, double>> solver_theory(const edmd::Config& c) { return edmd::theory_values(c); }
@@ -242,7 +252,7 @@ int command_theory(const RunArgs& a) {
   } catch (const CaseError& e) {
     return report_case_error(e);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::fprintf(stderr, "error: %s\n", error_text(e).c_str());
     return 1;
   }
 }
@@ -386,7 +396,7 @@ int command_run(const RunArgs& a) {
     // an interruption is the same on every rank: said once; any other error may be one rank's
     if (writer || !interrupted)
       std::fprintf(stderr, "\nerror: %s\n(no output was moved into %s; any previous output there is untouched)\n",
-                   e.what(), out.string().c_str());
+                   error_text(e).c_str(), out.string().c_str());
     // after a failure (a full disk, a fault): say what survived, and leave no empty
     // checkpoint directory behind
     // (not after "no valid checkpoint": then none of them can be continued from)

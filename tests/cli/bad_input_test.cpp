@@ -690,6 +690,25 @@ TEST_F(BadInput, HeatingKeysOfAnotherModelOrProfileAndWallKeysWithoutWalls) {
                   {"--set", "heating.model=\"none\"", "--set", "heating.rate=2"}, "check", "--set");
 }
 
+TEST_F(BadInput, OutOfMemoryIsSaidInWords) {
+  // 5e7 grains (about 2.8 GB of state) under a 1 GiB address-space limit: the allocation fails.
+  // Until 2026-12-06 the message was "error: std::bad_alloc" alone.
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves more address space than the limit allows";
+#endif
+  Case c = dsmc_case();
+  c.set("dsmc", "particles", "50000000");
+  write_text(case_file(), c.text());
+  RunOptions opt;
+  opt.address_space_limit = rlim_t{1} << 30;
+  const fs::path out = tmp.path() / "out";
+  auto r = grainbath({"run", case_dir().string(), "--out", out.string(), "-q"}, opt);
+  EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
+  EXPECT_NE(r.err.find("error: out of memory (std::bad_alloc): the case needs more memory"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("dsmc.particles"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
+}
+
 TEST_F(BadInput, KeyOrSectionOfAnotherTableOrSolver) {
   write_text(case_file(), dsmc_case().text());
   expect_rejected(std::nullopt, {{0, "dsmc.knudsen", "unknown key (knudsen is a key of [background])"}},

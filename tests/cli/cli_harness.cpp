@@ -63,6 +63,10 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       struct rlimit rl {*opt.file_size_limit, *opt.file_size_limit};
       if (::setrlimit(RLIMIT_FSIZE, &rl) != 0) ::_exit(121);
     }
+    if (opt.address_space_limit) {
+      struct rlimit rl {*opt.address_space_limit, *opt.address_space_limit};
+      if (::setrlimit(RLIMIT_AS, &rl) != 0) ::_exit(122);
+    }
     for (const auto& [name, value] : opt.env) ::setenv(name.c_str(), value.c_str(), 1);
     ::execv(argv[0], argv.data());
     ::_exit(127);

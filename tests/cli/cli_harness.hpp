@@ -40,6 +40,7 @@ struct RunOptions {
   fs::path cwd;
   std::optional<rlim_t> file_size_limit;  // RLIMIT_FSIZE in bytes, with SIGXFSZ ignored
   bool ignore_sigxfsz = true;             // as a full disk does not signal: writes fail with EFBIG
+  std::optional<rlim_t> address_space_limit;  // RLIMIT_AS in bytes (allocations beyond it fail)
   double timeout_s = 60;
   int send_signal = 0;                    // if set: sent once stderr contains send_when (then 0.3 s later)
   std::string send_when;
