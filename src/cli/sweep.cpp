@@ -342,7 +342,8 @@ int command_sweep(const SweepArgs& a) {
   if (mpi::active()) mpi::barrier();  // the other ranks write into `out` only after the move
   fs::create_directories(out, ec);
   if (ec) {
-    std::fprintf(stderr, "error: %s: cannot create the sweep directory\n", out.string().c_str());
+    std::fprintf(stderr, "error: %s: cannot create the sweep directory (%s)\n", out.string().c_str(),
+                 ec.message().c_str());
     return 2;
   }
   const int jobs = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));

@@ -220,7 +220,8 @@ fs::path check_output_path(const fs::path& out, const std::vector<fs::path>& kee
     if (!k.empty() && is_within(resolved(k), target))
       throw std::runtime_error(shown + ": would hold " + k.string() +
                                " (the case directory); the output directory is replaced as a whole at the end of a "
-                               "run: choose an --out outside the case, e.g. " + (fs::path(k) / "output").string());
+                               "run: choose an --out that does not contain it, e.g. " + (fs::path(k) / "output").string() +
+                                   " (the default)");
   check_replaceable(full, shown, "moves the previous output aside to " + shown + ".previous");
   // out.previous is deleted only when there is an output to move there
   if (!fs::exists(fs::symlink_status(full, ec))) return full;
