@@ -646,3 +646,29 @@ TEST_F(OutputDir, SweepPlotsIntoAPathWithAQuote) {
   EXPECT_EQ(r.err.find("Syntax error"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(work() / "pwned"));
 }
+
+// The EDMD sweep table shows Z beside its equation of state (theory.Z): until 2026-12-06 it
+// had pressure.Z alone, with no theory column, so a packing-fraction scan (cases/hard-disk-eos
+// style) could not be read off sweep.md.
+TEST_F(OutputDir, EdmdSweepTableHasTheTheoryZColumn) {
+  write_text(tmp / "edmd" / "case.toml", R"([run]
+solver = "edmd"
+seed = 1
+[edmd]
+dimensions = 2
+particles = 100
+packing_fraction = 0.2
+equilibrate = 2
+collisions = 6
+)");
+  const fs::path out = work() / "eos";
+  const RunResult r = grainbath({"sweep", (tmp / "edmd").string(), "--set", "edmd.packing_fraction=0.2,0.4", "--out",
+                                 out.string(), "-j", "1", "-q"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  const std::string md = read_text(out / "sweep.md");
+  const std::size_t header = md.find("| variant |");
+  ASSERT_NE(header, std::string::npos) << md;
+  const std::string head = md.substr(header, md.find('\n', header) - header);
+  EXPECT_NE(head.find("| pressure.Z |"), std::string::npos) << head;
+  EXPECT_NE(head.find("| theory.Z |"), std::string::npos) << head;
+}
