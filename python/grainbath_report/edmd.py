@@ -251,12 +251,17 @@ def pair_correlation(run, ctx):
     r, g = run.arr("observables/gr/r"), run.arr("observables/gr/g")
     s = Section("Radial distribution function g(r)", "gr")
     wide = r[-1] > 8.0
-    fig, axes = subplots(1, 2 if wide else 1, figsize=(11.0 if wide else 7.5, 4.3),
-                         gridspec_kw=dict(width_ratios=[1.3, 1]) if wide else None)
+    # panels: near contact, a zoom on [σ, 1.1σ] (the contact estimates differ by a few per
+    # cent, less than a marker at full scale), and the whole range when it is long
+    near = (r >= 1.0) & (r <= 1.1) & np.isfinite(g)
+    zoom = near.sum() >= 2
+    ratios = [1.3] + ([0.7] if zoom else []) + ([1.0] if wide else [])
+    fig, axes = subplots(1, len(ratios), figsize=(4.0 + 4.2 * sum(ratios) / 1.3, 4.3),
+                         gridspec_kw=dict(width_ratios=ratios) if len(ratios) > 1 else None)
     axes = np.atleast_1d(axes)
     ax = axes[0]
     if wide:
-        axw = axes[1]
+        axw = axes[-1]
         axw.plot(r, g, **SIM)
         axw.axhline(1, color="0.5", lw=0.8)
         axw.set_xlabel("distance r  [σ]")
@@ -269,18 +274,34 @@ def pair_correlation(run, ctx):
              ("pressure.g_contact_weighted_e", "^", "#009E73", "g(σ⁺) from Z, collision-weighted (1+e)"),
              ("g_r.contact_fit", "D", "#D55E00", "g(σ⁺) from a quadratic fit of g(r) near contact"),
              ("g_r.contact_from_collisions", "v", "#CC79A7", "g(σ⁺) from the collisions (approaching + receding)")]
+    shown = []
     for key, mk, col, lab in marks:
         v = run.num(key)
-        if v is not None:
+        if v is not None and np.isfinite(v):
             ax.plot([1.0], [v], marker=mk, color=col, ms=8, ls="none", mfc="none", mew=1.8, label=f"{lab}: {v:.4g}")
+            shown.append((v, mk, col))
     ax.set_xlabel("distance r  [σ]")
     ax.set_ylabel("g(r)  [dimensionless]")
     ax.set_xlim(0.8, min(r[-1], 6.0))
     ax.set_title("Pair correlation near contact" if wide else "Pair correlation")
     ax.legend(loc="upper right", fontsize=8)
+    if zoom:
+        axz = axes[1]
+        axz.plot(r[near], g[near], color="black", marker="o", ms=3, lw=1.0)
+        for v, mk, col in shown:
+            axz.plot([1.0], [v], marker=mk, color=col, ms=8, ls="none", mfc="none", mew=1.8)
+        vals = np.concatenate([g[near], [v for v, _, _ in shown]])
+        lo, hi = vals.min(), vals.max()
+        pad = 0.1 * (hi - lo) if hi > lo else 0.05 * max(hi, 1.0)
+        axz.set_xlim(0.99, 1.1)
+        axz.set_ylim(lo - pad, hi + pad)
+        axz.set_xlabel("distance r  [σ]")
+        axz.set_title("Zoom: [σ, 1.1σ] (bin centres)")
     s.figure(ctx.save(fig, "edmd_gr"),
-             "Radial distribution function (black) with three estimates of its contact value: from the equation "
-             "of state, from the virial pressure of the run, and from extrapolating g(r) to r = σ.")
+             "Radial distribution function (black) with the estimates of its contact value g(σ⁺): from the "
+             "equation of state, from the virial pressure of the run (also collision-weighted by (1+e)), from a "
+             "quadratic fit of g(r) over [σ, 1.1σ], and from the collisions' normal speeds; the second panel "
+             "zooms on that window.")
     return s
 
 
