@@ -1,6 +1,7 @@
 #pragma once
 // Runs a DSMC case given as TOML text into a fresh temporary directory.
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -49,6 +50,25 @@ inline CaseRun run_dsmc(const std::string& toml, std::uint64_t seed, int threads
   ctx.resume = resume;
   dsmc::run(cfg, ctx, out.summary);
   return out;
+}
+
+// A number as TOML text, the shortest that reads back as the same double.
+inline std::string toml_number(double x) {
+  char b[32];
+  const auto r = std::to_chars(b, b + sizeof b, x);
+  std::string s(b, r.ptr);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // a float, not an integer
+  return s;
+}
+
+// The physics of cases/free-cooling (homogeneous, no medium, constant restitution e, n = 1,
+// T(0) = 1) with a run's size, step and sampling.
+inline std::string free_cooling_case(double e, long particles, double dt, double t_end, double every,
+                                     double steady_from) {
+  return "[grains]\ndensity = 1.0\ntemperature = 1.0\n[background]\ndensity = 0.0\n[restitution]\n"
+         "law = \"constant\"\ne = " + toml_number(e) + "\n[dsmc]\nparticles = " + std::to_string(particles) +
+         "\ndt = " + toml_number(dt) + "\nt_end = " + toml_number(t_end) + "\n[sampling]\nevery = " +
+         toml_number(every) + "\nsteady_from = " + toml_number(steady_from) + "\n";
 }
 
 // Every /fields dataset of two runs equal to 1e-12 (relative above 1): runs of one

@@ -260,25 +260,7 @@ TEST_P(FreeCooling, HaffLawAndSecondSonineA2) {
   // at t = 6, ~10 collisions per grain, after the transient from the Maxwellian start: the
   // window mean from t = 6 is 0.00002 +- 0.00001 above the one from t = 8 (24 seeds at these
   // settings), from t = 4 0.00006 +- 0.00002, for one run's scatter 0.00019 either way
-  char toml[1024];
-  std::snprintf(toml, sizeof toml, R"(
-[grains]
-density = 1.0
-temperature = 1.0
-[background]
-density = 0.0
-[restitution]
-law = "constant"
-e = %.17g
-[dsmc]
-particles = 3000000
-dt = 0.04
-t_end = 20.0
-[sampling]
-every = 0.2
-steady_from = 6.0
-)",
-                e);
+  const std::string toml = grainbath::testing::free_cooling_case(e, 3000000, 0.04, 20.0, 0.2, 6.0);
   const auto run = run_dsmc(toml, 77);
   const auto t = run.series("/timeseries/t");
   const auto T = run.series("/timeseries/temperature");
@@ -346,25 +328,7 @@ TEST(DsmcPhysics, FreeCoolingDoesNotDependOnTheTimeStep) {
   const double sd_one_run[] = {0.00035, 0.00038, 0.00040};  // measured, 5e5 grains (above)
   const int seeds = 8;
   auto mean_T = [&](double dt) {
-    char toml[1024];
-    std::snprintf(toml, sizeof toml, R"(
-[grains]
-density = 1.0
-temperature = 1.0
-[background]
-density = 0.0
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 500000
-dt = %.17g
-t_end = 2.0
-[sampling]
-every = 0.5
-steady_from = 1.0
-)",
-                  dt);
+    const std::string toml = grainbath::testing::free_cooling_case(0.8, 500000, dt, 2.0, 0.5, 1.0);
     std::vector<double> sum(std::size(times), 0.0);
     for (int seed = 1; seed <= seeds; ++seed) {
       const auto run = run_dsmc(toml, seed, 0, "dt-scan");

@@ -209,22 +209,7 @@ TEST(DsmcStats, BlockingReachesThePlateauOverManyCorrelationTimes) {
 // holds ~18 collisions per grain, a2 is correlated over ~1.8; 32 seeds of the case: scatter
 // 0.00064, blocked error 0.00034). A driven steady state keeps both keys, with the flag.
 TEST(DsmcStats, FreeCoolingSummaryFlagsItsA2ErrorAndHasNoMeanTemperature) {
-  const char* cooling = R"(
-[grains]
-temperature = 1.0
-[background]
-density = 0.0
-[restitution]
-law = "constant"
-e = 0.8
-[dsmc]
-particles = 20000
-dt = 0.01
-t_end = 20.0
-[sampling]
-every = 0.1
-steady_from = 2.0
-)";
+  const std::string cooling = grainbath::testing::free_cooling_case(0.8, 20000, 0.01, 20.0, 0.1, 2.0);
   const auto run = grainbath::testing::run_dsmc(cooling, 3, 1, "cooling-stats");
   EXPECT_EQ(run.summary.get("temperature.mean"), nullptr);
   EXPECT_EQ(run.summary.get("temperature.stderr"), nullptr);
