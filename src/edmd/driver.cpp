@@ -131,6 +131,10 @@ Config read_config(CaseReader& r) {
   const bool inelastic_constant = std::holds_alternative<ConstantRestitution>(c.restitution) ||
                                   std::holds_alternative<PowerLawRestitution>(c.restitution) || c.rough.has_value();
   c.contact_time = r.real("edmd", "contact_time", inelastic_constant ? 1e-6 : 0.0, Bounds::non_negative(), "time");
+  // the guard against inelastic collapse has nothing to guard with elastic grains: a note, not
+  // an error (a sweep may switch the law to "elastic" with --set)
+  if (!c.rough && std::holds_alternative<ElasticRestitution>(c.restitution) && r.has("edmd", "contact_time"))
+    r.ignore("edmd", "contact_time", "no effect: elastic grains cannot collapse (the TC guard acts on inelastic laws)");
   const double cp = theory::close_packing(c.dims);
   if (c.packing_fraction >= cp) {
     std::ostringstream m;

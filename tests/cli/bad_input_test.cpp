@@ -688,6 +688,11 @@ TEST_F(BadInput, HeatingKeysOfAnotherModelOrProfileAndWallKeysWithoutWalls) {
   EXPECT_NE(r.err.find("heating.kick: ignored: a key of the file's model = \"white_noise\""), std::string::npos) << r.err;
   expect_rejected(std::nullopt, {{0, "heating.rate", "not used by model = \"none\""}},
                   {"--set", "heating.model=\"none\"", "--set", "heating.rate=2"}, "check", "--set");
+  // the collapse guard's contact time with elastic grains: a note that it does nothing
+  r = grainbath({"check", case_dir().string(), "--set", "restitution.law=elastic", "--set", "edmd.contact_time=0.01"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("note: --set: edmd.contact_time: no effect: elastic grains cannot collapse"), std::string::npos)
+      << r.err;
 }
 
 TEST_F(BadInput, OutOfMemoryIsSaidInWords) {
