@@ -301,6 +301,13 @@ Config read_config(CaseReader& r) {
   c.histogram_bins = static_cast<int>(r.integer("sampling", "histogram_bins", 100, 4, 100000));
   c.histogram_range = r.real("sampling", "histogram_range", 6.0, Bounds::positive(), "thermal speeds");
   c.relaxation_theory = r.boolean("sampling", "relaxation_theory", true);
+  // the relaxation curves exist for homogeneous runs only (the moment ODEs; for rough grains
+  // models A-E, which have no medium): elsewhere the key is read (resolved parameters, and so
+  // resuming, unchanged) but says it does nothing
+  if (r.has("sampling", "relaxation_theory") && (c.spatial() || (c.rough && c.background.present())))
+    r.ignore("sampling", "relaxation_theory",
+             c.spatial() ? "no effect in a spatial run: the relaxation curves are of homogeneous runs only"
+                         : "no effect: the rough-grain models A-E have no background medium");
   if (c.spatial()) {
     c.sample_fields = r.boolean("sampling", "fields", true);
     c.field_batches = static_cast<int>(r.integer("sampling", "field_batches", 16, 2, 1024));

@@ -637,6 +637,13 @@ TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
                                        "not used without [grains] profile = \"mode\""}},
                            {}, "check");
   EXPECT_EQ(r.err.find("sampling.fields"), std::string::npos) << r.err;
+  // relaxation_theory in a spatial run: accepted (resolved parameters as before) with a note
+  Case t = spatial_case();
+  t.set("sampling", "relaxation_theory", "false");
+  write_text(case_file(), t.text());
+  r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("sampling.relaxation_theory: no effect in a spatial run"), std::string::npos) << r.err;
 }
 
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
