@@ -6,12 +6,13 @@
 # Cost grows as 1/eps^2: eps = 0.01 takes about 2e9 particle-steps. Pass eps values to run
 # a subset: cases/diffusion-limit/run.sh 0.2 0.1 0.05
 set -euo pipefail
+# GRAINBATH names the binary (default: build/grainbath of this checkout).
 cd "$(dirname "$0")/../.."
 values=("$@")
 [ ${#values[@]} -gt 0 ] || values=(0.2 0.1 0.05 0.02 0.01)
 for eps in "${values[@]}"; do
   read -r t_end dt every fit_from < <(python3 -c "e=$eps; print(round(0.3/e,6), round(e/10,6), round(0.3/e/150,6), round(2*e,6))")
-  ./build/grainbath run cases/diffusion-limit --set background.knudsen="$eps" --set dsmc.t_end="$t_end" \
+  "${GRAINBATH:-./build/grainbath}" run cases/diffusion-limit --set background.knudsen="$eps" --set dsmc.t_end="$t_end" \
     --set dsmc.dt="$dt" --set sampling.every="$every" --set sampling.mode_fit_from="$fit_from" \
     --out "cases/diffusion-limit/sweep/eps-$eps" -q
 done
