@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""The runs' own errors against the replicas' scatter, for a seed sweep of a DSMC case
-(`grainbath sweep CASE --set run.seed=1,...,R --out DIR`): for each window mean or fit with an
+"""The runs' own errors against the replicas' scatter, for a seed sweep of a DSMC or EDMD case
+(`grainbath sweep CASE --set run.seed=1,...,R --out DIR`, or a directory of `grainbath run`
+outputs, one subdirectory per seed): for each window mean or fit with an
 error in summary.json, the scatter of the values (sample SD, with its own standard error
 SD/sqrt(2(R-1))), the rms of the runs' errors, their ratio and how many runs flagged their
 error as a lower bound (`*_plateau` false). For a density mode, also the fit of ln A used
@@ -29,6 +30,8 @@ def old_log_fit(t, A, N, t0, t1):
 
 def main(sweep):
     runs = sorted(d for d in glob.glob(os.path.join(sweep, "variant-*")) if os.path.isdir(d))
+    if not runs:  # plain run directories (e.g. --out DIR/s1, DIR/s2, ...)
+        runs = sorted(os.path.dirname(p) for p in glob.glob(os.path.join(sweep, "*", "summary.json")))
     summaries = []
     for d in runs:
         try:
@@ -52,6 +55,9 @@ def main(sweep):
                            ("a2.mean", "a2.stderr", "a2.stderr_plateau"),
                            ("a3.mean", "a3.stderr", "a3.stderr_plateau"),
                            ("rotation.R", "rotation.R_stderr", "rotation.R_stderr_plateau"),
+                           ("rotation.Ttr_mean", "rotation.Ttr_stderr", "rotation.Ttr_stderr_plateau"),  # EDMD rough grains
+                           ("rotation.Trot_mean", "rotation.Trot_stderr", "rotation.Trot_stderr_plateau"),
+                           ("pressure.Z", "pressure.Z_stderr", "pressure.Z_stderr_plateau"),  # EDMD
                            ("mode.decay_rate", "mode.decay_rate_stderr", None)]:
         v = [get(s, key) for _, s in summaries]
         e = [get(s, err) for _, s in summaries]

@@ -854,6 +854,22 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   std::vector<double> Tseries(s.temperature.begin() + 1, s.temperature.end());
   const MeanError Tm = block_average(Tseries);
   const MeanError Zm = block_average(s.z);
+  // A blocked error whose blocking reached no plateau is a lower bound (the series is
+  // correlated over a good part of the window, or drifts through it): flagged as the DSMC
+  // does (`KEY_plateau`, docs/OUTPUT.md; absent when the window is too short to tell) and said
+  // on stderr. Measured (docs/edmd.md "Errors of the window means"): heated disks and rough
+  // grains scatter over seeds 2.2-2.6x their blocked T errors, every run flagged.
+  auto flag_plateau = [&](const std::string& key, const MeanError& e) {
+    if (!e.plateau_judged || !std::isfinite(e.stderr_)) return;
+    summary.set(key + "_plateau", e.plateau);
+    if (!e.plateau)
+      std::fprintf(stderr,
+                   "warning: %s = %.3g is unreliable: block averaging over the window (%zu samples) reached no "
+                   "plateau: the series is correlated over a good part of it (then the error is a lower bound) "
+                   "or drifts through it (%s_plateau = false); take the error from independent replicas: "
+                   "grainbath sweep CASE --set run.seed=1,2,...,8\n",
+                   key.c_str(), e.stderr_, e.samples, key.c_str());
+  };
   const double T_mean = Tm.mean;
   // In free cooling T decays through the window, so theory evaluated at the window mean of T
   // is not the theory of the window: a rate that goes as T^p (collision frequency p = 1/2,
@@ -873,6 +889,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const double Z = c.free_cooling ? Zm.mean : 1.0 + f.virial / (D * t_run * N * T_mean);
   summary.set("pressure.Z", Z);
   summary.set("pressure.Z_stderr", Zm.stderr_);
+  flag_plateau("pressure.Z_stderr", Zm);
   if (!c.free_cooling) {  // a window mean of a decaying T describes nothing (haff.* does)
     summary.set("pressure.P", n * T_mean * Z);
     // The pressure on the walls: the normal momentum they took (Counters::wall_virial) per unit
@@ -893,6 +910,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     if (wall_area > 0.0 && t_run > 0.0) summary.set("pressure.wall", f.wall_virial / (t_run * wall_area));
     summary.set("temperature.mean", T_mean);
     summary.set("temperature.stderr", Tm.stderr_);
+    flag_plateau("temperature.stderr", Tm);
   }
   summary.set("temperature.initial", T0);
   const double mean_e = f.collisions ? f.sum_e / f.collisions : 1.0;
@@ -1123,6 +1141,9 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
     summary.set("rotation.Ttr_stderr", Ttm.stderr_);
     summary.set("rotation.Trot_mean", Trm.mean);
     summary.set("rotation.Trot_stderr", Trm.stderr_);
+    flag_plateau("rotation.R_stderr", Rm);
+    flag_plateau("rotation.Ttr_stderr", Ttm);
+    flag_plateau("rotation.Trot_stderr", Trm);
     summary.set("rotation.Trot_initial", s.rotational_temperature.front());
     summary.set("rotation.moment_of_inertia_q", c.rough->q);
     for (const auto& [k, v] : rough_steady_theory(c)) summary.set("theory." + k, v);

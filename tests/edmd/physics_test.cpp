@@ -558,6 +558,35 @@ TEST(EdmdPhysics, SteadyTemperatureInMediumMatchesEnergyBalance) {
   EXPECT_NEAR(s.number("conservation.energy_change"), 0.0, 1e-6 * 1000);
 }
 
+// The blocked errors carry the DSMC's plateau flag (docs/OUTPUT.md, Lee-Needs-Drummond). In a
+// medium T decorrelates within ~2 collisions per particle: 1024 samples reach the plateau
+// (4/4 seeds; 14 seeds of cases/dense-medium scatter by 0.91 +- 0.18 of their blocked error).
+// White-noise disks at nu = 0.5 relax over ~70 collisions per particle: no plateau (8/8 seeds;
+// 12 seeds of cases/bizon-heat-baths/white-noise scatter 2.6 +- 0.6x their blocked T and Z
+// errors, docs/edmd.md "Errors of the window means"). Absent flags (before 2026-12-06) fail.
+TEST(EdmdPhysics, BlockedErrorsCarryThePlateauFlag) {
+  const std::string medium =
+      "[edmd]\ndimensions = 3\nparticles = 512\npacking_fraction = 0.3\nequilibrate = 20\ncollisions = 1024\n"
+      "[restitution]\nlaw = \"constant\"\ne = 0.9\n"
+      "[background]\ndensity = 1.0\nknudsen = 1.0\ntemperature = 1.0\nmass_ratio = 0.5\n";
+  const std::string heated =
+      "[edmd]\ndimensions = 2\nparticles = 900\npacking_fraction = 0.5\nequilibrate = 30\ncollisions = 256\n"
+      "[restitution]\nlaw = \"bizon\"\ne = 0.7\ncrossover = 1.0\n"
+      "[heating]\nmodel = \"white_noise\"\nkick = 0.62\n";
+  auto flag = [](const Summary& s, const char* key) -> int {
+    const Summary::Value* v = s.get(key);
+    if (v == nullptr || !std::holds_alternative<bool>(*v)) return -1;  // absent
+    return std::get<bool>(*v) ? 1 : 0;
+  };
+  for (std::uint64_t seed : {1, 2}) {
+    const Summary m = run_case(medium, seed), h = run_case(heated, seed);
+    EXPECT_EQ(flag(m, "temperature.stderr_plateau"), 1) << "seed " << seed;
+    EXPECT_EQ(flag(m, "pressure.Z_stderr_plateau"), 1) << "seed " << seed;
+    EXPECT_EQ(flag(h, "temperature.stderr_plateau"), 0) << "seed " << seed;
+    EXPECT_EQ(flag(h, "pressure.Z_stderr_plateau"), 0) << "seed " << seed;
+  }
+}
+
 TEST(EdmdPhysics, HeatBathsReproduceBizonTrends) {
   // white noise at nu = 0.5: velocity correlations lower G_s below the CS value and the loss
   // rate below gamma_e (Bizon Figs. 5, 8b); the Boltzmann bath keeps gamma close to gamma_e.
