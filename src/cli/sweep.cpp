@@ -57,10 +57,7 @@ std::vector<std::string> split_values(const std::string& s) {
   out.push_back(cur);
   // "1, 2" is 1 and 2, as each run reads them (spaces around a value are the shell quoting's):
   // untrimmed, "1, 1" passed the repeated-value check and names and tables carried the space
-  for (auto& v : out) {
-    v.erase(0, v.find_first_not_of(" \t"));
-    v.erase(v.find_last_not_of(" \t") + 1);
-  }
+  for (auto& v : out) v = std::string(trim(v));
   return out;
 }
 
@@ -189,9 +186,7 @@ int command_sweep(const SweepArgs& a) {
     }
     // A key in two --set options: each run would take the later value, so a fixed value was
     // dropped without a word, or two axes over one key made runs that differ only in name
-    std::string key = o.substr(0, eq);
-    key.erase(0, key.find_first_not_of(" \t"));
-    key.erase(key.find_last_not_of(" \t") + 1);
+    const std::string key(trim(std::string_view(o).substr(0, eq)));
     if (const auto [at, fresh] = given.emplace(key, o); !fresh) {
       std::fprintf(stderr,
                    "error: --set %s: %s is also given by --set %s; give each key once, with all its values "

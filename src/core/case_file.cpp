@@ -187,6 +187,13 @@ std::string Bounds::describe() const {
   return "a finite number";
 }
 
+std::string_view trim(std::string_view s) {
+  const auto a = s.find_first_not_of(" \t\r");
+  if (a == std::string_view::npos) return {};
+  const auto b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
 namespace {
 
 // Strict UTF-8: returns the sequence length at t[i] (0 if invalid) and its code point.
@@ -234,12 +241,6 @@ std::string printable(std::string_view s, std::size_t max_len = 60) {
   return out;
 }
 
-std::string_view trim(std::string_view s) {
-  const auto a = s.find_first_not_of(" \t\r");
-  if (a == std::string_view::npos) return {};
-  const auto b = s.find_last_not_of(" \t\r");
-  return s.substr(a, b - a + 1);
-}
 
 // Best effort, for messages about bytes and syntax (there is no parsed key yet): the key a
 // line defines ("section.key"), or the table header on it ("[section]"); searching upwards

@@ -146,6 +146,10 @@ class CaseReader {
   bool about_names_ = false;  // an unknown value of a choice() was reported
 };
 
+// s without the spaces, tabs and CRs around it: how a --set section.key=value is split and
+// read (shell quoting's spaces are not part of it); `sweep` trims its keys and values alike.
+std::string_view trim(std::string_view s);
+
 // The shortest decimal form of x that reads back exactly ("0.01", "1.0"), as messages show numbers.
 std::string format_real(double x);
 

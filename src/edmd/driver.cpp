@@ -235,42 +235,38 @@ Config read_config(CaseReader& r) {
     const std::string prof = c.heating.profile == ForcingProfile::tent    ? "tent"
                              : c.heating.profile == ForcingProfile::shear ? "shear"
                                                                           : "uniform";
-    struct Owner {
-      const char* key;
-      std::vector<std::string> models;
-      const char* profiles;  // air_table keys that need a profile ("" = any)
-    };
-    const Owner owners[] = {{"rate", {"white_noise", "air_table", "boltzmann"}, ""},
-                            {"kick", {"white_noise"}, ""},
-                            {"acceleration", {"air_table"}, ""},
-                            {"profile", {"air_table"}, ""},
-                            {"axis", {"air_table"}, "tent or shear"},
-                            {"bias", {"air_table"}, "shear"},
-                            {"component", {"air_table"}, "shear"},
-                            {"temperature", {"boltzmann"}, ""}};
-    for (const Owner& o : owners) {
-      const bool mine = std::find(o.models.begin(), o.models.end(), model) != o.models.end();
-      const std::string need = o.profiles;
-      if (mine && (need.empty() || (prof != "uniform" && need.find(prof) != std::string::npos))) continue;
+    // which models take a key: the registry's key lists (edmd_models(), what list-models
+    // prints), as law_keys() does for the restitution laws
+    std::map<std::string, std::vector<std::string>> owners;  // key -> the heating models taking it
+    for (const auto& m : edmd_models())
+      if (m.kind == "heating")
+        for (const auto& k : m.keys) owners[k.substr(0, k.find(' '))].push_back(m.name);
+    // air-table keys that only a forcing profile reads (Bizon Sec. V)
+    const std::map<std::string, std::string> profile_keys{{"axis", "tent or shear"}, {"bias", "shear"}, {"component", "shear"}};
+    const std::string file_model = r.overridden("heating", "model") ? r.file_string("heating", "model") : "";
+    for (const auto& [key, models] : owners) {
+      const bool mine = std::find(models.begin(), models.end(), model) != models.end();
+      const auto need = profile_keys.find(key);
+      if (mine && (need == profile_keys.end() || (prof != "uniform" && need->second.find(prof) != std::string::npos)))
+        continue;
       std::string message;
       if (mine)
-        message = std::string("used only with profile = ") + (need == "shear" ? "\"shear\"" : "\"tent\" or \"shear\"") +
-                  ", found profile = \"" + prof + "\"";
+        message = std::string("used only with profile = ") +
+                  (need->second == "shear" ? "\"shear\"" : "\"tent\" or \"shear\"") + ", found profile = \"" + prof + "\"";
       else {
         std::string list;
-        for (const auto& m : o.models) list += (list.empty() ? "" : " or ") + ("\"" + m + "\"");
+        for (const auto& m : models) list += (list.empty() ? "" : " or ") + ("\"" + m + "\"");
         message = "not used by model = \"" + model + "\" (a key of model = " + list + ")";
       }
       // --set heating.model switched the model (a sweep over baths): the file's keys of the
       // model it replaced are ignored with a note, as for restitution laws
-      const std::string file_model = r.overridden("heating", "model") ? r.file_string("heating", "model") : "";
-      if (!file_model.empty() && file_model != model && r.has("heating", o.key) && !r.overridden("heating", o.key) &&
-          std::find(o.models.begin(), o.models.end(), file_model) != o.models.end())
-        r.ignore("heating", o.key,
+      if (!file_model.empty() && file_model != model && r.has("heating", key) && !r.overridden("heating", key) &&
+          std::find(models.begin(), models.end(), file_model) != models.end())
+        r.ignore("heating", key,
                  "ignored: a key of the file's model = \"" + file_model + "\", which --set heating.model = \"" + model +
                      "\" replaces");
       else
-        r.used_elsewhere("heating", o.key, message);
+        r.used_elsewhere("heating", key, message);
     }
   }
   c.background = read_background(r);
