@@ -4,7 +4,12 @@
                     times (results.h5 /theory/rough_model_*: integrated by the driver from the
                     measured start with the Enskog nu and the run's collision-keyed driving);
                     thinned logarithmically in time
-  edmd_r_vs_mu.csv  mu, R, R_stderr, Ttr, Ttr_stderr, R_A..R_E, Ttr_E of the output-sweep/ runs
+  edmd_r_vs_mu.csv  mu, R, R_stderr, Ttr, Ttr_stderr (the seed-1 run and its blocked errors),
+                    R_A..R_E, Ttr_E, and over the seeds of run.sh's SEEDS (output-sweep/mu-MU,
+                    mu-MU-seedS): seeds, R_seeds, R_seeds_sem, Ttr_seeds, Ttr_seeds_sem (mean and
+                    standard error of the mean over the seeds; nan with one seed). The blocked
+                    errors understate the scatter between runs (docs/edmd.md "Errors of the
+                    window means"): quote the seeds' columns.
 Time unit: 1/nu(0), nu(0) = G sqrt(Ttr(0)), G = 2 n sigma chi sqrt(pi) (docs/rough.md R1,
 Henderson chi), as in theory_curves.csv."""
 import csv
@@ -47,17 +52,33 @@ with open(os.path.join(here, "edmd_curves.csv"), "w", newline="") as f:
             last = x
             w.writerow([mu, f"{x:.6g}"] + [f"{c[k]:.6g}" for c in cols])
 
-rows = []
+groups = {}
 for d in glob.glob(os.path.join(here, "output-sweep", "mu-*")):
+    name = os.path.basename(d)[3:]
+    mu_s, _, seed = name.partition("-seed")
     s = json.load(open(os.path.join(d, "summary.json")))
-    mu = float(os.path.basename(d)[3:])
-    r, th = s["rotation"], s["theory"]
+    groups.setdefault(float(mu_s), {})[int(seed or 1)] = s
+rows = []
+for mu, runs in groups.items():
+    first = runs[min(runs)]
+    r, th = first["rotation"], first["theory"]
+    R = [x["rotation"]["R"] for x in runs.values()]
+    T = [x["rotation"]["Ttr_mean"] for x in runs.values()]
+
+    def mean_sem(v):
+        m = sum(v) / len(v)
+        if len(v) < 2:
+            return m, float("nan")
+        return m, math.sqrt(sum((x - m) ** 2 for x in v) / (len(v) - 1) / len(v))
+
     rows.append([mu, r["R"], r["R_stderr"], r["Ttr_mean"], r["Ttr_stderr"]] +
-                [th[f"model_{m}"]["R"] for m in "ABCDE"] + [th["model_E"]["Ttr"]])
+                [th[f"model_{m}"]["R"] for m in "ABCDE"] + [th["model_E"]["Ttr"], len(runs)] +
+                list(mean_sem(R)) + list(mean_sem(T)))
 rows.sort()
 with open(os.path.join(here, "edmd_r_vs_mu.csv"), "w", newline="") as f:
     w = csv.writer(f)
-    w.writerow(["mu", "R", "R_stderr", "Ttr", "Ttr_stderr", "R_A", "R_B", "R_C", "R_D", "R_E", "Ttr_E"])
+    w.writerow(["mu", "R", "R_stderr", "Ttr", "Ttr_stderr", "R_A", "R_B", "R_C", "R_D", "R_E", "Ttr_E",
+                "seeds", "R_seeds", "R_seeds_sem", "Ttr_seeds", "Ttr_seeds_sem"])
     for r in rows:
         w.writerow([f"{x:.6g}" for x in r])
 print("wrote edmd_curves.csv, edmd_r_vs_mu.csv")

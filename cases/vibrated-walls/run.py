@@ -2,7 +2,13 @@
 """Runs of cases/vibrated-walls (all from case.toml with --set overrides), outputs in
 cases/vibrated-walls/output/<name>/. Then `plot.py` makes the tables and the figure.
 
-  GRAINBATH=build/grainbath /usr/bin/python3 cases/vibrated-walls/run.py [--force] [names...]
+  GRAINBATH=build/grainbath /usr/bin/python3 cases/vibrated-walls/run.py [--force] [--seeds=2,3,...] [names...]
+
+--seeds=S1,S2,... also runs each named run (all by default) with these seeds (`--set run.seed=S`)
+into output-seeds/<name>/s<S>/; plot.py then adds the mean and standard error of T/T_bal over
+seed 1 and these to balance.csv. The blocked error of one run's mean T understates the scatter
+between runs in the near-elastic, weakly dissipating runs (slow energy modes; docs/edmd.md
+"Errors of the window means").
 
 Series:
   main         case.toml as is: 1600 disks, nu = 0.1, L_x = L_y = 112 sigma, e = 0.9, v_dr = 1
@@ -64,17 +70,20 @@ def runs():
 
 def main():
     force = "--force" in sys.argv
+    seeds = [int(x) for a in sys.argv[1:] if a.startswith("--seeds=") for x in a[len("--seeds="):].split(",") if x]
     only = [a for a in sys.argv[1:] if not a.startswith("--")]
     for name, sets in runs().items():
         if only and name not in only:
             continue
-        out = os.path.join(here, "output", name)
-        if os.path.exists(os.path.join(out, "summary.json")) and not force:
-            print(f"{name}: exists")
-            continue
-        cmd = ["nice", exe, "run", here, "--out", out, "-q"] + [a for s in sets for a in ("--set", s)]
-        print(" ".join(cmd[1:]), flush=True)
-        subprocess.run(cmd, check=True)
+        jobs = [(os.path.join(here, "output", name), [])]
+        jobs += [(os.path.join(here, "output-seeds", name, f"s{k}"), [f"run.seed={k}"]) for k in seeds]
+        for out, extra in jobs:
+            if os.path.exists(os.path.join(out, "summary.json")) and not force:
+                print(f"{out}: exists")
+                continue
+            cmd = ["nice", exe, "run", here, "--out", out, "-q"] + [a for s in sets + extra for a in ("--set", s)]
+            print(" ".join(cmd[1:]), flush=True)
+            subprocess.run(cmd, check=True)
 
 
 if __name__ == "__main__":
