@@ -305,3 +305,50 @@ TEST(HydroClosureSolver, ApproachesDriftDiffusionLimit) {
   EXPECT_LT(diffs[1], 0.6 * diffs[0]);
   EXPECT_LT(diffs[1], 6e-3);
 }
+
+// A uniform state has no flux divergence, so the 1D solver integrates the homogeneous
+// relaxation ODEs of closures/ (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md).
+// Grain mass 1.3, a background drifting at uB = 0.3 and grains starting 0.8 faster and hotter
+// than it: the IMEX steps (second order) must follow closures::relax (an independent adaptive
+// rk8pd integration of the same sources) for u, T. This sees the conversion between the
+// conservative energy n u^2/2 + 3 n T/(2 m) and (u, T) in the implicit source step (the
+// friction's kinetic-energy term n u du/dt, the 1/m) and the background drift handed to the
+// sources, none of which the density-mode tests (linear about u = uB = 0) can see.
+TEST(HydroClosureSolver, UniformStateFollowsTheHomogeneousRelaxation) {
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    Closure1DConfig cfg;
+    cfg.closure = c;
+    cfg.alpha = 0.4;
+    cfg.mass = 1.3;
+    cfg.eps = 0.2;
+    cfg.beta = 0.05;
+    cfg.delta = 0.3;
+    const Grid g = Grid::make({3}, {30.0}, Boundary::Periodic);
+    const double nB = 1.2, TB = 0.9, uB = 0.3, n = 1.1;
+    const Background bg = uniform_background(g, nB, TB, {uB, 0.0, 0.0});
+    Closure1DSolver s(cfg, bg, n);
+    const Primitive1D w0{n, uB + 0.8, 1.7 * TB};
+    s.set_state({w0, w0, w0});
+    const double t_end = 0.25;
+    s.run_to(t_end, 2e-4);
+    grainbath::closures::Parameters p{};
+    p.alpha = cfg.alpha;
+    p.mass = cfg.mass;
+    p.nB = nB;
+    p.TB = TB;
+    p.uB = {uB, 0.0, 0.0};
+    p.eps = cfg.eps;
+    p.n = n;
+    p.beta = cfg.beta;
+    p.delta = cfg.delta;
+    const auto ref = grainbath::closures::relax(c, p, {{w0.u, 0.0, 0.0}, w0.T, 0.0}, {t_end}).back();
+    const auto w = s.primitive();
+    std::printf("  %s: solver u %.8f T %.8f, relax u %.8f T %.8f\n", to_string(c), w[1].u, w[1].T, ref.u[0], ref.T);
+    ASSERT_GT(std::abs(ref.u[0] - uB), 0.05);  // still drifting: the test sees the friction
+    for (const auto& x : w) {
+      EXPECT_NEAR(x.n, n, 1e-14 * n);
+      EXPECT_NEAR(x.u - uB, ref.u[0] - uB, 1e-5 * std::abs(ref.u[0] - uB)) << to_string(c);
+      EXPECT_NEAR(x.T, ref.T, 1e-5 * ref.T) << to_string(c);
+    }
+  }
+}
