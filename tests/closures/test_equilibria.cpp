@@ -156,6 +156,21 @@ TEST(Limits, BrownianThermalBath) {
   EXPECT_NEAR(equilibrium_temperature(Closure::grad, p), lo, 2e-3 * (p.TB - lo));
 }
 
+// e = 1 - 2 beta = 0 (delta = 0, beta = 1/2): perfectly inelastic grains are a valid law (the
+// power law is never negative), so the closures must not refuse it; the Maxwellian T# still
+// solves eq. 27 (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md).
+TEST(Equilibrium, PerfectlyInelasticGrainsAreAccepted) {
+  const Parameters p = base(0.05, 0.5, 0.0);
+  EXPECT_EQ(negative_restitution_probability(p, p.TB), 0.0);
+  double T = 0.0;
+  ASSERT_NO_THROW(T = equilibrium_temperature(Closure::maxwellian, p));
+  EXPECT_NEAR(T, bisect(p, 1e-6, p.TB), 1e-12 * T);
+  EXPECT_NO_THROW(equilibrium_temperature(Closure::grad, p));
+  EXPECT_NO_THROW(relax(Closure::maxwellian, p, {p.uB, 2.0 * p.TB, 0.0}, {0.1}));
+  // just beyond, e < 0 for every collision: refused
+  EXPECT_THROW(equilibrium_temperature(Closure::maxwellian, base(0.05, 0.5000001, 0.0)), ClosureError);
+}
+
 TEST(BadInput, ThrowsWithAMessageNamingTheParameter) {
   auto message = [](const Parameters& p) {
     try {

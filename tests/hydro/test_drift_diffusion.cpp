@@ -471,3 +471,25 @@ TEST(HydroFiniteVolume, UniformDriftTransportsAtEveryPecletNumber) {
     EXPECT_NEAR(sin_part, expect, 1e-9 * std::abs(expect) + 1e-13) << "Pe=" << Pe;
   }
 }
+
+// The shear backgrounds (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md):
+// a steady Euler shear flow uB = (U(y), 0, 0) varies across the flow only (uB.grad uB = 0), with
+// uniform nB, TB; the cell values are U at the cell centre's y, in 2D and 3D.
+TEST(HydroGrid, ShearBackgroundVariesAcrossTheFlowOnly) {
+  const double U0 = 0.7, k = 2.0;
+  for (const Grid& g : {Grid::make({6, 8}, {1.5, kPi}, Boundary::Periodic),
+                        Grid::make({5, 8, 3}, {2.0, kPi, 1.0}, Boundary::Periodic)}) {
+    const Background bg = sine_shear_background(g, 1.3, 0.8, U0, k);
+    for (int kk = 0; kk < g.n[2]; ++kk)
+      for (int j = 0; j < g.n[1]; ++j)
+        for (int i = 0; i < g.n[0]; ++i) {
+          const std::size_t c = g.index(i, j, kk);
+          const double y = (j + 0.5) * g.length[1] / g.n[1];
+          EXPECT_NEAR(bg.uB[0][c], U0 * std::sin(k * y), 1e-15) << i << " " << j << " " << kk;
+          EXPECT_EQ(bg.uB[1][c], 0.0);
+          EXPECT_EQ(bg.uB[2][c], 0.0);
+          EXPECT_EQ(bg.nB[c], 1.3);
+          EXPECT_EQ(bg.TB[c], 0.8);
+        }
+  }
+}
