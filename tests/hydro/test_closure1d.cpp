@@ -420,3 +420,41 @@ TEST(HydroClosureSolver, StableStepUsesTheFastestCharacteristicSpeed) {
     EXPECT_NEAR(s.max_stable_dt(), cfg.cfl * g.h(0) / cmax, 1e-6 * s.max_stable_dt()) << to_string(c);
   }
 }
+
+// Mass scaling (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md): the
+// kinetic equation depends on the grain mass only through the thermal speeds T/m, TB/m (mB = alpha
+// m/(1 - alpha) scales with m; both collision rules act on velocities). A run with mass m and all
+// temperatures times m is the unit-mass run with T -> m T: same n and u, T/m equal. Checked for
+// the Maxwellian and Grad 1D solvers (streaming fluxes, Grad heat flux, implicit sources) on a
+// walled isobaric background with a non-equilibrium start.
+TEST(HydroClosureSolver, GrainMassOnlyRescalesTheTemperature) {
+  const int N = 32;
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    std::vector<Primitive1D> w[2];
+    for (int r = 0; r < 2; ++r) {
+      const double m = r == 0 ? 1.0 : 1.7;
+      Closure1DConfig cfg;
+      cfg.closure = c;
+      cfg.mass = m;
+      cfg.eps = 0.4;
+      cfg.beta = 0.05;
+      cfg.delta = 0.4;
+      const Grid g = Grid::make({N}, {2 * kPi}, Boundary::Wall);
+      Closure1DSolver s(cfg, isobaric_background(g, 1.0, m * 1.1, 0.3, 1.0), 1.0);
+      std::vector<Primitive1D> w0(N);
+      for (int i = 0; i < N; ++i) {
+        const double x = g.x(0, i);
+        w0[i] = {1.0 + 0.3 * std::cos(x), 0.3 * std::sin(x), m * (0.9 + 0.2 * std::sin(2 * x))};
+      }
+      s.set_state(w0);
+      for (int k = 0; k < 30; ++k) s.step(0.02);
+      w[r] = s.primitive();
+    }
+    double d = 0.0;
+    for (int i = 0; i < N; ++i)
+      d = std::max({d, std::abs(w[1][i].n - w[0][i].n), std::abs(w[1][i].u - w[0][i].u),
+                    std::abs(w[1][i].T / 1.7 - w[0][i].T)});
+    std::printf("  %s: mass 1.7 vs mass 1 (temperatures scaled), max difference %.2e\n", to_string(c), d);
+    EXPECT_LT(d, 1e-11) << to_string(c);
+  }
+}
