@@ -231,3 +231,20 @@ TEST(Sonine, GrainGrainMomentsAreTheHcsCollisionMomentsForConstantRestitution) {
     }
   }
 }
+
+// Brownian limit (alpha -> 0, a heavy grain in a light gas): the bath acts as an
+// Ornstein-Uhlenbeck (Fokker-Planck) process, which keeps a Gaussian Gaussian while its
+// temperature relaxes, so a Maxwellian start (a2 = 0) at T != TB must give da2/dt = 0 to O(alpha)
+// while dT/dt = 2 gamma (TB - T) is not small (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md: this sees the -2 (1 + a2) dT/dt / T of the
+// chain rule a2 = <c^4>/(15 theta^2) - 1, which vanishes in every steady state).
+TEST(Sonine, BrownianBathKeepsAGaussianGaussian) {
+  Parameters p = bath(1e-6, 0.0, 0.0);  // elastic grains: grain-grain collisions keep the Maxwellian too
+  p.nB = 1e3;
+  for (double T : {0.3 * p.TB, 2.5 * p.TB}) {
+    const MomentSources m = sonine_sources(p, {p.uB, T, 0.0});
+    std::printf("Brownian bath, T/TB = %.1f: dT/dt / T = %.6e, da2/dt = %.3e\n", T / p.TB, m.dT_dt / T, m.da2_dt);
+    EXPECT_GT(std::abs(m.dT_dt / T), 1e-3);
+    EXPECT_LT(std::abs(m.da2_dt), 1e-3 * std::abs(m.dT_dt / T)) << "T/TB=" << T / p.TB;
+  }
+}
