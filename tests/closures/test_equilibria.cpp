@@ -156,6 +156,21 @@ TEST(Limits, BrownianThermalBath) {
   EXPECT_NEAR(equilibrium_temperature(Closure::grad, p), lo, 2e-3 * (p.TB - lo));
 }
 
+// e = 1 - 2 beta = 0 (delta = 0, beta = 1/2): perfectly inelastic grains are a valid law (the
+// power law is never negative), so the closures must not refuse it; the Maxwellian T# still
+// solves eq. 27 (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md).
+TEST(Equilibrium, PerfectlyInelasticGrainsAreAccepted) {
+  const Parameters p = base(0.05, 0.5, 0.0);
+  EXPECT_EQ(negative_restitution_probability(p, p.TB), 0.0);
+  double T = 0.0;
+  ASSERT_NO_THROW(T = equilibrium_temperature(Closure::maxwellian, p));
+  EXPECT_NEAR(T, bisect(p, 1e-6, p.TB), 1e-12 * T);
+  EXPECT_NO_THROW(equilibrium_temperature(Closure::grad, p));
+  EXPECT_NO_THROW(relax(Closure::maxwellian, p, {p.uB, 2.0 * p.TB, 0.0}, {0.1}));
+  // just beyond, e < 0 for every collision: refused
+  EXPECT_THROW(equilibrium_temperature(Closure::maxwellian, base(0.05, 0.5000001, 0.0)), ClosureError);
+}
+
 TEST(BadInput, ThrowsWithAMessageNamingTheParameter) {
   auto message = [](const Parameters& p) {
     try {
@@ -200,4 +215,49 @@ TEST(TheoryValues, ContainsTheDocumentedKeysAndConsistentValues) {
   EXPECT_EQ(get("expansion.T2_grad"), expansion(p).T2_grad);
   EXPECT_TRUE(std::isfinite(get("equilibrium.sonine.T")));
   EXPECT_TRUE(std::isfinite(get("equilibrium.sonine.a2")));
+}
+
+// The keys built from T# (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md):
+// rates.momentum is the linear friction rate at T#, -(du/dt)/(u - uB) of the exact exchange
+// (docs eq. C5, validated against quadrature in test_exchange.cpp) at a tiny drift; the
+// e < 0 probability is the one at T# (docs/OUTPUT.md), not at TB; and each second-order key
+// approximates its own closure's T# with an O(eps^3) error (halving eps divides it by ~8,
+// while the other closure's T2 would leave an eps^2 error, ratio ~4).
+TEST(TheoryValues, DerivedKeysAreEvaluatedAtTheirClosuresEquilibrium) {
+  auto key = [](const std::vector<std::pair<std::string, double>>& v, const std::string& k) {
+    for (const auto& [name, val] : v)
+      if (name == k) return val;
+    ADD_FAILURE() << "missing key " << k;
+    return std::nan("");
+  };
+  {
+    const Parameters p = base(0.5, 0.08, 1.0);  // strong cooling: T# well below TB
+    const auto v = theory_values(p);
+    const double TM = key(v, "equilibrium.maxwellian.T");
+    ASSERT_LT(TM, 0.97 * p.TB);
+    const double dU = 1e-6;
+    const std::array<double, 3> u{p.uB[0] + dU, p.uB[1], p.uB[2]};
+    const double rate = -maxwellian_exchange_exact(p, u, TM).du_dt[0] / dU;
+    std::printf("rates.momentum %.10f, -du/dt/U at T# %.10f, at TB %.10f\n", key(v, "rates.momentum"), rate,
+                -maxwellian_exchange_exact(p, u, p.TB).du_dt[0] / dU);
+    EXPECT_NEAR(key(v, "rates.momentum"), rate, 1e-8 * rate);
+    // docs eq. C12 written out: among collisions of Maxwellian grains at T the normal speed q has
+    // the density (m/2T) q exp(-m q^2/(4T)); e < 0 for q > (2 beta)^(-1/delta)
+    const double qs = std::pow(2.0 * p.beta, -1.0 / p.delta);
+    const double P = std::exp(-qs * qs * p.mass / (4.0 * TM));
+    std::printf("P(e<0) key %.6e, at T# %.6e, at TB %.6e\n", key(v, "diagnostics.negative_restitution_probability"),
+                P, std::exp(-qs * qs * p.mass / (4.0 * p.TB)));
+    EXPECT_NEAR(key(v, "diagnostics.negative_restitution_probability"), P, 1e-12 * P);
+  }
+  for (const char* c : {"maxwellian", "grad"}) {
+    double err[2];
+    for (int i = 0; i < 2; ++i) {
+      const auto v = theory_values(base(i == 0 ? 0.02 : 0.01, 0.1, 0.2));
+      err[i] = std::abs(key(v, std::string("expansion.second_order_") + c + ".T") -
+                        key(v, std::string("equilibrium.") + c + ".T"));
+    }
+    std::printf("%s: second-order key error %.3e (eps 0.02), %.3e (eps 0.01), ratio %.2f\n", c, err[0], err[1],
+                err[0] / err[1]);
+    EXPECT_NEAR(err[0] / err[1], 8.0, 0.8) << c;
+  }
 }

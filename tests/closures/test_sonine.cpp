@@ -208,3 +208,43 @@ TEST(Sonine, StrongDissipationGivesLargeA2OrAClearRefusal) {
   EXPECT_TRUE(has_maxwellian);
   EXPECT_EQ(available, 0.0);
 }
+
+// Constant restitution (delta = 0, e = 1 - 2 beta): the Sonine closure's grain-grain moments
+// are the HCS collision moments of the same f = M [1 + a2 S2] (docs eq. H6: a separate
+// quadrature in other coordinates, checked against the closed forms of Brilliantov and
+// Poeschel in test_hcs.cpp), up to the units: with v_T^2 = 2T/m,
+//   d<c^2>/dt (a2) / d<c^2>/dt (0) = mu_2(a2)/mu_2(0),  d<c^4>/dt (a2) / (v_T^2 d<c^2>/dt (0)) = mu_4(a2)/mu_2(0).
+// Large |a2| makes the a2^2 terms count (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md).
+TEST(Sonine, GrainGrainMomentsAreTheHcsCollisionMomentsForConstantRestitution) {
+  for (double e : {0.3, 0.8}) {
+    Parameters p = bath(0.4, 0.5 * (1.0 - e), 0.0);
+    const double T = 1.3, vT2 = 2.0 * T / p.mass;
+    const double g0 = sonine_grain_grain(p, T, 0.0).dc2_dt, mu20 = hcs_collision_moment(2, e, 0.0, 0.0);
+    for (double a2 : {-0.4, 0.3, 0.7}) {
+      const SonineMoments s = sonine_grain_grain(p, T, a2);
+      const double r2 = hcs_collision_moment(2, e, a2, 0.0) / mu20, r4 = hcs_collision_moment(4, e, a2, 0.0) / mu20;
+      std::printf("e=%.1f a2=%+.1f: c2 ratio %.12f (HCS %.12f), c4 ratio %.12f (HCS %.12f)\n", e, a2, s.dc2_dt / g0, r2,
+                  s.dc4_dt / (vT2 * g0), r4);
+      EXPECT_NEAR(s.dc2_dt / g0, r2, 1e-10 * std::abs(r2)) << "e=" << e << " a2=" << a2;
+      EXPECT_NEAR(s.dc4_dt / (vT2 * g0), r4, 1e-10 * std::abs(r4)) << "e=" << e << " a2=" << a2;
+    }
+  }
+}
+
+// Brownian limit (alpha -> 0, a heavy grain in a light gas): the bath acts as an
+// Ornstein-Uhlenbeck (Fokker-Planck) process, which keeps a Gaussian Gaussian while its
+// temperature relaxes, so a Maxwellian start (a2 = 0) at T != TB must give da2/dt = 0 to O(alpha)
+// while dT/dt = 2 gamma (TB - T) is not small (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md: this sees the -2 (1 + a2) dT/dt / T of the
+// chain rule a2 = <c^4>/(15 theta^2) - 1, which vanishes in every steady state).
+TEST(Sonine, BrownianBathKeepsAGaussianGaussian) {
+  Parameters p = bath(1e-6, 0.0, 0.0);  // elastic grains: grain-grain collisions keep the Maxwellian too
+  p.nB = 1e3;
+  for (double T : {0.3 * p.TB, 2.5 * p.TB}) {
+    const MomentSources m = sonine_sources(p, {p.uB, T, 0.0});
+    std::printf("Brownian bath, T/TB = %.1f: dT/dt / T = %.6e, da2/dt = %.3e\n", T / p.TB, m.dT_dt / T, m.da2_dt);
+    EXPECT_GT(std::abs(m.dT_dt / T), 1e-3);
+    EXPECT_LT(std::abs(m.da2_dt), 1e-3 * std::abs(m.dT_dt / T)) << "T/TB=" << T / p.TB;
+  }
+}

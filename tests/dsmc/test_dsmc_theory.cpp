@@ -14,10 +14,12 @@
 #include <functional>
 #include <numbers>
 #include <string>
+#include <utility>
 
 #include "core/case_file.hpp"
 #include "dsmc/dsmc.hpp"
 #include "dsmc/theory.hpp"
+#include "hydro/hydro.hpp"
 
 namespace {
 
@@ -187,4 +189,82 @@ t_end = 1.0
                           "hydro.decay_rate_grad_closure", "hydro.decay_rate_sonine_closure"})
     EXPECT_FALSE(has(iso, key)) << key;
   EXPECT_TRUE(has(iso, "hydro.thermal_diffusion_exponent_kinetic"));
+}
+
+// The closure and hydro blocks of a DSMC case's theory use the case's grains (mass, density),
+// background and restitution law (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md): T# of the Maxwellian closure, the kinetic D
+// and the closures' density-mode rates equal the library's values for the same parameters.
+TEST(DsmcTheory, ClosureAndHydroKeysUseTheCasesGrainsAndLaw) {
+  const std::string toml = R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [50]
+[grains]
+density = 0.7
+mass = 2.0
+profile = "mode"
+amplitude = 0.3
+[background]
+mass_ratio = 0.4
+density = 1.5
+temperature = 1.2
+knudsen = 0.2
+[restitution]
+law = "power"
+beta = 0.05
+delta = 0.3
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 1.0
+)";
+  CaseReader reader(toml, "/tmp/test.toml");
+  reader.accept("run", "solver");
+  const dsmc::Config c = dsmc::read_config(reader);
+  reader.finish();
+  const auto th = dsmc::theory_values(c);
+  closures::Parameters p{};
+  p.alpha = 0.4;
+  p.mass = 2.0;
+  p.nB = 1.5;
+  p.TB = 1.2;
+  p.eps = 0.2;
+  p.n = 0.7;
+  p.beta = 0.05;
+  p.delta = 0.3;
+  const double TM = closures::equilibrium_temperature(closures::Closure::maxwellian, p);
+  EXPECT_NEAR(value(th, "equilibrium.maxwellian.T"), TM, 1e-12 * TM);
+  const double Dk = hydro::diffusion_coefficient_kinetic(0.4, 2.0, 1.5, 1.2, 0.2);
+  EXPECT_NEAR(value(th, "hydro.diffusion_coefficient_kinetic"), Dk, 1e-12 * Dk);
+  const double k = std::numbers::pi;  // the mode of a box of length 2
+  EXPECT_NEAR(value(th, "hydro.k"), k, 1e-12);
+  hydro::ModeParams mp;
+  mp.alpha = 0.4;
+  mp.mass = 2.0;
+  mp.nB = 1.5;
+  mp.TB = 1.2;
+  mp.eps = 0.2;
+  mp.n = 0.7;
+  mp.beta = 0.05;
+  mp.delta = 0.3;
+  for (const auto& [key, model] : {std::pair{"hydro.decay_rate_maxwellian_closure", hydro::ModeModel::maxwellian_closure},
+                                   std::pair{"hydro.decay_rate_grad_closure", hydro::ModeModel::grad_closure}}) {
+    const double rate = hydro::mode_decay_rate(model, mp, k);
+    std::printf("%s: key %.12f, library %.12f\n", key, value(th, key), rate);
+    EXPECT_NEAR(value(th, key), rate, 1e-12 * rate) << key;
+  }
+  // a constant restitution e is the power law with delta = 0 and beta = (1 - e)/2
+  std::string toml_e = toml;
+  const std::string power_law = "law = \"power\"\nbeta = 0.05\ndelta = 0.3";
+  toml_e.replace(toml_e.find(power_law), power_law.size(), "law = \"constant\"\ne = 0.8");
+  CaseReader reader_e(toml_e, "/tmp/test.toml");
+  reader_e.accept("run", "solver");
+  const dsmc::Config ce = dsmc::read_config(reader_e);
+  reader_e.finish();
+  p.beta = 0.1;
+  p.delta = 0.0;
+  const double Te = closures::equilibrium_temperature(closures::Closure::maxwellian, p);
+  EXPECT_NEAR(value(dsmc::theory_values(ce), "equilibrium.maxwellian.T"), Te, 1e-12 * Te);
 }

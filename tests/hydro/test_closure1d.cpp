@@ -305,3 +305,156 @@ TEST(HydroClosureSolver, ApproachesDriftDiffusionLimit) {
   EXPECT_LT(diffs[1], 0.6 * diffs[0]);
   EXPECT_LT(diffs[1], 6e-3);
 }
+
+// A uniform state has no flux divergence, so the 1D solver integrates the homogeneous
+// relaxation ODEs of closures/ (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md).
+// Grain mass 1.3, a background drifting at uB = 0.3 and grains starting 0.8 faster and hotter
+// than it: the IMEX steps (second order) must follow closures::relax (an independent adaptive
+// rk8pd integration of the same sources) for u, T. This sees the conversion between the
+// conservative energy n u^2/2 + 3 n T/(2 m) and (u, T) in the implicit source step (the
+// friction's kinetic-energy term n u du/dt, the 1/m) and the background drift handed to the
+// sources, none of which the density-mode tests (linear about u = uB = 0) can see.
+TEST(HydroClosureSolver, UniformStateFollowsTheHomogeneousRelaxation) {
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    Closure1DConfig cfg;
+    cfg.closure = c;
+    cfg.alpha = 0.4;
+    cfg.mass = 1.3;
+    cfg.eps = 0.2;
+    cfg.beta = 0.05;
+    cfg.delta = 0.3;
+    const Grid g = Grid::make({3}, {30.0}, Boundary::Periodic);
+    const double nB = 1.2, TB = 0.9, uB = 0.3, n = 1.1;
+    const Background bg = uniform_background(g, nB, TB, {uB, 0.0, 0.0});
+    Closure1DSolver s(cfg, bg, n);
+    const Primitive1D w0{n, uB + 0.8, 1.7 * TB};
+    s.set_state({w0, w0, w0});
+    const double t_end = 0.25;
+    s.run_to(t_end, 2e-4);
+    grainbath::closures::Parameters p{};
+    p.alpha = cfg.alpha;
+    p.mass = cfg.mass;
+    p.nB = nB;
+    p.TB = TB;
+    p.uB = {uB, 0.0, 0.0};
+    p.eps = cfg.eps;
+    p.n = n;
+    p.beta = cfg.beta;
+    p.delta = cfg.delta;
+    const auto ref = grainbath::closures::relax(c, p, {{w0.u, 0.0, 0.0}, w0.T, 0.0}, {t_end}).back();
+    const auto w = s.primitive();
+    std::printf("  %s: solver u %.8f T %.8f, relax u %.8f T %.8f\n", to_string(c), w[1].u, w[1].T, ref.u[0], ref.T);
+    ASSERT_GT(std::abs(ref.u[0] - uB), 0.05);  // still drifting: the test sees the friction
+    for (const auto& x : w) {
+      EXPECT_NEAR(x.n, n, 1e-14 * n);
+      EXPECT_NEAR(x.u - uB, ref.u[0] - uB, 1e-5 * std::abs(ref.u[0] - uB)) << to_string(c);
+      EXPECT_NEAR(x.T, ref.T, 1e-5 * ref.T) << to_string(c);
+    }
+  }
+}
+
+// Reflecting walls are mirrors (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md):
+// a walled box [0, L] evolves as the left half of a periodic box [0, 2L] whose initial state is
+// its mirror image (n, T even, u odd about x = 0 and x = L, uB = 0), which keeps that symmetry.
+// The periodic run knows nothing about walls, so this checks the wall ghost cells of the
+// reconstruction and the wall fluxes, cell by cell, for the Maxwellian and Grad closures.
+TEST(HydroClosureSolver, WalledBoxIsTheMirrorImageOfAPeriodicBox) {
+  const int N = 24;
+  const double L = 3.0;
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    Closure1DConfig cfg;
+    cfg.closure = c;
+    cfg.eps = 0.3;
+    cfg.beta = 0.05;
+    const Grid gw = Grid::make({N}, {L}, Boundary::Wall), gp = Grid::make({2 * N}, {2 * L}, Boundary::Periodic);
+    Closure1DSolver sw(cfg, uniform_background(gw, 1.0, 1.0), 1.0), sp(cfg, uniform_background(gp, 1.0, 1.0), 1.0);
+    std::vector<Primitive1D> ww(N), wp(2 * N);
+    for (int i = 0; i < N; ++i) {
+      const double x = gw.x(0, i);
+      ww[i] = {1.0 + 0.3 * std::cos(2.0 * x) + 0.1 * x, 0.2 * std::sin(1.7 * x) + 0.05, 0.9 + 0.1 * x};
+      wp[i] = ww[i];
+      wp[2 * N - 1 - i] = {ww[i].n, -ww[i].u, ww[i].T};
+    }
+    sw.set_state(ww);
+    sp.set_state(wp);
+    const double dt = 0.5 * std::min(sw.max_stable_dt(), sp.max_stable_dt());
+    for (int s = 0; s < 40; ++s) {
+      sw.step(dt);
+      sp.step(dt);
+    }
+    const auto a = sw.primitive(), b = sp.primitive();
+    double d = 0.0, moved = 0.0;
+    for (int i = 0; i < N; ++i) {
+      d = std::max({d, std::abs(a[i].n - b[i].n), std::abs(a[i].u - b[i].u), std::abs(a[i].T - b[i].T)});
+      moved = std::max(moved, std::abs(a[i].u - ww[i].u));
+    }
+    std::printf("  %s: walled vs mirrored periodic, max difference %.2e (u changed by up to %.3f)\n", to_string(c), d, moved);
+    EXPECT_GT(moved, 0.01);
+    EXPECT_LT(d, 1e-12) << to_string(c);
+  }
+}
+
+// The step bound is CFL h / (fastest characteristic speed of the streaming part) (mutation
+// audit 2026-12-06): for a resting state the speeds are the eigenvalues of the linearised
+// flux, read here from the mode problem at large k where the 1/eps collision terms are
+// negligible, lambda ~ -i k c: Maxwellian c = +-sqrt(5 T/(3 m)) (sound), Grad its own.
+TEST(HydroClosureSolver, StableStepUsesTheFastestCharacteristicSpeed) {
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    Closure1DConfig cfg;
+    cfg.closure = c;
+    cfg.eps = 0.5;
+    cfg.mass = 1.4;
+    cfg.cfl = 0.4;
+    const Grid g = Grid::make({16}, {2.0}, Boundary::Periodic);
+    Closure1DSolver s(cfg, uniform_background(g, 1.0, 1.0), 1.0);
+    const double T = s.primitive()[0].T;
+    ModeParams mp;
+    mp.eps = cfg.eps;
+    mp.mass = cfg.mass;
+    const double k = 1e7;
+    double cmax = 0.0;
+    for (const auto& l : closure_mode_eigenvalues(c, mp, k)) cmax = std::max(cmax, std::abs(l.imag()) / k);
+    if (c == Closure::maxwellian) EXPECT_NEAR(cmax, std::sqrt(5.0 * T / (3.0 * cfg.mass)), 1e-6 * cmax);
+    std::printf("  %s: max_stable_dt %.10f, cfl h / c_max %.10f (c_max %.8f)\n", to_string(c), s.max_stable_dt(),
+                cfg.cfl * g.h(0) / cmax, cmax);
+    EXPECT_NEAR(s.max_stable_dt(), cfg.cfl * g.h(0) / cmax, 1e-6 * s.max_stable_dt()) << to_string(c);
+  }
+}
+
+// Mass scaling (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md): the
+// kinetic equation depends on the grain mass only through the thermal speeds T/m, TB/m (mB = alpha
+// m/(1 - alpha) scales with m; both collision rules act on velocities). A run with mass m and all
+// temperatures times m is the unit-mass run with T -> m T: same n and u, T/m equal. Checked for
+// the Maxwellian and Grad 1D solvers (streaming fluxes, Grad heat flux, implicit sources) on a
+// walled isobaric background with a non-equilibrium start.
+TEST(HydroClosureSolver, GrainMassOnlyRescalesTheTemperature) {
+  const int N = 32;
+  for (Closure c : {Closure::maxwellian, Closure::grad}) {
+    std::vector<Primitive1D> w[2];
+    for (int r = 0; r < 2; ++r) {
+      const double m = r == 0 ? 1.0 : 1.7;
+      Closure1DConfig cfg;
+      cfg.closure = c;
+      cfg.mass = m;
+      cfg.eps = 0.4;
+      cfg.beta = 0.05;
+      cfg.delta = 0.4;
+      const Grid g = Grid::make({N}, {2 * kPi}, Boundary::Wall);
+      Closure1DSolver s(cfg, isobaric_background(g, 1.0, m * 1.1, 0.3, 1.0), 1.0);
+      std::vector<Primitive1D> w0(N);
+      for (int i = 0; i < N; ++i) {
+        const double x = g.x(0, i);
+        w0[i] = {1.0 + 0.3 * std::cos(x), 0.3 * std::sin(x), m * (0.9 + 0.2 * std::sin(2 * x))};
+      }
+      s.set_state(w0);
+      for (int k = 0; k < 30; ++k) s.step(0.02);
+      w[r] = s.primitive();
+    }
+    double d = 0.0;
+    for (int i = 0; i < N; ++i)
+      d = std::max({d, std::abs(w[1][i].n - w[0][i].n), std::abs(w[1][i].u - w[0][i].u),
+                    std::abs(w[1][i].T / 1.7 - w[0][i].T)});
+    std::printf("  %s: mass 1.7 vs mass 1 (temperatures scaled), max difference %.2e\n", to_string(c), d);
+    EXPECT_LT(d, 1e-11) << to_string(c);
+  }
+}

@@ -443,3 +443,53 @@ TEST(HydroBadInput, ClearErrors) {
   EXPECT_NO_THROW(isobaric_background(Grid::make({16}, {1.0}, Boundary::Wall), 1, 1, 0.5, 1.0));
   EXPECT_EQ(Grid::from_spacing({2.0, 1.0}, {0.25, 0.125}, Boundary::Wall).n[1], 8);
 }
+
+// Transport by a uniform drift W at any Peclet number Pe = W h / D (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md). The Bernoulli weights obey B(-x) = B(x) + x
+// exactly, so the Scharfetter-Gummel flux is F = (D/h) B(Pe) (n_P - n_Q) + W n_P: for
+// n = 1 + a cos(k x) on a uniform grid the sin(k x) part of dn/dt is W a sin(k h)/h exactly
+// (the diffusive part is even). Checked on the solver's operator for a weak drift (Pe ~ 1e-6,
+// the series branch of bernoulli()), a moderate and a strong one, drifting both ways; and the
+// identity and B(x) = x/(e^x - 1) (long double) on both branches of bernoulli().
+TEST(HydroFiniteVolume, UniformDriftTransportsAtEveryPecletNumber) {
+  for (long double x : {1e-7L, -3e-5L, 9e-5L, -2e-4L, 0.37L, -4.2L, 30.0L}) {
+    const double b = bernoulli(static_cast<double>(x)), bm = bernoulli(static_cast<double>(-x));
+    const long double ref = x / std::expm1(x);
+    EXPECT_NEAR(b, static_cast<double>(ref), 1e-14 * static_cast<double>(ref)) << "x=" << static_cast<double>(x);
+    EXPECT_NEAR(bm - b, static_cast<double>(x), 1e-14 * (1.0 + bm)) << "x=" << static_cast<double>(x);
+  }
+  const Grid g = Grid::make({40}, {2 * kPi}, Boundary::Periodic);
+  const double k = 3.0, a = 0.2, h = g.h(0), D = kPaper.D(1.0, 1.0);
+  for (double Pe : {1e-6, -3e-6, 0.4, -6.0}) {
+    const double W = Pe * D / h;
+    FiniteVolumeSolver s(uniform_drift_background(g, 1.0, 1.0, {W, 0.0, 0.0}), kPaper);
+    const auto dn = s.apply(g.sample([&](double x, double, double) { return 1.0 + a * std::cos(k * x); }));
+    double sin_part = 0.0;
+    for (int i = 0; i < g.n[0]; ++i) sin_part += 2.0 / g.n[0] * dn[i] * std::sin(k * g.x(0, i));
+    const double expect = W * a * std::sin(k * h) / h;
+    std::printf("  Pe = %g: sin part of dn/dt %.12e, W a sin(kh)/h %.12e\n", Pe, sin_part, expect);
+    EXPECT_NEAR(sin_part, expect, 1e-9 * std::abs(expect) + 1e-13) << "Pe=" << Pe;
+  }
+}
+
+// The shear backgrounds (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md):
+// a steady Euler shear flow uB = (U(y), 0, 0) varies across the flow only (uB.grad uB = 0), with
+// uniform nB, TB; the cell values are U at the cell centre's y, in 2D and 3D.
+TEST(HydroGrid, ShearBackgroundVariesAcrossTheFlowOnly) {
+  const double U0 = 0.7, k = 2.0;
+  for (const Grid& g : {Grid::make({6, 8}, {1.5, kPi}, Boundary::Periodic),
+                        Grid::make({5, 8, 3}, {2.0, kPi, 1.0}, Boundary::Periodic)}) {
+    const Background bg = sine_shear_background(g, 1.3, 0.8, U0, k);
+    for (int kk = 0; kk < g.n[2]; ++kk)
+      for (int j = 0; j < g.n[1]; ++j)
+        for (int i = 0; i < g.n[0]; ++i) {
+          const std::size_t c = g.index(i, j, kk);
+          const double y = (j + 0.5) * g.length[1] / g.n[1];
+          EXPECT_NEAR(bg.uB[0][c], U0 * std::sin(k * y), 1e-15) << i << " " << j << " " << kk;
+          EXPECT_EQ(bg.uB[1][c], 0.0);
+          EXPECT_EQ(bg.uB[2][c], 0.0);
+          EXPECT_EQ(bg.nB[c], 1.3);
+          EXPECT_EQ(bg.TB[c], 0.8);
+        }
+  }
+}

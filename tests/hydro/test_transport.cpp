@@ -279,3 +279,70 @@ TEST(HydroTransport, TheoryValuesKeys) {
   EXPECT_NEAR(get("hydro.decay_rate"), 4.0 * get("hydro.diffusion_coefficient"), 1e-15);
   EXPECT_NEAR(get("hydro.decay_rate_kinetic"), 4.0 * get("hydro.diffusion_coefficient_kinetic"), 1e-15);
 }
+
+// The closures' finite-eps density-mode keys (mutation audit 2026-12-06,
+// docs/reviews/mutation-audit-closures-hydro.md): each key is the slowest mode of its own
+// closure's linearised system (eq. H24) for the grains' restitution law, i.e. the eigenvalue of
+// largest real part of closure_mode_eigenvalues; the three closures give different rates for
+// inelastic grains (T# < TB), so a key wired to the wrong closure or to elastic grains shows.
+TEST(HydroTransport, TheoryValuesClosureModeRatesAreTheirClosuresSlowestModes) {
+  HydroTheoryParams p;
+  p.alpha = 0.4;
+  p.eps = 0.3;
+  p.n = 1.5;
+  p.beta = 0.12;
+  p.delta = 0.0;
+  p.k = 1.5;
+  const auto v = hydro_theory_values(p);
+  auto get = [&](const std::string& key) {
+    for (const auto& [k, x] : v)
+      if (k == key) return x;
+    ADD_FAILURE() << "missing " << key;
+    return 0.0;
+  };
+  ModeParams mp;
+  mp.alpha = p.alpha;
+  mp.eps = p.eps;
+  mp.n = p.n;
+  mp.beta = p.beta;
+  mp.delta = p.delta;
+  const std::pair<const char*, grainbath::closures::Closure> cases[] = {
+      {"hydro.decay_rate_maxwellian_closure", grainbath::closures::Closure::maxwellian},
+      {"hydro.decay_rate_grad_closure", grainbath::closures::Closure::grad},
+      {"hydro.decay_rate_sonine_closure", grainbath::closures::Closure::sonine}};
+  double rates[3];
+  for (int i = 0; i < 3; ++i) {
+    double slowest = -1e300;
+    for (const auto& l : closure_mode_eigenvalues(cases[i].second, mp, *p.k)) slowest = std::max(slowest, l.real());
+    rates[i] = -slowest;
+    std::printf("%s: key %.12f, slowest mode %.12f\n", cases[i].first, get(cases[i].first), rates[i]);
+    EXPECT_NEAR(get(cases[i].first), rates[i], 1e-12 * rates[i]) << cases[i].first;
+  }
+  // the three differ (and differ from elastic grains) by much more than the tolerance above
+  mp.beta = 0.0;
+  const double elastic = -closure_mode_eigenvalues(grainbath::closures::Closure::maxwellian, mp, *p.k).front().real();
+  std::printf("elastic maxwellian-closure rate %.12f\n", elastic);
+  EXPECT_GT(std::abs(rates[1] / rates[0] - 1.0), 1e-6);
+  EXPECT_GT(std::abs(rates[2] / rates[0] - 1.0), 1e-6);
+  EXPECT_GT(std::abs(elastic / rates[0] - 1.0), 1e-4);
+}
+
+// Grain mass m != 1 (mutation audit 2026-12-06, docs/reviews/mutation-audit-closures-hydro.md;
+// the DSMC output evaluates the kinetic D with the case's grain mass): the first-Sonine Galerkin
+// value is the Chapman-Cowling first approximation at any m, which the paper coefficient
+// matches (PaperDiffusionCoefficientIsChapmanCowlingFirstApproximation, m = 2), and the
+// coefficient sets the solvers use give the same D. At fixed alpha the reduced mass alpha m
+// is the only mass scale, so the converged kinetic D goes as m^(-1/2) as well.
+TEST(HydroTransport, KineticDiffusionCoefficientAtGrainMassNotOne) {
+  const double alpha = 0.35, nB = 1.6, TB = 2.2, eps = 0.07;
+  for (double m : {0.4, 2.5}) {
+    const double sigma2 = 1.0 / kPi, mu = alpha * m;  // Chapman-Cowling, as in the test above
+    const double cc = eps * 3.0 / (8.0 * nB * sigma2) * std::sqrt(TB / (2.0 * kPi * mu));
+    EXPECT_NEAR(diffusion_coefficient_kinetic(alpha, m, nB, TB, eps, 1) / cc, 1.0, 1e-12) << "m=" << m;
+    EXPECT_NEAR(kinetic_coefficients(alpha, m, eps, 1).D(nB, TB) / cc, 1.0, 1e-12) << "m=" << m;
+    EXPECT_NEAR(paper_coefficients(alpha, m, eps).D(nB, TB) / cc, 1.0, 1e-12) << "m=" << m;
+    const double D1 = diffusion_coefficient_kinetic(alpha, 1.0, nB, TB, eps);
+    EXPECT_NEAR(diffusion_coefficient_kinetic(alpha, m, nB, TB, eps) / D1, 1.0 / std::sqrt(m), 1e-12) << "m=" << m;
+    EXPECT_NEAR(kinetic_coefficients(alpha, m, eps).D(nB, TB) / D1, 1.0 / std::sqrt(m), 1e-12) << "m=" << m;
+  }
+}

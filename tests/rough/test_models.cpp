@@ -11,6 +11,7 @@
 #include <functional>
 #include <limits>
 #include <ostream>
+#include <utility>
 
 #include "closures/closures.hpp"
 #include "closures/rough.hpp"
@@ -269,6 +270,50 @@ TEST(RoughModels, RelaxationRatesGovernTheApproachToTheSteadyState) {
           << to_string(m) << " dim " << dim;
     }
   }
+}
+
+// Mutation audit 2026-12-06 (docs/reviews/mutation-audit-closures-hydro.md): driving keyed on
+// collisions. The steady state of eq. R12 with H_per_collision, alone and together with H
+// (the cubic branch), must be a fixed point of the model's right-hand side, which adds
+// H_per_collision nu with nu = G sqrt(Ttr) (eq. R1) independently of the steady-state solver.
+TEST(RoughModels, SteadyStateWithDrivingPerCollisionIsAFixedPoint) {
+  for (Model m : {Model::A, Model::D, Model::E}) {
+    for (int dim : {2, 3}) {
+      for (const auto& [H, Hn] : {std::pair{0.0, 0.04}, std::pair{0.05, 0.04}, std::pair{0.05, 0.0}}) {
+        Parameters p{0.9, 0.6, 0.3, 0.4, 1.7, H};
+        p.dim = dim;
+        p.H_per_collision = Hn;
+        const SteadyState s = steady_state(m, p);
+        const Rates r = rhs(m, p, s.Ttr, s.Trot);
+        const double scale = p.G * std::pow(s.Ttr, 1.5);  // the collision terms' size
+        EXPECT_NEAR(r.dTtr / scale, 0.0, 1e-12) << to_string(m) << " " << dim << "D H=" << H << " Hn=" << Hn;
+        EXPECT_NEAR(r.dTrot / scale, 0.0, 1e-12) << to_string(m) << " " << dim << "D H=" << H << " Hn=" << Hn;
+        EXPECT_GT(s.Ttr, 0.0);
+      }
+    }
+  }
+}
+
+// Eq. R1: nu = G sqrt(T) is the Enskog collision frequency per particle, n chi lambda <|g|>, with
+// the cross-section lambda = 2 sigma (disks: |impact parameter| < sigma) or pi sigma^2 (spheres),
+// <|g|> of the Maxwellian relative velocity (variance 2T/m per component) integrated here, the
+// number density from the packing fraction phi = n pi sigma^2/4 (2D), n pi sigma^3/6 (3D) and
+// the contact values of Henderson (1975) and Carnahan-Starling (1969) typed from the papers.
+TEST(RoughModels, CollisionPrefactorIsTheEnskogCollisionFrequency) {
+  const double phi = 0.3, sigma = 1.3, mass = 2.0, T = 0.7;
+  auto mean_speed = [&](int dim) {  // E|g|, g ~ N(0, (2T/m) I_dim), by quadrature of the radial density
+    const double v = 2.0 * T / mass;
+    return integrate([&](double r) { return r * (dim == 2 ? r / v * std::exp(-r * r / (2 * v))
+                                                           : std::sqrt(2.0 / M_PI) * r * r / std::pow(v, 1.5) *
+                                                                 std::exp(-r * r / (2 * v))); },
+                     0.0, 40.0 * std::sqrt(v));
+  };
+  const double n2 = 4.0 * phi / (M_PI * sigma * sigma), n3 = 6.0 * phi / (M_PI * std::pow(sigma, 3));
+  const double chi_h = (1.0 - 7.0 * phi / 16.0) / std::pow(1.0 - phi, 2);
+  const double chi_cs = (1.0 - phi / 2.0) / std::pow(1.0 - phi, 3);
+  const double nu2 = n2 * chi_h * 2.0 * sigma * mean_speed(2), nu3 = n3 * chi_cs * M_PI * sigma * sigma * mean_speed(3);
+  EXPECT_NEAR(collision_prefactor_2d(phi, sigma, mass) * std::sqrt(T), nu2, 1e-10 * nu2);
+  EXPECT_NEAR(collision_prefactor_3d(phi, sigma, mass) * std::sqrt(T), nu3, 1e-10 * nu3);
 }
 
 TEST(RoughModels, RejectsBadParameters) {
