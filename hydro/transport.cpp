@@ -61,6 +61,8 @@ Eigen::MatrixXd galerkin_matrix(double alpha, int N) {
 
   // V_y enters only through V_y^2 (in |v|^2, |v'|^2 and the product of the y-components), so
   // the y-rule keeps the positive nodes of the symmetric Hermite rule with doubled weights.
+  // Right only for an even node count (nV = 2N above): an odd rule has a node at 0, which this would drop
+  // (the mutation audit's TR2, docs/reviews/mutation-audit-closures-hydro.md).
   std::vector<double> yx, yw;
   for (int b = 0; b < nV; ++b)
     if (hV.x[b] > 0.0) {
