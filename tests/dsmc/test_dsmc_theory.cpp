@@ -68,6 +68,18 @@ double value(const std::vector<std::pair<std::string, double>>& v, const std::st
   return std::nan("");
 }
 
+// A DSMC case text read as `grainbath` reads it, and its theory block.
+dsmc::Config case_config(const std::string& toml) {
+  CaseReader reader(toml, "/tmp/test.toml");
+  reader.accept("run", "solver");
+  dsmc::Config c = dsmc::read_config(reader);
+  reader.finish();
+  return c;
+}
+std::vector<std::pair<std::string, double>> case_theory(const std::string& toml) {
+  return dsmc::theory_values(case_config(toml));
+}
+
 }  // namespace
 
 TEST(DsmcTheory, HaffLawWithAndWithoutA2FromTheCollisionRule) {
@@ -90,10 +102,7 @@ dt = 0.01
 t_end = %.17g
 )",
                   k.n, k.m, k.T0, k.e, k.t_end);
-    CaseReader reader(toml, "/tmp/test.toml");
-    reader.accept("run", "solver");
-    const dsmc::Config c = dsmc::read_config(reader);
-    reader.finish();
+    const dsmc::Config c = case_config(toml);
     const auto th = dsmc::theory_values(c);
     // van Noije & Ernst (1998), d = 3, typed from the paper; the cooling rate is multiplied
     // by 1 + 3 a2 / 16
@@ -164,11 +173,7 @@ particles = 1000
 dt = 0.01
 t_end = 1.0
 )";
-    CaseReader reader(toml, "/tmp/test.toml");
-    reader.accept("run", "solver");
-    const dsmc::Config c = dsmc::read_config(reader);
-    reader.finish();
-    return dsmc::theory_values(c);
+    return case_theory(toml);
   };
   auto has = [](const std::vector<std::pair<std::string, double>>& v, const std::string& key) {
     for (const auto& [k, x] : v)
@@ -220,11 +225,7 @@ particles = 1000
 dt = 0.01
 t_end = 1.0
 )";
-  CaseReader reader(toml, "/tmp/test.toml");
-  reader.accept("run", "solver");
-  const dsmc::Config c = dsmc::read_config(reader);
-  reader.finish();
-  const auto th = dsmc::theory_values(c);
+  const auto th = case_theory(toml);
   closures::Parameters p{};
   p.alpha = 0.4;
   p.mass = 2.0;
@@ -259,12 +260,8 @@ t_end = 1.0
   std::string toml_e = toml;
   const std::string power_law = "law = \"power\"\nbeta = 0.05\ndelta = 0.3";
   toml_e.replace(toml_e.find(power_law), power_law.size(), "law = \"constant\"\ne = 0.8");
-  CaseReader reader_e(toml_e, "/tmp/test.toml");
-  reader_e.accept("run", "solver");
-  const dsmc::Config ce = dsmc::read_config(reader_e);
-  reader_e.finish();
   p.beta = 0.1;
   p.delta = 0.0;
   const double Te = closures::equilibrium_temperature(closures::Closure::maxwellian, p);
-  EXPECT_NEAR(value(dsmc::theory_values(ce), "equilibrium.maxwellian.T"), Te, 1e-12 * Te);
+  EXPECT_NEAR(value(case_theory(toml_e), "equilibrium.maxwellian.T"), Te, 1e-12 * Te);
 }
