@@ -30,6 +30,14 @@ double momentum_transfer_z(double Delta, double s2) {
     }
   return acc;
 }
+
+// A key of hydro_theory_values(); a missing key fails the test.
+double theory_value(const std::vector<std::pair<std::string, double>>& values, const std::string& key) {
+  for (const auto& [k, x] : values)
+    if (k == key) return x;
+  ADD_FAILURE() << "missing " << key;
+  return 0.0;
+}
 }  // namespace
 
 // Bisi-Spiga eq. 18: du/dt = -(nB/eps) alpha E[|g| g]; for small drift this is -(nB/eps) nu1
@@ -268,12 +276,7 @@ TEST(HydroTransport, TheoryValuesKeys) {
   p.eps = 0.1;
   p.k = 2.0;
   const auto v = hydro_theory_values(p);
-  auto get = [&](const std::string& key) {
-    for (const auto& [k, x] : v)
-      if (k == key) return x;
-    ADD_FAILURE() << "missing " << key;
-    return 0.0;
-  };
+  auto get = [&](const std::string& key) { return theory_value(v, key); };
   EXPECT_NEAR(get("hydro.diffusion_coefficient"), diffusion_coefficient_paper(0.5, 1, 1, 1, 0.1), 1e-15);
   EXPECT_NEAR(get("hydro.diffusion_coefficient_kinetic") / get("hydro.diffusion_coefficient"), 1.01895, 2e-5);
   EXPECT_NEAR(get("hydro.decay_rate"), 4.0 * get("hydro.diffusion_coefficient"), 1e-15);
@@ -294,12 +297,7 @@ TEST(HydroTransport, TheoryValuesClosureModeRatesAreTheirClosuresSlowestModes) {
   p.delta = 0.0;
   p.k = 1.5;
   const auto v = hydro_theory_values(p);
-  auto get = [&](const std::string& key) {
-    for (const auto& [k, x] : v)
-      if (k == key) return x;
-    ADD_FAILURE() << "missing " << key;
-    return 0.0;
-  };
+  auto get = [&](const std::string& key) { return theory_value(v, key); };
   ModeParams mp;
   mp.alpha = p.alpha;
   mp.eps = p.eps;
