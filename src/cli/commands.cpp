@@ -293,7 +293,8 @@ int command_run(const RunArgs& a) {
     if (writer)
       std::fprintf(stderr,
                    "error: --resume: no checkpoint in %s: nothing to resume (a run writes one when it is interrupted, "
-                   "and every [checkpoint] every; without --resume the run starts afresh)\n",
+                   "at every [checkpoint] every, and at its end with [checkpoint] keep = true; without --resume the run "
+                   "starts afresh)\n",
                    checkpoint_directory(out).string().c_str());
     return 2;
   }

@@ -638,12 +638,25 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   };
   std::uint64_t next_checkpoint = next_multiple(eng.total_collisions());
   auto last_checkpoint_wall = std::chrono::steady_clock::now();
+  // checkpoint.keep (docs/CASE_FILE.md): the engine cannot be saved at the end of the run,
+  // only at a scheduled rebuild, so the last rebuild point before the end is saved; --resume
+  // with a larger edmd.collisions continues from it. Collisions left to the end of the run:
+  // the counters restart at the end of the equilibration, the rebuild schedule does not.
+  const std::uint64_t n_eq_total = static_cast<std::uint64_t>(c.equilibrate * N);
+  const std::uint64_t n_prod_total = static_cast<std::uint64_t>(c.collisions * N);
+  auto collisions_left = [&]() -> std::uint64_t {
+    const std::uint64_t done = eng.counters().collisions;
+    if (rs.phase == RunState::measuring) return n_prod_total > done ? n_prod_total - done : 0;
+    return (n_eq_total > done ? n_eq_total - done : 0) + n_prod_total;
+  };
   auto at_rebuild_point = [&]() {
     const bool stop = ctx.stop_requested && ctx.stop_requested->load();
     const bool due_coll = eng.total_collisions() >= next_checkpoint;
     const bool due_wall = c.checkpoint.every_minutes > 0 &&
                           wall_seconds_since(last_checkpoint_wall) > 60.0 * c.checkpoint.every_minutes;
-    if (!ctx.checkpoint_dir.empty() && (stop || due_coll || due_wall)) {
+    // no scheduled rebuild before the end: advance_checked() stops at the end without one
+    const bool last_for_keep = c.checkpoint.keep && eng.collisions_until_rebuild() >= collisions_left();
+    if (!ctx.checkpoint_dir.empty() && (stop || due_coll || due_wall || last_for_keep)) {
       write_checkpoint(ctx.checkpoint_dir, eng, rs, ctx);
       last_checkpoint_wall = std::chrono::steady_clock::now();
       next_checkpoint = next_multiple(eng.total_collisions());
