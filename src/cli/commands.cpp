@@ -385,7 +385,8 @@ int command_run(const RunArgs& a) {
     summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
     summary.set("run.version", std::string(GRAINBATH_VERSION));
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
-    dir->commit();
+    // said even with -q: an earlier result was moved, and an older one deleted (review 4)
+    if (const std::string note = dir->commit(); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
     const bool keep = std::visit([](const auto& cfg) { return keep_checkpoints(cfg); }, lc->config);
     std::error_code ec;
     if (!keep) fs::remove_all(ctx.checkpoint_dir, ec);

@@ -148,6 +148,34 @@ std::string read_text_file(const fs::path& p) {
   return ss.str();
 }
 
+// The lines of a sweep's identity (sweep.identity: the case text, the --set list, the checksums
+// of the files the variants name) that differ between the stored sweep and this command, a
+// few of each, for --resume's refusal: "--set: was ..., now ...", not only "differ" (review 4).
+std::string identity_difference(const std::string& stored, const std::string& now) {
+  auto lines = [](const std::string& t) {
+    std::vector<std::string> v;
+    std::istringstream in(t);
+    for (std::string l; std::getline(in, l);) v.push_back(l);
+    return v;
+  };
+  const std::vector<std::string> a = lines(stored), b = lines(now);
+  auto only_in = [](const std::vector<std::string>& x, const std::vector<std::string>& y) {
+    std::vector<std::string> r;
+    for (const std::string& l : x)
+      if (std::find(y.begin(), y.end(), l) == y.end()) r.push_back(l);
+    return r;
+  };
+  auto shown = [](const std::vector<std::string>& v) {
+    std::string t;
+    for (std::size_t k = 0; k < v.size() && k < 3; ++k) t += (k ? ", " : "") + std::string("'") + v[k] + "'";
+    if (v.size() > 3) t += " and " + std::to_string(v.size() - 3) + " more";
+    return t.empty() ? std::string("nothing") : t;
+  };
+  const std::vector<std::string> gone = only_in(a, b), added = only_in(b, a);
+  if (gone.empty() && added.empty()) return "the same lines in another order";
+  return "the sweep's lines not in this command: " + shown(gone) + "; this command's lines not in the sweep: " + shown(added);
+}
+
 std::string read_case_text(const std::string& case_dir) { return read_text_file(fs::path(case_dir) / "case.toml"); }
 
 // Stop requests to the sweep: counted when 2 s or more apart (a request delivered twice, e.g.
@@ -302,10 +330,12 @@ int command_sweep(const SweepArgs& a) {
         if (!fs::is_regular_file(checked / identity_file, e2))
           throw std::runtime_error(out.string() + ": no sweep to resume here (no " + identity_file +
                                    "; it is written by sweeps from 2026-11-27 on): run the sweep without --resume");
-        if (read_text_file(checked / identity_file) != identity)
+        if (const std::string stored = read_text_file(checked / identity_file); stored != identity)
           throw std::runtime_error(out.string() + ": the case file, the files it names or the --set list differ from the sweep's (" +
-                                   (checked / identity_file).string() +
-                                   " holds them): --resume continues the same sweep only");
+                                   (checked / identity_file).string() + " holds them; " +
+                                   identity_difference(stored, identity) +
+                                   "): --resume continues the same sweep only; to add values, run a new sweep "
+                                   "into another --out with only the new values");
       }
     } catch (const std::exception& e) {
       std::fprintf(stderr, "error: %s\n", e.what());
@@ -318,6 +348,9 @@ int command_sweep(const SweepArgs& a) {
   if (!a.resume && mpi::world_rank() == 0 && fs::exists(checked, ec) && !fs::is_empty(checked, ec)) {
     fs::path previous = checked;
     previous += ".previous";
+    // what is moved: a sweep (sweep.tsv or sweep.identity) or a single run's output
+    const bool was_sweep = fs::exists(checked / "sweep.tsv", ec) || fs::exists(checked / identity_file, ec);
+    const bool had_previous = fs::exists(fs::symlink_status(previous, ec));
     fs::remove_all(previous, ec);
     if (!ec) fs::rename(checked, previous, ec);
     if (ec) {
@@ -326,8 +359,9 @@ int command_sweep(const SweepArgs& a) {
       if (mpi::active()) mpi::abort(2);
       return 2;
     }
-    std::fprintf(stderr, "sweep: the previous sweep in %s was moved to %s\n", out.string().c_str(),
-                 previous.string().c_str());
+    std::fprintf(stderr, "sweep: the previous %s in %s was moved to %s%s\n", was_sweep ? "sweep" : "output",
+                 out.string().c_str(), previous.string().c_str(),
+                 had_previous ? " (the older output there was deleted)" : "");
   }
   if (mpi::world_rank() == 0 && !a.resume) {
     fs::create_directories(out, ec);

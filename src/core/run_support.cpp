@@ -292,8 +292,9 @@ std::string shell_quote(const std::string& word) {
   return q + "'";
 }
 
-void OutputDirectory::commit() {
+std::string OutputDirectory::commit() {
   std::error_code ec;
+  std::string note;
   if (fs::exists(final_, ec)) {
     fs::path previous = final_;
     previous += ".previous";
@@ -306,8 +307,12 @@ void OutputDirectory::commit() {
       mark_output_directory(tmp_);  // kept results: no later run may take them for a dead run's
       throw std::runtime_error(std::string(e.what()) + "; the results of this run are kept in " + tmp_.string());
     }
+    const bool had_previous = fs::exists(fs::symlink_status(previous, ec));
     fs::remove_all(previous, ec);
     fs::rename(final_, previous, ec);
+    if (!ec)
+      note = "the previous output in " + final_.string() + " was moved to " + previous.string() +
+             (had_previous ? " (the older output there was deleted)" : "");
     if (ec) {
       keep_tmp_ = true;
       mark_output_directory(tmp_);  // kept results: no later run may take them for a dead run's
@@ -324,6 +329,7 @@ void OutputDirectory::commit() {
                              "); the results of this run are kept in " + tmp_.string());
   }
   committed_ = true;
+  return note;
 }
 
 void write_file_atomic(const fs::path& path, const std::string& text) {

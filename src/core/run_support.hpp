@@ -35,7 +35,9 @@ class OutputDirectory {
   OutputDirectory& operator=(const OutputDirectory&) = delete;
   const std::filesystem::path& tmp() const { return tmp_; }
   const std::filesystem::path& final_path() const { return final_; }
-  void commit();
+  // moves the results into place; returns a note on what happened to an earlier output there
+  // ("" when there was none), for the run to print: an older OUT.previous is deleted
+  std::string commit();
 
  private:
   std::filesystem::path final_, tmp_;

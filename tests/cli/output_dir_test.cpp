@@ -111,8 +111,19 @@ TEST_F(OutputDir, FileAndLinkAreRefused) {
 
 TEST_F(OutputDir, PreviousOutputIsKeptAndOnlyGrainbathsIsDeleted) {
   const fs::path out = tmp / "out";
-  ASSERT_EQ(run(out).code, 0);
-  ASSERT_EQ(run(out).code, 0);
+  RunResult r = run(out);
+  ASSERT_EQ(r.code, 0);
+  EXPECT_EQ(r.err.find("was moved to"), std::string::npos) << r.err;  // nothing was there
+  // each move is said, even with --quiet, and so is the deletion of an older .previous (review
+  // 4: a third run deleted the first one's output without a word)
+  r = run(out);
+  ASSERT_EQ(r.code, 0);
+  EXPECT_NE(r.err.find("note: the previous output in " + out.string() + " was moved to " + out.string() + ".previous\n"),
+            std::string::npos)
+      << r.err;
+  r = run(out);
+  ASSERT_EQ(r.code, 0);
+  EXPECT_NE(r.err.find(".previous (the older output there was deleted)"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(out / "summary.json"));
   EXPECT_TRUE(fs::exists(tmp / "out.previous" / "summary.json"));
   // a directory of the user's own where OUT.previous goes: refused (it would be deleted)
@@ -142,7 +153,7 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_NE(r.err.find("sweep: 2/2 done"), std::string::npos) << r.err;  // the progress lines
   r = sweep("3,4,5");
   ASSERT_EQ(r.code, 0) << r.describe();
-  EXPECT_NE(r.err.find("moved to"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("sweep: the previous sweep in " + out.string() + " was moved to"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out / "variant-0_seed_1"));
   EXPECT_TRUE(fs::exists(out / "variant-2_seed_5" / "summary.json"));
   EXPECT_TRUE(fs::exists(tmp / "sweep.previous" / "variant-0_seed_1" / "summary.json"));
@@ -449,6 +460,11 @@ TEST_F(OutputDir, InterruptedSweepResumes) {
   r = run_binary(other, plain);
   EXPECT_EQ(r.code, 2) << r.describe();
   EXPECT_NE(r.err.find("differ from the sweep's"), std::string::npos) << r.err;
+  // what differs, not only that something does (review 4)
+  EXPECT_NE(r.err.find("the sweep's lines not in this command: 'run.seed=1,2,3'; this command's lines not in the "
+                       "sweep: 'run.seed=1,2'"),
+            std::string::npos)
+      << r.err;
   const std::string first = read_text(out / "variant-0_seed_1" / "results.h5");
   std::vector<std::string> resume = sweep;
   resume.push_back("--resume");

@@ -252,9 +252,15 @@ TEST(DsmcStats, ShortWindowsAreNotJudgedForAPlateau) {
       const grainbath::MeanError c = grainbath::block_average(x, clock), t = grainbath::block_average(x);
       judged += c.plateau_judged;
       passed += c.plateau_judged && c.plateau;
-      if (!c.plateau_judged) EXPECT_FALSE(c.plateau);
-      if (!t.plateau_judged) EXPECT_FALSE(t.plateau);
-      if (n <= 90) EXPECT_FALSE(t.plateau_judged) << n;
+      if (!c.plateau_judged) {
+        EXPECT_FALSE(c.plateau);
+      }
+      if (!t.plateau_judged) {
+        EXPECT_FALSE(t.plateau);
+      }
+      if (n <= 90) {
+        EXPECT_FALSE(t.plateau_judged) << n;
+      }
     }
     return std::pair<double, double>(static_cast<double>(judged) / R, static_cast<double>(passed) / R);
   };
