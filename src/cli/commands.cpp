@@ -122,6 +122,24 @@ struct LoadedCase {
 // Reads [run], dispatches to the solver's own reader, then rejects unknown keys.
 LoadedCase load_case(const RunArgs& a) {
   CaseReader reader = CaseReader::from_directory(a.case_dir);
+  // A key in two --set options takes the later value (scripts override their own settings
+  // so, and the sweep's MPI mode appends run.threads=1), said in a note rather than silently
+  // (review 4); `grainbath sweep` refuses it, since there each value would make a run.
+  std::vector<std::pair<std::string, std::string>> given;  // key, the option
+  for (const auto& o : a.overrides) {
+    std::string key = o.substr(0, o.find('='));
+    key.erase(0, key.find_first_not_of(" \t"));
+    key.erase(key.find_last_not_of(" \t") + 1);
+    const auto earlier = std::find_if(given.begin(), given.end(), [&](const auto& g) { return g.first == key; });
+    if (earlier != given.end()) {
+      if (earlier->second != o && dsmc::mpi_env::world_rank() == 0)
+        std::fprintf(stderr, "note: --set %s follows --set %s: the later value is used\n", o.c_str(),
+                     earlier->second.c_str());
+      earlier->second = o;
+    } else {
+      given.emplace_back(key, o);
+    }
+  }
   for (const auto& o : a.overrides) reader.apply_override(o);
   const std::string solver = reader.choice("run", "solver", "dsmc", {"dsmc", "edmd"});
   const auto seed = static_cast<std::uint64_t>(reader.integer("run", "seed", 1, 0, INT64_MAX));

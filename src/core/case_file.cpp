@@ -701,6 +701,17 @@ void CaseReader::ignore(std::string_view section, std::string_view key, std::str
           .to_string();
 }
 
+void CaseReader::note(std::string_view section, std::string_view key, std::string note) {
+  const std::string dotted = std::string(section) + "." + std::string(key);
+  const bool from_set = overridden(section, key);
+  // printed with the ignored keys' notes (finish(), once per process); "#" keeps it apart
+  // from an ignore() of the same key
+  impl_->ignored[dotted + "#note"] =
+      CaseProblem{from_set ? "--set" : file_, from_set ? 0 : impl_->line_of(impl_->find(section, key)), dotted,
+                  std::move(note)}
+          .to_string();
+}
+
 bool CaseReader::overridden(std::string_view section, std::string_view key) const {
   return impl_->overridden.count(std::string(section) + "." + std::string(key)) > 0;
 }

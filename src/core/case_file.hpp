@@ -112,6 +112,9 @@ class CaseReader {
   void used_elsewhere(std::string_view section, std::string_view key, std::string message);
   // Marks a present key as deliberately not read; finish() prints `note` for it.
   void ignore(std::string_view section, std::string_view key, std::string note);
+  // A note about a key's value that is accepted but not used as written (e.g. rounded to a
+  // whole number of steps); finish() prints it as "note: FILE:LINE: section.key: note".
+  void note(std::string_view section, std::string_view key, std::string note);
 
   bool overridden(std::string_view section, std::string_view key) const;
   // The file's own string value of section.key, before any --set ("" if none or no string).

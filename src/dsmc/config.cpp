@@ -345,6 +345,15 @@ Config read_config(CaseReader& r) {
                                 value("dsmc", "t_end", c.t_end), "dsmc", "t_end");
   c.steps = static_cast<std::int64_t>(std::ceil(c.t_end / c.dt - 1e-9));
   c.sample_every_steps = std::max<std::int64_t>(1, std::llround(c.sample_every / c.dt));
+  // samples are taken at whole steps: a value that is no multiple of dt is rounded, and said
+  // (review 4: every = 0.001 at dt = 0.01 ran at 0.01 without a word)
+  if (r.has("sampling", "every") && std::abs(static_cast<double>(c.sample_every_steps) * c.dt - c.sample_every) >
+                                        1e-9 * c.sample_every)
+    r.note("sampling", "every",
+           "every = " + format_real(c.sample_every) + " is not a whole number of steps of dt = " + format_real(c.dt) +
+               ": samples are taken every " + std::to_string(c.sample_every_steps) + " step" +
+               (c.sample_every_steps > 1 ? "s" : "") + ", every " +
+               format_real(static_cast<double>(c.sample_every_steps) * c.dt));
   if (c.steady_from >= c.t_end) {
     r.problem("sampling", "steady_from",
               "expected steady_from < t_end, so the averaging window is not empty, found " +
@@ -359,6 +368,11 @@ Config read_config(CaseReader& r) {
                   value("sampling", "steady_from", c.steady_from),
               "dsmc", "t_end");
   }
+  // a periodic checkpoint interval longer than the run writes none (SIGINT still writes one)
+  if (c.checkpoint.every > 0 && c.checkpoint.every >= c.t_end)
+    r.note("checkpoint", "every",
+           "every = " + format_real(c.checkpoint.every) + " >= t_end = " + format_real(c.t_end) +
+               ": no periodic checkpoint is written in this run (an interruption still writes one)");
   if (c.steps > 2'000'000'000)
     r.problem("dsmc", "dt",
               "t_end / dt is more than 2e9 steps, found " + value("dsmc", "t_end", c.t_end) + " / " +

@@ -335,6 +335,13 @@ Config read_config(CaseReader& r) {
     if (c.background.present()) r.problem("transport", "slabs", "[transport] does not book a background medium");
   }
   c.checkpoint = read_checkpoint_settings(r, "collisions per particle");
+  // an interval longer than the run writes no periodic checkpoint (SIGINT still writes one)
+  if (c.checkpoint.every > 0 && c.checkpoint.every >= c.equilibrate + c.collisions)
+    r.note("checkpoint", "every",
+           "every = " + format_real(c.checkpoint.every) + " >= equilibrate + collisions = " +
+               format_real(c.equilibrate + c.collisions) +
+               " collisions per particle: no periodic checkpoint is written in this run (an interruption still "
+               "writes one; keep = true writes one near the end)");
   return c;
 }
 

@@ -1260,3 +1260,32 @@ TEST_F(BadInput, SweepSaysEachProblemAndNoteOnceWithTheVariantsItConcerns) {
   write_text(case_file(), dsmc_case().text());
   EXPECT_EQ(listing(tmp.path()), before) << "the sweep wrote or removed files";
 }
+
+// Accepted values that are not used as written are said (review 4): sampling.every rounded to
+// whole steps, a checkpoint interval longer than the run (no periodic checkpoint at all),
+// and a key in two --set options (the later value wins: scripts override their own settings
+// so). Values used as written give no such note.
+TEST_F(BadInput, ValuesNotUsedAsWrittenAreSaidInNotes) {
+  write_text(case_file(), dsmc_case().text());
+  auto r = grainbath({"check", case_dir().string(), "--set", "dsmc.dt=0.01", "--set", "sampling.every=0.015", "--set",
+                      "checkpoint.every=1e6", "--set", "run.seed=3", "--set", "run.seed=4"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("note: --set: sampling.every: every = 0.015 is not a whole number of steps of dt = 0.01: "
+                       "samples are taken every 2 steps, every 0.02"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("note: --set: checkpoint.every: every = 1000000.0 >= t_end = "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("no periodic checkpoint is written in this run"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("note: --set run.seed=4 follows --set run.seed=3: the later value is used"), std::string::npos)
+      << r.err;
+  r = grainbath({"check", case_dir().string(), "--set", "dsmc.dt=0.01", "--set", "sampling.every=0.03", "--set",
+                 "run.seed=3", "--set", "run.seed=3"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_EQ(r.err.find("note:"), std::string::npos) << r.err;
+  write_text(case_file(), edmd_case().text());
+  r = grainbath({"check", case_dir().string(), "--set", "checkpoint.every=1e6"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("note: --set: checkpoint.every: every = 1000000.0 >= equilibrate + collisions = "),
+            std::string::npos)
+      << r.err;
+}
