@@ -158,6 +158,7 @@ def overview(run, ctx):
                         "include time-step or finite-N bias).")
     rows = [["solver", "`run.solver`", run.solver],
             ["grainbath version", "`run.version`", run.get("run.version", run.root_attr("grainbath_version"))],
+            ["git commit of the build", "`run.commit`", run.get("run.commit", "not recorded (before 2026-12-06)")],
             ["seed", "`run.seed`", fmt(run.get("run.seed", run.root_attr("seed")))]]
     for key, label in [("dsmc.particles", "particles"), ("dsmc.dt", "time step Δt"),
                        ("dsmc.t_end", "end time"), ("sampling.steady_from", "averaging from t ="),

@@ -402,6 +402,7 @@ int command_run(const RunArgs& a) {
     summary.set("solver", lc->solver);  // every solver's summary names it (docs/OUTPUT.md)
     summary.set("run.seed", static_cast<std::int64_t>(lc->seed));
     summary.set("run.version", std::string(GRAINBATH_VERSION));
+    summary.set("run.commit", std::string(build_commit()));  // the build's git commit
     write_file_atomic(dir->tmp() / "summary.json", summary.to_json());
     // said even with -q: an earlier result was moved, and an older one deleted (review 4)
     if (const std::string note = dir->commit(); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());

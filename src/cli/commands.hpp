@@ -50,4 +50,8 @@ struct ReportArgs {
 // $GRAINBATH_PYTHON_DIR has none), 127 when Python cannot be run.
 int command_report(const ReportArgs&);
 
+// The git commit of this build ("unknown" outside a git checkout; "-dirty" with uncommitted
+// changes): `grainbath --version` and summary.json run.commit.
+const char* build_commit();
+
 }  // namespace grainbath::cli

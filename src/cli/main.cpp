@@ -7,9 +7,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <set>
 #include <string_view>
 
 #include "cli/commands.hpp"
+#include "core/case_file.hpp"
 #include "dsmc/decomposition.hpp"
 
 namespace {
@@ -51,7 +53,8 @@ int cli_main(int argc, char** argv) {
   CLI::App app{"grainbath: kinetic theory and simulation of granular gases in a background medium"};
   app.footer(kUnits);
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("grainbath ") + GRAINBATH_VERSION);
+  app.set_version_flag("--version", std::string("grainbath ") + GRAINBATH_VERSION + " (git " +
+                                        grainbath::cli::build_commit() + ")");
 
   grainbath::cli::RunArgs run_args;
   auto* run = app.add_subcommand("run", "Run the case in CASE_DIR/case.toml; write OUT/results.h5 and OUT/summary.json");
@@ -103,6 +106,19 @@ int cli_main(int argc, char** argv) {
     // input like any other: exit 2 (docs/RELIABILITY.md), named by the subcommand it was for
     std::string command = "grainbath";
     for (const CLI::App* sub : app.get_subcommands()) command += " " + sub->get_name();
+    // a first word that is no subcommand: say so and name the subcommands (review 4: "runn"
+    // got "A subcommand is required")
+    if (app.get_subcommands().empty() && argc > 1 && argv[1][0] != '-') {
+      std::set<std::string> names;
+      for (const CLI::App* sub : app.get_subcommands({})) names.insert(sub->get_name());
+      const std::string hint = grainbath::closest_name(argv[1], names);
+      std::string all;
+      for (const auto& n : names) all += (all.empty() ? "" : ", ") + n;
+      std::fprintf(stderr, "error: grainbath: unknown subcommand '%s'%s; the subcommands are %s\nRun 'grainbath --help' "
+                   "for more information.\n",
+                   argv[1], hint.empty() ? "" : (" (did you mean '" + hint + "'?)").c_str(), all.c_str());
+      return 2;
+    }
     std::fprintf(stderr, "error: %s: %s\nRun '%s --help' for more information.\n", command.c_str(), e.what(),
                  command.c_str());
     return 2;

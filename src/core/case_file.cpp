@@ -135,6 +135,8 @@ std::string join(const std::set<std::string>& s) {
 
 }  // namespace
 
+std::string closest_name(std::string_view word, const std::set<std::string>& known) { return suggestion(word, known); }
+
 // Problems are printed one per line: control characters that come from the case (a string
 // value "a\nb", a quoted key, a file name) are shown escaped, never raw.
 static std::string one_line(std::string_view s) {

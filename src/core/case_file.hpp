@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -155,6 +156,9 @@ std::string_view trim(std::string_view s);
 
 // The shortest decimal form of x that reads back exactly ("0.01", "1.0"), as messages show numbers.
 std::string format_real(double x);
+// The name of `known` that `word` most likely misspells (as in the case files' "did you mean"),
+// or "" when none is close.
+std::string closest_name(std::string_view word, const std::set<std::string>& known);
 
 // Rejects bytes toml++ 3.3 mishandles: control characters other than tab/CR/LF anywhere,
 // and non-ASCII bytes outside strings and comments. Returns problems (empty if clean).

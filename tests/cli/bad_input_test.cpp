@@ -1289,3 +1289,24 @@ TEST_F(BadInput, ValuesNotUsedAsWrittenAreSaidInNotes) {
             std::string::npos)
       << r.err;
 }
+
+// A first word that is no subcommand is named, with the nearest subcommand (review 4: "runn"
+// got "A subcommand is required"); --version names the build's git commit.
+TEST_F(BadInput, UnknownSubcommandIsNamedAndVersionNamesTheCommit) {
+  auto r = grainbath({"runn", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: grainbath: unknown subcommand 'runn' (did you mean 'run'?); the subcommands are check, "
+                       "list-models, report, run, sweep, theory"),
+            std::string::npos)
+      << r.err;
+  r = grainbath({"frobnicate"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("unknown subcommand 'frobnicate'; the subcommands are"), std::string::npos) << r.err;
+  r = grainbath({});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("A subcommand is required"), std::string::npos) << r.err;
+  r = grainbath({"--version"});
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.out.find("grainbath 0.1.0 (git "), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("(git )"), std::string::npos) << r.out;
+}

@@ -126,6 +126,8 @@ TEST_F(OutputDir, PreviousOutputIsKeptAndOnlyGrainbathsIsDeleted) {
   EXPECT_NE(r.err.find(".previous (the older output there was deleted)"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(out / "summary.json"));
   EXPECT_TRUE(fs::exists(tmp / "out.previous" / "summary.json"));
+  // the build's git commit is recorded beside the version (review 4)
+  EXPECT_NE(read_text(out / "summary.json").find("\"commit\": \""), std::string::npos);
   // a directory of the user's own where OUT.previous goes: refused (it would be deleted)
   fs::remove_all(tmp / "out.previous");
   write_text(tmp / "out.previous" / "notes.txt", "mine");
