@@ -58,6 +58,7 @@ def main(sweep):
                            ("rotation.Ttr_mean", "rotation.Ttr_stderr", "rotation.Ttr_stderr_plateau"),  # EDMD rough grains
                            ("rotation.Trot_mean", "rotation.Trot_stderr", "rotation.Trot_stderr_plateau"),
                            ("pressure.Z", "pressure.Z_stderr", "pressure.Z_stderr_plateau"),  # EDMD
+                           ("pressure.P", "pressure.P_stderr", "pressure.P_stderr_plateau"),  # EDMD, steady
                            ("mode.decay_rate", "mode.decay_rate_stderr", None)]:
         v = [get(s, key) for _, s in summaries]
         e = [get(s, err) for _, s in summaries]

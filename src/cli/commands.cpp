@@ -196,7 +196,10 @@ void print_table(const Summary& s) {
     row("theory: exponent (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic", "");
   }
   row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
-  row("theory: Z (elastic EOS)", "theory.Z", "");
+  // the reference EOS by name (review 4: "elastic EOS" did not say which); theory.Z_henderson
+  // is written for disks only
+  row(std::isnan(s.number("theory.Z_henderson")) ? "theory: Z, Carnahan-Starling" : "theory: Z, Kolafa-Rottner fit",
+      "theory.Z", "");
   row("theory: medium steady T", "theory.medium_steady_temperature", "");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
   row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "");
@@ -216,7 +219,9 @@ void print_table(const Summary& s) {
   row("energy budget residual (rel.)", "energy.budget_relative_residual", "");
   row("wall time [s]", "performance.wall_seconds", "");
   row("  of which the step loop [s]", "performance.loop_seconds", "");
-  row("collisions per second", "performance.collisions_per_second", "");
+  // EDMD: per second of the event loop (measurements excluded), DSMC: per wall second
+  row(s.get("performance.engine_seconds") ? "collisions per event-loop second" : "collisions per second",
+      "performance.collisions_per_second", "");
   std::printf("\n");
 }
 

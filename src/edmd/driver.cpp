@@ -624,6 +624,7 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   std::vector<std::int64_t>& traj_step = rs.traj_step;
 
   const auto wall0 = std::chrono::steady_clock::now();
+  const std::uint64_t total_at_start = eng.total_collisions();  // after a resume: the checkpoint's
   Progress progress("edmd", c.equilibrate + c.collisions, ctx.quiet);
   const std::uint64_t n_eq = static_cast<std::uint64_t>(c.equilibrate * N);
   double& engine_seconds = rs.engine_seconds;
@@ -908,6 +909,16 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   flag_plateau("pressure.Z_stderr", Zm);
   if (!c.free_cooling) {  // a window mean of a decaying T describes nothing (haff.* does)
     summary.set("pressure.P", n * T_mean * Z);
+    // its error from the blocked per-interval pressures n T_k Z_k (T_k the interval's mean
+    // temperature, Bizon eq. 24), which carry the fluctuations of T and of the virial together
+    // (review 4: P had no error). Elastic grains keep T fixed: then it is n T Z_stderr.
+    if (s.z.size() + 1 == s.temperature.size()) {
+      std::vector<double> p(s.z.size());
+      for (std::size_t k = 0; k < p.size(); ++k) p[k] = n * 0.5 * (s.temperature[k] + s.temperature[k + 1]) * s.z[k];
+      const MeanError Pm = block_average(p);
+      summary.set("pressure.P_stderr", Pm.stderr_);
+      flag_plateau("pressure.P_stderr", Pm);
+    }
     // The pressure on the walls: the normal momentum they took (Counters::wall_virial) per unit
     // time and wall area (length in 2D), what a manometer in the wall reads. In a box walled in
     // every direction it is, by the virial theorem of the closed box (StaticWalls.
@@ -1080,7 +1091,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // engine throughput (event loop only, measurements excluded) and overall
   const double cps = engine_seconds > 0 ? (c_eq.collisions + f.collisions) / engine_seconds : 0.0;
   summary.set("performance.collisions_per_second", cps);
-  summary.set("performance.overall_collisions_per_second", wall > 0 ? (c_eq.collisions + f.collisions) / wall : 0.0);
+  // per wall second of this invocation: after --resume, the collisions since the resume over
+  // the resumed part's wall time (review 4: all collisions over the resumed part's time)
+  summary.set("performance.overall_collisions_per_second",
+              wall > 0 ? static_cast<double>(eng.total_collisions() - total_at_start) / wall : 0.0);
   summary.set("performance.engine_seconds", engine_seconds);
   summary.set("performance.wall_seconds", wall);
   summary.set("performance.events_per_collision", f.collisions ? double(f.events) / f.collisions : 0.0);

@@ -587,6 +587,31 @@ TEST(EdmdPhysics, BlockedErrorsCarryThePlateauFlag) {
   }
 }
 
+// pressure.P_stderr (review 4: P had no error) is the blocked error of the per-interval
+// pressures n T_k Z_k. Elastic disks keep T fixed to rounding, so it must equal n T Z_stderr;
+// in a medium T fluctuates with the virial, and the error must differ from n T Z_stderr
+// (it carries T's part) while staying of its size.
+TEST(EdmdPhysics, PressureErrorIsTheBlockedErrorOfThePerIntervalPressure) {
+  const std::string elastic =
+      "[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.4\nequilibrate = 5\ncollisions = 200\n"
+      "[restitution]\nlaw = \"elastic\"\n";
+  const Summary e = run_case(elastic, 3);
+  const double n = theory::number_density(2, 0.4);
+  ASSERT_GT(e.number("pressure.Z_stderr"), 0.0);
+  EXPECT_NEAR(e.number("pressure.P_stderr"), n * e.number("temperature.mean") * e.number("pressure.Z_stderr"),
+              1e-9 * e.number("pressure.P_stderr"));
+  EXPECT_NEAR(e.number("pressure.P"), n * e.number("temperature.mean") * e.number("pressure.Z"), 1e-12);
+  const std::string medium =
+      "[edmd]\ndimensions = 3\nparticles = 512\npacking_fraction = 0.3\nequilibrate = 20\ncollisions = 256\n"
+      "[restitution]\nlaw = \"constant\"\ne = 0.9\n"
+      "[background]\ndensity = 1.0\nknudsen = 1.0\ntemperature = 1.0\nmass_ratio = 0.5\n";
+  const Summary m = run_case(medium, 3);
+  const double nm = theory::number_density(3, 0.3), nTZ = nm * m.number("temperature.mean") * m.number("pressure.Z_stderr");
+  EXPECT_GT(std::abs(m.number("pressure.P_stderr") / nTZ - 1.0), 1e-3);
+  EXPECT_GT(m.number("pressure.P_stderr"), 0.3 * nTZ);
+  EXPECT_LT(m.number("pressure.P_stderr"), 5.0 * nTZ);
+}
+
 TEST(EdmdPhysics, HeatBathsReproduceBizonTrends) {
   // white noise at nu = 0.5: velocity correlations lower G_s below the CS value and the loss
   // rate below gamma_e (Bizon Figs. 5, 8b); the Boltzmann bath keeps gamma close to gamma_e.

@@ -682,6 +682,11 @@ TEST(EdmdRestart, KeepAloneKeepsTheLastRebuildPointAndTheExtensionIsExact) {
   const EdmdRun extended = run_edmd(longer_toml, "keep-extended", ck, true);
   const EdmdRun straight = run_edmd(longer_toml, "keep-straight", {}, false);
   EXPECT_EQ(extended.summary.number("collision.count"), 60.0 * 1000);
+  // the resumed part's rate: its own collisions (80 000 in all - the checkpoint's 50 000) over
+  // its own wall time (review 4: all 80 000 over it)
+  EXPECT_NEAR(extended.summary.number("performance.overall_collisions_per_second") *
+                  extended.summary.number("performance.wall_seconds"),
+              30000.0, 1e-6 * 30000.0);
   std::size_t compared = 0;
   for (const auto& [k, v] : straight.summary.entries()) {
     if (k.rfind("performance.", 0) == 0) continue;
