@@ -183,11 +183,22 @@ bool Bounds::contains(double x) const {
 std::string Bounds::describe() const {
   const bool has_lo = std::isfinite(lo), has_hi = std::isfinite(hi);
   if (has_lo && has_hi)
-    return std::string(lo_open ? "(" : "[") + format_real(lo) + ", " + format_real(hi) + (hi_open ? ")" : "]");
+    return std::string("in ") + (lo_open ? "(" : "[") + format_real(lo) + ", " + format_real(hi) + (hi_open ? ")" : "]");
   if (has_lo) return std::string(lo_open ? "> " : ">= ") + format_real(lo);
   if (has_hi) return std::string(hi_open ? "< " : "<= ") + format_real(hi);
-  return "a finite number";
+  return "finite";
 }
+
+namespace {
+// "a value in (0.0, 1.0)", "a number > 0.0 (time)", "a finite value": what a bounded key
+// expects, as the messages say it (review 4: "a value in > 0.0", "a value in a finite number")
+std::string expected_number(const Bounds& b, std::string_view noun, std::string_view unit) {
+  const std::string u = unit.empty() ? "" : " (" + std::string(unit) + ")";
+  const std::string d = b.describe();
+  if (d == "finite") return "a finite " + std::string(noun) + u;
+  return "a " + std::string(noun) + " " + d + u;
+}
+}  // namespace
 
 std::string_view trim(std::string_view s) {
   const auto a = s.find_first_not_of(" \t\r");
@@ -742,14 +753,12 @@ double CaseReader::real(std::string_view section, std::string_view key, double f
     return fallback;
   }
   if (!n->is_number()) {
-    problem(section, key, "expected a number" + (unit.empty() ? "" : " (" + std::string(unit) + ")") +
-                              " in " + bounds.describe() + ", found " + describe_node(*n));
+    problem(section, key, "expected " + expected_number(bounds, "number", unit) + ", found " + describe_node(*n));
     return fallback;
   }
   const double x = n->is_integer() ? static_cast<double>(*n->value<std::int64_t>()) : *n->value<double>();
   if (!bounds.contains(x)) {
-    problem(section, key, "expected a value in " + bounds.describe() +
-                              (unit.empty() ? "" : " (" + std::string(unit) + ")") + ", found " + format_real(x));
+    problem(section, key, "expected " + expected_number(bounds, "value", unit) + ", found " + format_real(x));
     return fallback;
   }
   resolved_[dotted] = format_real(x);
@@ -773,8 +782,7 @@ double CaseReader::real_required(std::string_view section, std::string_view key,
                                  std::string_view unit) {
   if (!has(section, key)) {
     accept(section, key);
-    problem(section, key, "missing: expected a number in " + bounds.describe() +
-                              (unit.empty() ? "" : " (" + std::string(unit) + ")") +
+    problem(section, key, "missing: expected " + expected_number(bounds, "number", unit) +
                               set_hint(impl_->file_strings, section, key));
     return std::isfinite(bounds.lo) ? bounds.lo : 0.0;
   }
@@ -901,7 +909,7 @@ std::vector<double> CaseReader::reals(std::string_view section, std::string_view
     }
     const double x = e->is_integer() ? static_cast<double>(*e->value<std::int64_t>()) : *e->value<double>();
     if (!bounds.contains(x)) {
-      problem(section, key, "element " + std::to_string(i) + ": expected a value in " + bounds.describe() +
+      problem(section, key, "element " + std::to_string(i) + ": expected " + expected_number(bounds, "value", "") +
                                 ", found " + format_real(x));
       return fallback;
     }

@@ -98,7 +98,9 @@ RestitutionLaw read_restitution(CaseReader& r, std::string_view trot_section) {
     p.beta = r.real("restitution", "beta", 0.0, Bounds::non_negative(), "velocity^-delta");
     p.delta = r.real("restitution", "delta", 0.0, Bounds::closed(0.0, 10.0));
     if (p.delta == 0.0 && p.beta > 0.5)
-      r.problem("restitution", "beta", "with delta = 0 the power law gives e = 1 - 2 beta < 0; expected beta <= 0.5");
+      r.problem("restitution", "beta",
+                "with delta = 0 the power law gives e = 1 - 2 beta < 0; expected beta <= 0.5, found " +
+                    format_real(p.beta));
     return p;
   }
   if (law == "walton")
