@@ -270,6 +270,19 @@ int command_theory(const RunArgs& a) {
     LoadedCase lc = load_case(a);
     Summary s;
     std::visit([&](const auto& cfg) { s.set_all("", solver_theory(cfg)); }, lc.config);
+    // what the numbers are in, and what the expansion's orders mean (review 4: the JSON said
+    // neither; docs/OUTPUT.md "theory")
+    if (lc.solver == "dsmc") {
+      s.set("about.units", std::string("DSMC units: lengths in grain-grain mean free paths, grain mass m, "
+                                       "temperatures in energy units (k_B = 1); grainbath --help, docs/CASE_FILE.md"));
+      const auto eps = lc.reader.resolved().find("background.knudsen");
+      if (!std::isnan(s.number("expansion.T1")) && eps != lc.reader.resolved().end())
+        s.set("about.expansion", "T = T0 + eps T1 + eps^2 T2 in the Knudsen number eps = background.knudsen = " +
+                                     eps->second + "; first_order: T0 + eps T1, second_order_*: with T2 of that closure");
+    } else {
+      s.set("about.units", std::string("EDMD units: lengths in grain diameters (sigma = 1), m = 1, temperatures in "
+                                       "energy units (k_B = 1); grainbath --help, docs/CASE_FILE.md"));
+    }
     std::fputs(s.to_json().c_str(), stdout);
     return 0;
   } catch (const CaseError& e) {

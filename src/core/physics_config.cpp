@@ -188,6 +188,18 @@ BackgroundParameters read_background(CaseReader& r) {
                     (also.empty() ? std::string(")") : "; also without effect: " + also + ")") +
                     "; give density = nB > 0 for a medium, or density = 0 to run without one");
     }
+  } else if (b.density == 0.0 && !r.has("background", "file")) {
+    // density = 0 on purpose (a sweep over nB reaching 0): accepted, but the medium's other
+    // keys then do nothing, which is said (review 4: it passed silently)
+    std::string given;
+    for (const char* key : {"knudsen", "temperature", "mass_ratio", "velocity"})
+      if (r.has("background", key) &&
+          !(std::string_view(key) == "temperature" && r.has_section("domain") && !r.has("domain", "wall_temperature")))
+        given += (given.empty() ? "" : ", ") + std::string(key);
+    if (!given.empty())
+      r.note("background", "density",
+             "density = 0: no medium, so background." + given + (given.find(',') == std::string::npos ? " does" : " do") +
+                 " nothing in this run");
   }
   return b;
 }

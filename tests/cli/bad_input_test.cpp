@@ -1282,6 +1282,10 @@ TEST_F(BadInput, ValuesNotUsedAsWrittenAreSaidInNotes) {
                  "run.seed=3", "--set", "run.seed=3"});
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
   EXPECT_EQ(r.err.find("note:"), std::string::npos) << r.err;
+  // background.density = 0 on purpose: accepted, the medium's other keys said to do nothing
+  r = grainbath({"check", case_dir().string(), "--set", "background.density=0", "--set", "background.knudsen=0.1"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("background.density: density = 0: no medium, so background.knudsen"), std::string::npos) << r.err;
   write_text(case_file(), edmd_case().text());
   r = grainbath({"check", case_dir().string(), "--set", "checkpoint.every=1e6"});
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
