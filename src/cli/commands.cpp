@@ -178,6 +178,20 @@ void print_table(const Summary& s) {
       std::printf("  %-34s %14.8g +- %.3g%s\n", label, m, e,
                   lower_bound ? " (no plateau: use replicas)" : unchecked ? " (few samples: unchecked)" : "");
   };
+  // A theory value beside the measurement it predicts: the distance (measured - theory) in
+  // the measurement's standard errors, only where that error reached its plateau (flag true),
+  // as the report does (review 4: the run's table showed no distance and no expansion)
+  auto theory_row = [&](const char* label, const std::string& key, const std::string& measured,
+                        const std::string& err) {
+    const double th = s.number(key), m = s.number(measured), e = s.number(err);
+    if (std::isnan(th)) return;
+    const Summary::Value* plateau = s.get(err + "_plateau");
+    const bool reliable = plateau && std::holds_alternative<bool>(*plateau) && std::get<bool>(*plateau);
+    if (std::isnan(m) || !(e > 0) || !reliable)
+      std::printf("  %-34s %14.8g\n", label, th);
+    else
+      std::printf("  %-34s %14.8g    measured %+.1f sigma\n", label, th, (m - th) / e);
+  };
   std::printf("\n  %-34s %14s\n", "quantity", "value");
   // each case's headline result beside its theory (means over the averaging window, which
   // in free cooling is a mean over a decaying state, hence "window", not "steady")
@@ -198,14 +212,20 @@ void print_table(const Summary& s) {
   row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
   // the reference EOS by name (review 4: "elastic EOS" did not say which); theory.Z_henderson
   // is written for disks only
-  row(std::isnan(s.number("theory.Z_henderson")) ? "theory: Z, Carnahan-Starling" : "theory: Z, Kolafa-Rottner fit",
-      "theory.Z", "");
-  row("theory: medium steady T", "theory.medium_steady_temperature", "");
+  theory_row(std::isnan(s.number("theory.Z_henderson")) ? "theory: Z, Carnahan-Starling" : "theory: Z, Kolafa-Rottner fit",
+             "theory.Z", "pressure.Z", "pressure.Z_stderr");
+  theory_row("theory: medium steady T", "theory.medium_steady_temperature", "temperature.mean", "temperature.stderr");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
-  row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "");
-  row("theory: T# Grad", "theory.equilibrium.grad.T", "");
-  row("theory: T# Sonine", "theory.equilibrium.sonine.T", "");
-  row("theory: a2 Sonine", "theory.equilibrium.sonine.a2", "");
+  theory_row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "temperature.mean", "temperature.stderr");
+  theory_row("theory: T# Grad", "theory.equilibrium.grad.T", "temperature.mean", "temperature.stderr");
+  theory_row("theory: T# Sonine", "theory.equilibrium.sonine.T", "temperature.mean", "temperature.stderr");
+  // the expansion in eps = background.knudsen (closures/, docs/closures.md)
+  theory_row("theory: T0 + eps T1", "theory.expansion.first_order.T", "temperature.mean", "temperature.stderr");
+  theory_row("theory: + eps^2 T2, Maxwellian", "theory.expansion.second_order_maxwellian.T", "temperature.mean",
+             "temperature.stderr");
+  theory_row("theory: + eps^2 T2, Grad", "theory.expansion.second_order_grad.T", "temperature.mean",
+             "temperature.stderr");
+  theory_row("theory: a2 Sonine", "theory.equilibrium.sonine.a2", "a2.mean", "a2.stderr");
   row("theory: Haff T(t_end), Maxwellian", "theory.haff.temperature_at_t_end_no_a2", "");
   row("theory: Haff T(t_end), with a2", "theory.haff.temperature_at_t_end", "");
   row("theory: Haff T(t_end), Sonine 2", "theory.haff.temperature_at_t_end_sonine2", "");

@@ -649,6 +649,57 @@ free_cooling = true
     EXPECT_NE(r.out.find(row), std::string::npos) << row << " missing in:\n" << r.out;
 }
 
+// The run's table puts each theory value beside the measurement it predicts, with the
+// distance in the measurement's errors where that error reached its plateau, and shows the
+// expansion T0 + eps T1 (+ eps^2 T2) (review 4: only the closures' roots, no distance). A bath
+// case with 2000 grains sampled every 0.1 (T correlated over ~0.1 at eps = 0.1): the T error of
+// 201 samples passes the plateau test (seeds 3-6 all do), so the distance is printed and
+// equals (T - theory)/stderr from summary.json.
+TEST_F(OutputDir, TheRunTableGivesTheDistanceToTheoryInStandardErrors) {
+  write_text(tmp / "bath" / "case.toml", R"([run]
+solver = "dsmc"
+seed = 3
+[grains]
+density = 1.0
+[restitution]
+law = "constant"
+e = 0.9
+[background]
+density = 1.0
+knudsen = 0.1
+mass_ratio = 0.5
+[dsmc]
+particles = 2000
+dt = 0.01
+t_end = 21.0
+[sampling]
+every = 0.1
+steady_from = 1.0
+)");
+  const fs::path out = work() / "bath";
+  RunResult r = grainbath({"run", (tmp / "bath").string(), "--out", out.string(), "--quiet", "--set", "run.threads=1"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  for (const char* row : {"theory: T# Sonine", "theory: T0 + eps T1", "theory: + eps^2 T2, Maxwellian",
+                          "theory: + eps^2 T2, Grad"})
+    EXPECT_NE(r.out.find(row), std::string::npos) << row << " missing in:\n" << r.out;
+  const std::string summary = read_text(out / "summary.json");
+  auto number = [&](const std::string& key, std::size_t from) {
+    const std::size_t at = summary.find("\"" + key + "\": ", from);
+    EXPECT_NE(at, std::string::npos) << key;
+    return at == std::string::npos ? NAN : std::stod(summary.substr(at + key.size() + 4));
+  };
+  const std::size_t temperature = summary.find("\"temperature\": {"), sonine = summary.find("\"sonine\": {");
+  const double T = number("mean", temperature), se = number("stderr", temperature), th = number("T", sonine);
+  ASSERT_EQ(summary.find("\"stderr_plateau\": true", temperature), summary.find("\"stderr_plateau\"", temperature))
+      << "the case's premise: T's error on its plateau\n" << summary;
+  const std::size_t line = r.out.find("theory: T# Sonine");
+  ASSERT_NE(line, std::string::npos);
+  const std::string text = r.out.substr(line, r.out.find('\n', line) - line);
+  const std::size_t at = text.find("measured ");
+  ASSERT_NE(at, std::string::npos) << text;
+  EXPECT_NEAR(std::stod(text.substr(at + 9)), (T - th) / se, 0.051) << text;
+}
+
 // The sweep's plot is made by a shell command: a "'" in the sweep directory's path broke it
 // ("sh: 1: Syntax error: Unterminated quoted string", no sweep.png) and could have run a command
 // of its own, until 2026-12-06. Needs /usr/bin/python3 with matplotlib (as the plot does).
