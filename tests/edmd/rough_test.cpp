@@ -181,37 +181,6 @@ Steady edmd_steady(double mu, double collisions) {
   return {get("rotation.R"), get("rotation.R_stderr"), get("rotation.Ttr_mean"), get("theory.model_E.R")};
 }
 
-// The event-free MC (no positions: exact molecular chaos) at the same e, beta0, mu, q; R does
-// not depend on G, H (docs/rough.md R11), so G = 1 and H giving Ttr ~ 1.
-Steady mc_steady(double mu, double dt, double span) {
-  rough_test::DrivenMcConfig cfg{WaltonRestitution{0.95, 1.0, mu}, 0.4, 1.0, 0.0, 2000, 23};
-  closures::rough::Parameters p{0.95, 1.0, std::isfinite(mu) ? mu : 1e300, 0.4, 1.0, 1.0};
-  const closures::rough::SteadyState th = closures::rough::steady_state(closures::rough::Model::E, p);
-  cfg.H = std::pow(th.Ttr, -1.5);  // steady Ttr near 1 (Ttr ~ H^{2/3})
-  rough_test::DrivenMc mc(cfg, 1.0, th.R);
-  while (mc.time() < 30.0) mc.step(dt);
-  std::vector<double> tr, rot;
-  while (mc.time() < 30.0 + span) {
-    for (int k = 0; k < static_cast<int>(0.5 / dt + 0.5); ++k) mc.step(dt);
-    tr.push_back(mc.Ttr());
-    rot.push_back(mc.Trot());
-  }
-  const int blocks = 20;
-  const std::size_t per = tr.size() / blocks;
-  std::vector<double> b;
-  double m = 0, sa = 0, sb = 0;
-  for (int k = 0; k < blocks; ++k) {
-    double x = 0, y = 0;
-    for (std::size_t i = k * per; i < (k + 1) * per; ++i) x += tr[i], y += rot[i];
-    b.push_back(y / x);
-    m += y / x, sa += x, sb += y;
-  }
-  m /= blocks;
-  double v = 0;
-  for (double x : b) v += (x - m) * (x - m);
-  return {sb / sa, std::sqrt(v / (blocks - 1) / blocks), sa / (per * blocks), th.R};
-}
-
 }  // namespace
 
 class RoughEdmdSteady : public ::testing::TestWithParam<double> {};
@@ -223,7 +192,7 @@ class RoughEdmdSteady : public ::testing::TestWithParam<double> {};
 TEST_P(RoughEdmdSteady, RatioMatchesEventFreeMonteCarlo) {
   const double mu = GetParam();
   const Steady md = edmd_steady(mu, 150.0);
-  const Steady mc = mc_steady(mu, 0.02, 300.0);
+  const rough_test::McSteady mc = rough_test::mc_steady(mu, 0.02, 300.0, 23);
   std::printf("[measure] mu=%g: R_EDMD = %.4f +- %.4f, R_MC = %.4f +- %.4f, model E %.4f (EDMD/E - 1 = %+.2f%%, "
               "MC/E - 1 = %+.2f%%)\n",
               mu, md.R, md.R_se, mc.R, mc.R_se, md.R_E, 100 * (md.R / md.R_E - 1), 100 * (mc.R / mc.R_E - 1));
