@@ -509,8 +509,10 @@ int command_list_models() {
   for (const auto& m : models) {
     if (m.kind != kind) {
       kind = m.kind;
+      const bool um = kind.size() > 2 && kind.compare(kind.size() - 2, 2, "um") == 0;  // medium: media
       const std::string plural = kind.back() == 's'   ? kind
                                  : kind.back() == 'y' ? kind.substr(0, kind.size() - 1) + "ies"
+                                 : um                 ? kind.substr(0, kind.size() - 2) + "a"
                                                       : kind + "s";
       std::printf("\n%c%s:\n", std::toupper(static_cast<unsigned char>(plural[0])), plural.substr(1).c_str());
     }

@@ -33,6 +33,12 @@ const std::vector<ModelDescription>& dsmc_models() {
        "re-emission with the flux-weighted Maxwellian of the wall temperature",
        {"[domain] wall_temperature (TB, energy)"}},
       {"boundary", "open", "particles leaving the box are removed (free outflow, no inflow)", {}},
+      // the medium's own keys (review 4: list-models showed them only under the EDMD medium)
+      {"background medium", "[background]",
+       "Bisi-Spiga linear elastic operator: hard-sphere collisions with a Maxwellian medium at rate (nB/eps)|v - w|",
+       {"density (0, >= 0, 1/volume): nB; 0: no medium", "knudsen (1, > 0): eps, the Knudsen number",
+        "temperature (1, > 0, energy): TB", "mass_ratio (0.5, (0, 1)): alpha = mB/(m + mB)",
+        "velocity ([0,0,0], velocity): uB", "profile (uniform): see the background profiles below"}},
       {"background profile", "uniform", "nB, uB, TB constant ([background] density, velocity, temperature)", {}},
       {"background profile", "isobaric_sine",
        "TB(x) = TB0 (1 + A sin kx), nB TB = const, uB = 0 (a steady Euler solution)",

@@ -1314,3 +1314,15 @@ TEST_F(BadInput, UnknownSubcommandIsNamedAndVersionNamesTheCommit) {
   EXPECT_NE(r.out.find("grainbath 0.1.0 (git "), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("(git )"), std::string::npos) << r.out;
 }
+
+// list-models names the medium's keys for the DSMC too (review 4: knudsen and mass_ratio were
+// listed only under "EDMD backgrounds")
+TEST_F(BadInput, ListModelsNamesTheMediumKeysForTheDsmc) {
+  const auto r = grainbath({"list-models"});
+  EXPECT_EQ(r.code, 0) << r.describe();
+  const std::size_t media = r.out.find("\nBackground media:\n"), edmd = r.out.find("\nEDMD backgrounds:\n");
+  ASSERT_NE(media, std::string::npos) << r.out;
+  ASSERT_NE(edmd, std::string::npos) << r.out;
+  for (const char* key : {"- knudsen (1, > 0): eps", "- mass_ratio (0.5, (0, 1))", "- density (0, >= 0, 1/volume)"})
+    EXPECT_LT(r.out.find(key, media), edmd) << key;
+}
