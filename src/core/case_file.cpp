@@ -459,6 +459,39 @@ std::string bare_word_hint(std::string_view text, int line) {
   return " (a string needs quotes: " + std::string(key) + " = \"" + std::string(value) + "\")";
 }
 
+// toml++'s own words for two common slips, said in the case's terms (review 4): a key given
+// twice in a table ("cannot redefine existing ... 'key'": where the first one is), and a string
+// left open at the end of its line ("unescaped control characters": the line end inside it).
+std::string syntax_error_text(std::string_view description, std::string_view text, int line) {
+  const std::string d(description);
+  if (d.find("cannot redefine existing") != std::string::npos) {
+    const auto q1 = d.rfind('\''), q0 = q1 == std::string::npos ? q1 : d.rfind('\'', q1 - 1);
+    if (q0 != std::string::npos && q1 > q0 + 1) {
+      const std::string key = d.substr(q0 + 1, q1 - q0 - 1);
+      // the earlier line of the same table that sets it: back from `line` to the table's header
+      std::vector<std::string_view> lines;
+      for (std::size_t a = 0; a <= text.size();) {
+        const std::size_t b = text.find('\n', a);
+        lines.push_back(text.substr(a, b == std::string_view::npos ? std::string_view::npos : b - a));
+        if (b == std::string_view::npos) break;
+        a = b + 1;
+      }
+      for (int l = std::min<int>(line - 1, static_cast<int>(lines.size())); l >= 1; --l) {
+        const std::string_view t = trim(lines[l - 1]);
+        if (!t.empty() && t.front() == '[') break;
+        const auto eq = t.find('=');
+        if (eq != std::string_view::npos && trim(t.substr(0, eq)) == key)
+          return "the key '" + key + "' is given twice in its table (first on line " + std::to_string(l) +
+                 "): keep one (toml++: " + d + ")";
+      }
+      return "the key '" + key + "' is given twice in its table: keep one (toml++: " + d + ")";
+    }
+  }
+  if (d.find("unescaped control characters") != std::string::npos)
+    return "a string is not closed on its line (a missing \"?) (toml++: " + d + ")";
+  return d;
+}
+
 constexpr std::size_t kMaxCaseBytes = 1 << 20;
 
 constexpr int kMaxKeyDotsPerLine = 128, kMaxKeyDots = 1000;
@@ -568,7 +601,8 @@ CaseReader::CaseReader(std::string text, std::string file)
   } catch (const toml::parse_error& e) {
     const int line = static_cast<int>(e.source().begin.line);
     throw CaseError({{file_, line, key_near_line(text_, line),
-                      "TOML syntax error: " + std::string(e.description()) + bare_word_hint(text_, line)}});
+                      "TOML syntax error: " + syntax_error_text(e.description(), text_, line) +
+                          bare_word_hint(text_, line)}});
   }
 }
 

@@ -1,6 +1,7 @@
 #include "core/h5.hpp"
 
 #include <algorithm>
+#include <filesystem>
 #include <stdexcept>
 
 namespace grainbath {
@@ -53,9 +54,20 @@ H5File::H5File(const std::string& path, Mode mode) : path_(path) {
     file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   else
     file_ = H5Fopen(path.c_str(), mode == Mode::update ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file_ < 0)
+  if (file_ < 0) {
+    // which of the usual reasons (review 4: a missing file and a text file both read "cannot
+    // open HDF5 file")
+    std::error_code ec;
+    std::string why;
+    if (mode != Mode::create && !std::filesystem::exists(path, ec))
+      why = " (no such file)";
+    else if (mode != Mode::create && std::filesystem::is_directory(path, ec))
+      why = " (a directory)";
+    else if (mode != Mode::create && H5Fis_hdf5(path.c_str()) <= 0)
+      why = " (not an HDF5 file)";
     throw std::runtime_error(path + ": cannot " + (mode == Mode::create ? "create" : mode == Mode::update ? "open for writing" : "open") +
-                             " HDF5 file");
+                             " HDF5 file" + why);
+  }
 }
 
 H5File::~H5File() {

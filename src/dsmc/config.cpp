@@ -236,7 +236,9 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
       for (std::size_t i = 0; i < f.grid_density.size() && i < f.grid_temperature.size(); ++i)
         if (!(f.grid_density[i] >= 0) || !(f.grid_temperature[i] > 0)) {
           r.problem("background", "file", path + ": cell " + std::to_string(i) +
-                                              ": expected density >= 0 and temperature > 0");
+                                              ": expected density >= 0 and temperature > 0, found density " +
+                                              format_real(f.grid_density[i]) + ", temperature " +
+                                              format_real(f.grid_temperature[i]));
           usable = false;
           break;
         }

@@ -146,10 +146,13 @@ Config read_config(CaseReader& r) {
     // lattice start: sites of spacing L_d / n_d (n_d sites along d, product >= N) must be >= sigma
     const double spacing = lattice_spacing(c);
     if (spacing < 1.0) {
+      // the spacing scales as packing^(-1/D): the largest packing this N starts at (review 4:
+      // the message said neither what was expected nor what was found)
+      const double most = c.packing_fraction * std::pow(spacing, c.dims);
       std::ostringstream m;
-      m << "the lattice start needs spacing >= sigma, got " << spacing << " (" << (c.dims == 2 ? "square" : "simple cubic")
-        << " lattice, max packing " << lattice_max << " for a perfect power of N); lower packing_fraction or choose N = k^"
-        << c.dims;
+      m << "expected packing_fraction <= " << most << " for " << c.particles << " grains, found " << c.packing_fraction
+        << ": the grains start on a " << (c.dims == 2 ? "square" : "simple cubic") << " lattice, whose spacing would be "
+        << spacing << " sigma (they would overlap); the lattice holds up to " << lattice_max << " with N = k^" << c.dims;
       r.problem("edmd", "packing_fraction", m.str());
     }
   }

@@ -364,16 +364,19 @@ TEST_F(BadInput, BackgroundFileThatIsNotHdf5) {
   std::string garbage(4096, '\0');
   for (auto& b : garbage) b = static_cast<char>(rng() & 0xff);
   std::string hdf5_head = "\x89HDF\r\n\x1a\n" + garbage.substr(0, 200);  // a signature, then garbage
-  struct F { std::string name, content; bool dir; };
-  for (const F& f : {F{"missing.h5", "", false}, F{"garbage.h5", garbage, false}, F{"head.h5", hdf5_head, false},
-                     F{"empty.h5", "", false}, F{"adir.h5", "", true}}) {
+  // each with its reason (review 4: a missing and a garbage file read alike)
+  struct F { std::string name, content; bool dir; std::string why; };
+  for (const F& f : {F{"missing.h5", "", false, " (no such file)"}, F{"garbage.h5", garbage, false, " (not an HDF5 file)"},
+                     F{"head.h5", hdf5_head, false, ""}, F{"empty.h5", "", false, " (not an HDF5 file)"},
+                     F{"adir.h5", "", true, " (a directory)"}}) {
     SCOPED_TRACE(f.name);
     fs::remove_all(case_dir() / f.name);
     if (f.dir) fs::create_directories(case_dir() / f.name);
     else if (f.name != "missing.h5") write_text(case_dir() / f.name, f.content);
     Case c = spatial_case();
     c.set("background", "profile", "\"file\"").set("background", "file", "\"" + f.name + "\"");
-    expect_rejected(c.text(), {{c.line_of("background", "file"), "background.file", f.name}});
+    expect_rejected(c.text(),
+                    {{c.line_of("background", "file"), "background.file", f.name + ": cannot open HDF5 file" + f.why}});
   }
   Case c = spatial_case();
   c.set("background", "profile", "\"file\"");
@@ -491,7 +494,12 @@ TEST_F(BadInput, BinaryGarbage) {
 }
 
 TEST_F(BadInput, DuplicateKeysAndSections) {
+  // said in the case's terms, with the first line (review 4), and toml++'s own words after it
+  expect_rejected(std::string("[run]\nseed = 1\nseed = 2\n"),
+                  {{3, "run.seed", "the key 'seed' is given twice in its table (first on line 2): keep one (toml++: "}});
   expect_rejected(std::string("[run]\nseed = 1\nseed = 2\n"), {{3, "run.seed", "cannot redefine existing integer 'seed'"}});
+  expect_rejected(std::string("[run]\nsolver = \"dsmc\nseed = 2\n"),
+                  {{2, "run.solver", "a string is not closed on its line (a missing \"?)"}});
   expect_rejected(std::string("[run]\nseed = 1\n[grains]\nmass = 1.0\n[run]\nthreads = 1\n"),
                   {{5, "[run]", "cannot redefine existing table 'run'"}});
   expect_rejected(std::string("[[run]]\nseed = 1\n[[run]]\nseed = 2\n"), {{1, "[[run]]", "an array of tables"}});
@@ -1325,4 +1333,17 @@ TEST_F(BadInput, ListModelsNamesTheMediumKeysForTheDsmc) {
   ASSERT_NE(edmd, std::string::npos) << r.out;
   for (const char* key : {"- knudsen (1, > 0): eps", "- mass_ratio (0.5, (0, 1))", "- density (0, >= 0, 1/volume)"})
     EXPECT_LT(r.out.find(key, media), edmd) << key;
+}
+
+// An EDMD packing the lattice start cannot hold: what is expected for this N and what was
+// found (review 4: "the lattice start needs spacing >= sigma, got 0.99 (... max packing 0.785
+// for a perfect power of N)").
+TEST_F(BadInput, EdmdPackingAboveTheLatticeStartSaysTheLargestForThisN) {
+  write_text(case_file(), edmd_case().text());
+  expect_rejected(std::nullopt,
+                  {{0, "edmd.packing_fraction",
+                    "expected packing_fraction <= 0.76699 for 1000 grains, found 0.9: the grains start on a square "
+                    "lattice, whose spacing would be 0.923153 sigma (they would overlap)"}},
+                  {"--set", "edmd.packing_fraction=0.9", "--set", "edmd.dimensions=2", "--set", "edmd.particles=1000"},
+                  "check", "--set");
 }
