@@ -103,13 +103,16 @@ def make_figure(sweep_dir, x=None):
     panels = [m for m in PAIRS if m in keys and any(r[m] for r in rows)]
     if not panels:
         raise ValueError("no headline quantity to plot")
-    fig, axs = plt.subplots(2 * len(panels), 1, figsize=(6.8, 5.6 * len(panels)), squeeze=False,
+    fig, axs = plt.subplots(2 * len(panels), 1, figsize=(9.5, 5.6 * len(panels)), squeeze=False,
                             gridspec_kw={"height_ratios": [3, 1.6] * len(panels)})
     markers = "osD^v<>"
     styles = ["-", "--", "-.", ":"]
     for pi, m in enumerate(panels):
         ax, axr = axs[2 * pi, 0], axs[2 * pi + 1, 0]
         axr.sharex(ax)
+        axr.axhline(0.0, color="0.4", lw=0.8)  # the guides first: axr.lines[3:] are the distances
+        for g in (-2.0, 2.0):
+            axr.axhline(g, color="0.55", lw=0.9, ls="--")
         err_key, theory, label = PAIRS[m]
         have = [t for t in theory if t in keys and any(r[t] for r in rows)]
         for gi, (gval, grows) in enumerate(sorted(groups.items())):
@@ -130,9 +133,6 @@ def make_figure(sweep_dir, x=None):
         ax.set_ylabel(label)
         axr.set_xlabel(axis)
         axr.set_ylabel("(sim − theory)/σ")
-        axr.axhline(0.0, color="0.4", lw=0.8)
-        for g in (-2.0, 2.0):
-            axr.axhline(g, color="0.55", lw=0.9, ls="--")
         vals = [abs(v) for ln in axr.lines[3:] for v in ln.get_ydata() if math.isfinite(v)]
         lim = max([2.5] + [1.15 * v for v in vals])
         axr.set_ylim(-lim, lim)
@@ -150,6 +150,11 @@ def make_figure(sweep_dir, x=None):
     return fig
 
 
+def save_figure(fig, path):
+    """sweep.png: "tight", so that the legends right of the axes are in the image."""
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(prog="plot_sweep.py",
                                  description="Plot a grainbath sweep's sweep.tsv into SWEEP_DIR/sweep.png.")
@@ -162,7 +167,7 @@ def main(argv=None):
     except (OSError, ValueError, KeyError) as e:
         print(f"plot_sweep.py: error: {e}", file=sys.stderr)
         return 2
-    fig.savefig(os.path.join(a.sweep_dir, "sweep.png"), dpi=110, bbox_inches="tight")
+    save_figure(fig, os.path.join(a.sweep_dir, "sweep.png"))
     return 0
 
 

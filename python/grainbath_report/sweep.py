@@ -233,9 +233,12 @@ def build(paths, ctx, x=None, base=None):
         present = [(i, t) for i, t in enumerate(theories) if any(r.num(t[0]) is not None for r in runs)]
         residuals = bool(err_key and present)
         if residuals:
-            fig, (ax, axr) = subplots(2, 1, figsize=(7.5, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1.7]})
+            fig, (ax, axr) = subplots(2, 1, figsize=(9.5, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1.7]})
+            axr.axhline(0.0, color="0.4", lw=0.8)  # the guides first: axr.lines[3:] are the distances
+            for g in (-2.0, 2.0):
+                axr.axhline(g, color="0.55", lw=0.9, ls="--")
         else:
-            fig, ax = subplots(figsize=(7.5, 4.6))
+            fig, ax = subplots(figsize=(9.5, 4.6))
             axr = None
         for gi, (glabel, grs) in enumerate(groups.items()):
             grs = sorted(grs, key=lambda r: r.params[x_key])
@@ -279,9 +282,6 @@ def build(paths, ctx, x=None, base=None):
         # figures are saved with bbox_inches="tight", so it is not clipped either)
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=7.5)
         if axr is not None:
-            axr.axhline(0.0, color="0.4", lw=0.8)
-            for g in (-2.0, 2.0):
-                axr.axhline(g, color="0.55", lw=0.9, ls="--")
             axr.set_ylabel("(simulation − theory)/σ")
             lim = max([2.5] + [abs(v) * 1.15 for ln in axr.lines[3:] for v in ln.get_ydata() if np.isfinite(v)])
             axr.set_ylim(-lim, lim)
