@@ -12,7 +12,6 @@ mu_{2k} = (2k/3) mu_2 <c^{2k}>, k = 2..K (docs eq. H4), linearised in the a_k.
 usage: /usr/bin/python3 scripts/hcs_sonine_series.py [e ...]
 """
 import argparse
-import sys
 
 import numpy as np
 from numpy.polynomial.hermite import hermgauss
