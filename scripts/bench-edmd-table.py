@@ -2,9 +2,12 @@
 # Table of the EDMD-1 benchmark (docs/performance/edmd.md) from the Google Benchmark JSON
 # files written by scripts/bench-edmd.sh: medians over all repetitions of all directories given.
 #   scripts/bench-edmd-table.py OUT_DIR [OUT_DIR ...]
-import json, sys, glob, os, statistics
+import argparse, json, sys, glob, os, statistics
+ap = argparse.ArgumentParser(prog="bench-edmd-table.py", description="Table of the EDMD-1 benchmark from the JSON "
+                             "files of scripts/bench-edmd.sh (medians over all repetitions of all directories).")
+ap.add_argument("dirs", metavar="OUT_DIR", nargs="+", help="a directory of bench-edmd.sh's JSON files")
 runs = {}
-for d in sys.argv[1:]:
+for d in ap.parse_args().dirs:
     for f in sorted(glob.glob(os.path.join(d, '*.json'))):
         try: j = json.load(open(f))
         except Exception: continue

@@ -15,6 +15,7 @@ Runs already done are skipped, so a scan can be extended by more seeds.
 the difference from the smallest dt and the fit T(t; dt) = T0(t) + c1(t) dt (+ c2 dt^2), and
 the shift in time that the difference amounts to (delta t = -dT / (dT/dt)).
 """
+import argparse
 import glob
 import os
 import shutil
@@ -119,9 +120,29 @@ def table(out, times):
                   f"c1/(dT/dt) = {-c[1] / slope:+.4f} +- {np.sqrt(cov[1, 1]) / abs(slope):.4f} (time shift per unit dt)")
 
 
+def _times(s):
+    try:
+        return [float(x) for x in s.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected times t1,t2,..., found {s!r}")
+
+
 if __name__ == "__main__":
-    if sys.argv[1] == "run":
-        run(sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5], sys.argv[6:])
+    ap = argparse.ArgumentParser(prog="free_cooling_dt_scan.py", description="Time-step scan of DSMC free cooling "
+                                 "(docs/dsmc.md D4; see the top of this file).")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="{run,table}")
+    r = sub.add_parser("run", help="run cases/free-cooling once per (dt, seed)")
+    r.add_argument("binary", metavar="BIN", help="the grainbath binary")
+    r.add_argument("out", metavar="OUT", help="the scan's directory")
+    r.add_argument("dts", metavar="DTS", help="time steps, a comma list")
+    r.add_argument("seeds", metavar="SEEDS", help="seeds, a comma list (also A-B)")
+    r.add_argument("extra", metavar="key=value", nargs="*", help="passed as --set")
+    t = sub.add_parser("table", help="print the replica means per dt and the fits in dt")
+    t.add_argument("out", metavar="OUT", help="the scan's directory")
+    t.add_argument("times", metavar="t1,t2,...", nargs="?", type=_times, default=[0.4, 1.04, 2.0, 4.0, 6.0],
+                   help="times at which T(t) is compared (default 0.4,1.04,2,4,6)")
+    a = ap.parse_args()
+    if a.command == "run":
+        run(a.binary, a.out, a.dts, a.seeds, a.extra)
     else:
-        times = [float(x) for x in sys.argv[3].split(",")] if len(sys.argv) > 3 else [0.4, 1.04, 2.0, 4.0, 6.0]
-        table(sys.argv[2], times)
+        table(a.out, a.times)

@@ -17,6 +17,7 @@ velocities of the checkpoints the runs kept, if any (variant-*.checkpoints/*.h5,
 particles/v{x,y,z}; with every = 10 and t_end = 20 those of t = 10 and 20, ~ 10 collisions per
 grain apart, taken as independent), with a2 from the same snapshots beside it.
 """
+import argparse
 import glob
 import json
 import os
@@ -118,4 +119,10 @@ def main(sweep, t_from=None):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], float(sys.argv[2]) if len(sys.argv) > 2 else None)
+    ap = argparse.ArgumentParser(prog="hcs_a2_a3.py", description="a2 and a3 of the homogeneous cooling state "
+                                 "from a seed sweep of cases/free-cooling (see the top of this file).")
+    ap.add_argument("sweep_dir", metavar="D", help="the seed sweep's directory (grainbath sweep --out D)")
+    ap.add_argument("t_from", nargs="?", type=float, default=None,
+                    help="start of the window of the check from /timeseries (default 8)")
+    a = ap.parse_args()
+    main(a.sweep_dir, a.t_from)

@@ -11,7 +11,7 @@ mu_{2k} = (2k/3) mu_2 <c^{2k}>, k = 2..K (docs eq. H4), linearised in the a_k.
 
 usage: /usr/bin/python3 scripts/hcs_sonine_series.py [e ...]
 """
-import sys
+import argparse
 
 import numpy as np
 from numpy.polynomial.hermite import hermgauss
@@ -95,4 +95,7 @@ def main(es):
 
 
 if __name__ == "__main__":
-    main([float(a) for a in sys.argv[1:]] or [0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.0])
+    ap = argparse.ArgumentParser(prog="hcs_sonine_series.py", description="Linear Sonine approximations of the "
+                                 "homogeneous cooling state (see the top of this file).")
+    ap.add_argument("e", nargs="*", type=float, help="restitution coefficients (default 0.95 0.9 ... 0.2 0.0)")
+    main(ap.parse_args().e or [0.95, 0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.0])

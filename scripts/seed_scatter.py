@@ -10,6 +10,7 @@ difference of the two estimators run by run.
 
 usage: /usr/bin/python3 scripts/seed_scatter.py SWEEP_DIR
 """
+import argparse
 import glob
 import json
 import math
@@ -97,6 +98,7 @@ def main(sweep):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2:
-        sys.exit(__doc__)
-    main(sys.argv[1])
+    ap = argparse.ArgumentParser(prog="seed_scatter.py", description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("sweep_dir", metavar="SWEEP_DIR", help="a seed sweep's directory (or one of runs, one per seed)")
+    main(ap.parse_args().sweep_dir)

@@ -93,6 +93,9 @@ def main(argv):
     ap.add_argument("--strict", action="store_true",
                     help="fail when any section fails (default: note the failure in the report and go on); "
                          "also enabled by GRAINBATH_REPORT_STRICT=1")
+    ap.add_argument("--x", metavar="KEY",
+                    help="sweep report: the swept key to plot against (default: the numeric swept key with the "
+                         "most values; docs/OUTPUT.md, \"Sweep directories\")")
     args = ap.parse_args(argv)
     strict = args.strict or os.environ.get("GRAINBATH_REPORT_STRICT", "") not in ("", "0")
 
@@ -114,11 +117,13 @@ def main(argv):
     except ReportError as e:
         runs = discover(os.path.abspath(args.dir)) if os.path.isdir(args.dir) else []
         if len(runs) >= 2:
-            return sweep_report(os.path.abspath(args.dir), runs, args.out)
+            return sweep_report(os.path.abspath(args.dir), runs, args.out, args.x)
         if len(runs) == 1:
             out_dir = runs[0]
         else:
             return _fail(str(e))
+    if args.x is not None:
+        return _fail(f"--x {args.x}: {args.dir} holds one run, not a sweep; --x chooses the x axis of a sweep report")
     try:
         run = RunData(out_dir)
     except ReportError as e:
@@ -184,13 +189,30 @@ def main(argv):
     return 1 if (failures and strict) else 0
 
 
-def sweep_report(base, runs, out):
-    """Report over several runs found below `base`."""
+def sweep_report(base, runs, out, x=None):
+    """Report over several runs found below `base`, plotted against the swept key `x` (None: the
+    rule of axes.choose_x)."""
     from .data import ReportError
     from .document import write_html, write_markdown
     from .sweep import build
 
     report_dir = os.path.abspath(out) if out else os.path.join(base, "report")
+    if x is not None:  # a --x that is no swept key is refused before anything is written
+        from .axes import choose_x
+        from .data import RunData
+        from .sweep import sweep_axes
+        try:
+            found = [RunData(p) for p in runs]
+        except ReportError as e:
+            return _fail(str(e))
+        keys = sweep_axes(found, base)
+        try:
+            choose_x({k: [r.params.get(k) for r in found] for k in keys}, x)
+        except ValueError as e:
+            return _fail(str(e))
+        finally:
+            for r in found:
+                r.close()
     problem = _prepare_report_dir(report_dir)
     if problem:
         return _fail(problem)
@@ -199,7 +221,7 @@ def sweep_report(base, runs, out):
     except OSError as e:
         return _fail(f"{report_dir}: cannot write the report ({e})")
     try:
-        sections = build(runs, ctx)
+        sections = build(runs, ctx, x=x, base=base)
     except ReportError as e:
         return _fail(str(e))
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

@@ -3,6 +3,7 @@ the case file, the layout of results.h5)."""
 import h5py
 import numpy as np
 
+from .axes import PLATEAU_JUDGED, error_verdict  # noqa: F401 (PLATEAU_JUDGED: kept importable here)
 from .document import Section, fmt, fmt_pm
 
 UNITS = {
@@ -52,20 +53,21 @@ def lower_bound(run, err_key):
     `<err_key>_plateau` false, written since 2026-12-05; older runs: never flagged). The error
     is then unreliable: a lower bound if the series is correlated over a good part of the
     window, and the mean itself no steady value if the series drifts through it."""
-    return bool(err_key) and run.get(err_key + "_plateau") is False
-
-
-# The DSMC window errors that the plateau test judges (src/dsmc/output.cpp); the CLI's run table
-# marks the same ones (src/cli/commands.cpp, print_table).
-PLATEAU_JUDGED = ("temperature.stderr", "a2.stderr", "rotation.R_stderr")
+    return _verdict(run, err_key) == "no plateau"
 
 
 def unchecked(run, err_key):
     """True for a DSMC window error that carries no `<err_key>_plateau` flag: its window held too
     few samples (≤ 90) for the plateau test to tell anything (the run's log says so once), or the
     run predates the test (2026-12-05). The error is then the blocking's estimate, unjudged."""
-    return (bool(err_key) and run.solver == "dsmc" and err_key in PLATEAU_JUDGED
-            and run.num(err_key) is not None and run.get(err_key + "_plateau") is None)
+    return _verdict(run, err_key) == "unchecked"
+
+
+def _verdict(run, err_key):
+    # the rule lives in axes.py, shared with scripts/plot_sweep.py (sweep.png)
+    if not err_key:
+        return None
+    return error_verdict(run.solver, err_key, run.num(err_key), run.get(err_key + "_plateau"))
 
 
 def error_mark(run, err_key):

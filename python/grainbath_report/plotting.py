@@ -55,7 +55,8 @@ class Context:
     def save(self, fig, name):
         path = os.path.join(self.report_dir, name + ".png")
         fig.tight_layout()
-        fig.savefig(path)
+        # "tight": the saved image takes in everything drawn, a legend placed outside the axes too
+        fig.savefig(path, bbox_inches="tight")
         plt.close(fig)
         self.saved.append(path)
         return path

@@ -9,8 +9,9 @@ import os
 
 import numpy as np
 
+from .axes import choose_x, identity_axes
 from .common import UNITS, fmt_err, lower_bound, unchecked
-from .data import RunData
+from .data import ReportError, RunData
 from .document import Section, fmt, fmt_pm
 from .edmd import close_packing, packing_label, z_henderson, z_reference
 from .plotting import subplots, theory_style
@@ -96,10 +97,6 @@ EXTRA_COLOURS = ["#CC79A7", "#56B4E9", "#D55E00", "#999999"]
 EXTRA_STYLES = [(0, (5, 1, 1, 1)), (0, (1, 1)), (0, (3, 1, 1, 1, 1, 1)), "--"]
 
 
-def _numeric(v):
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-
 def swept_parameters(runs):
     """Parameters whose resolved values differ between runs (seed and threads excluded)."""
     keys = sorted(set().union(*(r.params.keys() for r in runs)))
@@ -110,11 +107,7 @@ def swept_parameters(runs):
         vals = [repr(r.params.get(k)) for r in runs]
         if len(set(vals)) > 1:
             out.append(k)
-    preferred = ["edmd.packing_fraction", "background.knudsen", "restitution.e", "restitution.beta",
-                 "restitution.delta", "background.mass_ratio", "domain.length", "grains.wavenumber_index"]
-    numeric = [k for k in out if all(_numeric(r.params.get(k)) for r in runs)]
-    numeric.sort(key=lambda k: preferred.index(k) if k in preferred else len(preferred))
-    return out, numeric
+    return out
 
 
 def ensemble_section(runs, quantities, paths):
@@ -158,20 +151,54 @@ def ensemble_section(runs, quantities, paths):
     return s
 
 
-def build(paths, ctx):
-    """Sections of a sweep report over the runs in `paths`."""
+def sweep_axes(runs, base):
+    """The swept keys (axes.py): the --set keys of a `grainbath sweep` directory `base` with
+    several values (sweep.identity), else the parameters that differ between the runs."""
+    axes = identity_axes(base) if base else None
+    if not axes or not all(k in r.params for k in axes for r in runs):
+        axes = swept_parameters(runs)
+    return axes
+
+
+def sigma_distance(run, key, err_key, tkey):
+    """(simulation − theory)/stderr of one run, or (None, why) where no σ distance is shown: no
+    error, or an error the run flagged (`<err_key>_plateau` false) or left unjudged (too few
+    samples) — the single-run report's rule (common.lower_bound, common.unchecked)."""
+    v, t = run.num(key), run.num(tkey)
+    e = run.num(err_key) if err_key else None
+    if v is None or t is None:
+        return None, None
+    if not e:
+        return None, "no error"
+    if lower_bound(run, err_key):
+        return None, "no plateau"
+    if unchecked(run, err_key):
+        return None, "unchecked"
+    return (v - t) / e, None
+
+
+def build(paths, ctx, x=None, base=None):
+    """Sections of a sweep report over the runs in `paths` (found below `base`); `x`: the swept key
+    to plot against (`grainbath report DIR --x KEY`), default the rule of axes.choose_x."""
     runs = [RunData(p) for p in paths]
     solvers = sorted(set(r.solver for r in runs))
-    varied, numeric = swept_parameters(runs)
-    x_key = numeric[0] if numeric else None
-    group_keys = [k for k in varied if k != x_key]
+    varied = swept_parameters(runs)
+    axes = sweep_axes(runs, base)
+    try:
+        x_key, group_keys = choose_x({k: [r.params.get(k) for r in runs] for k in axes}, x)
+    except ValueError as e:
+        for r in runs:
+            r.close()
+        raise ReportError(str(e))
     sections = []
     s = Section("Runs in this sweep", "runs")
     s.text(" ".join(UNITS.get(sv, "") for sv in solvers))
     s.text(f"{len(runs)} runs (solver{'s' if len(solvers) > 1 else ''} {', '.join(solvers)}). Parameters that differ "
            f"between them: {', '.join(f'`{k}`' for k in varied) or 'none (repeats with different seeds?)'}."
            + (f" Plotted against `{x_key}`" + (f", one series per value of {', '.join(f'`{k}`' for k in group_keys)}"
-                                                if group_keys else "") + "." if x_key else ""))
+                                                if group_keys else "") +
+              (" (chosen with --x)." if x else " (the swept key with the most values; `--x KEY` chooses another; "
+               "docs/OUTPUT.md, \"Sweep directories\").") if x_key else ""))
     candidates = (DSMC_QUANTITIES if "dsmc" in solvers else []) + (EDMD_QUANTITIES if "edmd" in solvers else [])
     quantities = [q for q in candidates if any(r.num(q[0]) is not None for r in runs)]
     headers = ["run"] + [f"`{k}`" for k in varied] + [f"`{q[0]}`" for q in quantities]
@@ -202,31 +229,39 @@ def build(paths, ctx):
         groups.setdefault(label, []).append(r)
     markers = ["o", "s", "D", "^", "v", "<", ">"]
     for qi, (key, err_key, label, unit, theories) in enumerate(quantities):
-        fig, ax = subplots(figsize=(7.5, 4.6))
+        # the theories this sweep has, and whether any run's error gives σ distances from them
+        present = [(i, t) for i, t in enumerate(theories) if any(r.num(t[0]) is not None for r in runs)]
+        residuals = bool(err_key and present)
+        if residuals:
+            fig, (ax, axr) = subplots(2, 1, figsize=(9.5, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1.7]})
+            axr.axhline(0.0, color="0.4", lw=0.8)  # the guides first: axr.lines[3:] are the distances
+            for g in (-2.0, 2.0):
+                axr.axhline(g, color="0.55", lw=0.9, ls="--")
+        else:
+            fig, ax = subplots(figsize=(9.5, 4.6))
+            axr = None
         for gi, (glabel, grs) in enumerate(groups.items()):
             grs = sorted(grs, key=lambda r: r.params[x_key])
-            x = np.array([r.params[x_key] for r in grs], dtype=float)
+            xs = np.array([r.params[x_key] for r in grs], dtype=float)
             y = np.array([r.num(key) if r.num(key) is not None else np.nan for r in grs])
             e = np.array([(r.num(err_key) or 0.0) if err_key else 0.0 for r in grs])
             sim_label = "simulation" + (f" ({glabel})" if glabel else "")
-            ax.errorbar(x, y, yerr=e if np.any(e) else None, fmt=markers[gi % len(markers)], color="black", ms=5,
-                        capsize=3, ls="none",
-                        mfc="black" if gi == 0 else "white", label=sim_label)
-            dense_eos = key == "pressure.Z" and x_key == "edmd.packing_fraction"
-            extra = 0
-            for ti, (tkey, style, tlabel) in enumerate(theories):
-                if dense_eos and tkey == "theory.Z":
-                    continue  # drawn as a continuous curve below
+            ax.errorbar(xs, y, yerr=e if np.any(e) else None, fmt=markers[gi % len(markers)], color="black", ms=5,
+                        mfc="white" if gi % 2 else "black", capsize=3, label=sim_label, zorder=5)
+            for ti, (tkey, style, tlabel) in present:
                 ty = np.array([r.num(tkey) if r.num(tkey) is not None else np.nan for r in grs])
                 if np.all(np.isnan(ty)):
                     continue
-                if style:
-                    st = theory_style(style)
-                else:
-                    st = dict(color=EXTRA_COLOURS[extra % 4], ls=EXTRA_STYLES[extra % 4], lw=1.5)
-                    extra += 1
+                st = theory_style(style) if style else dict(color=EXTRA_COLOURS[ti % len(EXTRA_COLOURS)],
+                                                            ls=EXTRA_STYLES[ti % len(EXTRA_STYLES)], lw=1.6)
+                st["alpha"] = 1.0 if gi == 0 else 0.55
                 st["label"] = (tlabel + (" (each series)" if len(groups) > 1 else "")) if gi == 0 else None
-                ax.plot(x, ty, marker=".", **st)
+                ax.plot(xs, ty, marker=".", **st)
+                if axr is not None:
+                    d = np.array([sigma_distance(r, key, err_key, tkey)[0] for r in grs], dtype=float)
+                    if np.any(np.isfinite(d)):
+                        axr.plot(xs, d, marker=markers[gi % len(markers)], ms=4.5, ls=st["ls"], lw=1.0,
+                                 color=st["color"], alpha=st["alpha"], mfc="white" if gi % 2 else st["color"])
         if key == "pressure.Z" and x_key == "edmd.packing_fraction":
             dims = {int(r.param("edmd.dimensions", 3)) for r in runs}
             for D in sorted(dims):
@@ -235,18 +270,47 @@ def build(paths, ctx):
                 ax.plot(xs, z_reference(D, xs), **theory_style("eos", label=f"elastic EOS, {name}"))
                 if D == 2:
                     ax.plot(xs, z_henderson(xs), **theory_style("eos2", label="elastic EOS, Henderson"))
-            ax.set_xlabel(packing_label(min(dims)) + "  [dimensionless]")
+            xlabel = packing_label(min(dims)) + "  [dimensionless]"
         else:
-            ax.set_xlabel(PARAM_LABELS.get(x_key, f"{x_key}  (unit: docs/CASE_FILE.md)"))
+            xlabel = PARAM_LABELS.get(x_key, f"{x_key}  (unit: docs/CASE_FILE.md)")
             if x_key.endswith("particles"):
                 ax.set_xscale("log")
+        (axr if axr is not None else ax).set_xlabel(xlabel)
         ax.set_ylabel(f"{label}  [{unit}]")
         ax.set_title(f"{label} against {x_key.split('.')[-1]}")
-        ax.legend(loc="best", fontsize=7.5)
+        # outside the axes, to the right: a legend never covers a point (and the report's
+        # figures are saved with bbox_inches="tight", so it is not clipped either)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=7.5)
+        if axr is not None:
+            axr.set_ylabel("(simulation − theory)/σ")
+            lim = max([2.5] + [abs(v) * 1.15 for ln in axr.lines[3:] for v in ln.get_ydata() if np.isfinite(v)])
+            axr.set_ylim(-lim, lim)
+            if len(axr.lines) == 3:  # no run's error gives σ distances
+                axr.text(0.5, 0.5, "no σ distances: every run's error is flagged (no plateau) or unchecked",
+                         transform=axr.transAxes, ha="center", va="center", fontsize=8, color="0.3")
         path = ctx.save(fig, f"sweep_{key.replace('.', '_')}")
         sec = Section(f"{label} against `{x_key}`", f"sweep-{key.replace('.', '-')}")
         sec.figure(path, f"{label} from every run (black, ± std. error) beside the theory values each run computed "
-                         f"for its own parameters (coloured), against the swept parameter `{x_key}`.")
+                         f"for its own parameters (coloured), against the swept parameter `{x_key}`." +
+                   (" Below: (simulation − theory)/σ for each theory (its colour and line style; σ the run's standard "
+                    "error), with ±2σ guides; left out where the run's error is flagged (no plateau) or unchecked "
+                    "(too few samples to test for a plateau)." if axr is not None else ""))
+        if residuals:
+            trows = []
+            for r in sorted(runs, key=lambda r: (tuple(repr(r.params.get(k)) for k in group_keys), r.params[x_key])):
+                if r.num(key) is None:
+                    continue
+                cells = [fmt(r.params.get(k)) for k in [x_key] + group_keys] + [fmt_err(r, r.num(key), err_key)]
+                for _ti, (tkey, _style, _tlabel) in present:
+                    t = r.num(tkey)
+                    dist, why = sigma_distance(r, key, err_key, tkey)
+                    cells.append("—" if t is None else f"{fmt(t)} ({dist:+.1f}σ)" if dist is not None
+                                 else f"{fmt(t)} (σ: {why})")
+                trows.append(cells)
+            sec.table([f"`{k}`" for k in [x_key] + group_keys] + ["simulation"] + [t[1][2] for t in present], trows,
+                      caption="Each theory's value and the simulation's distance from it, (simulation − theory)/σ; "
+                              "\"σ: no plateau\" or \"σ: unchecked\": the run's error is flagged or unjudged, so no "
+                              "distance is given (as in the single-run report).")
         sections.append(sec)
     for r in runs:
         r.close()

@@ -558,6 +558,7 @@ int command_report(const ReportArgs& a) {
   std::vector<std::string> args = {python, script.string(), a.dir};
   if (!a.out_dir.empty()) args.insert(args.end(), {"--out", a.out_dir});
   if (a.strict) args.push_back("--strict");
+  if (!a.x_key.empty()) args.insert(args.end(), {"--x", a.x_key});
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);

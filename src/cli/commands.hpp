@@ -44,6 +44,7 @@ struct ReportArgs {
   std::string dir;
   std::string out_dir;  // "": report.py's default (OUTPUT_DIR/report)
   bool strict = false;
+  std::string x_key;    // "": a sweep report's default x axis (docs/OUTPUT.md, "Sweep directories")
 };
 // Runs python/report.py (no shell in between) and returns its exit status: 0 done, 2 bad
 // input, 3 a Python module missing (python/README.md); 1 when report.py cannot be found (or

@@ -97,6 +97,10 @@ int cli_main(int argc, char** argv) {
                      "Report directory (default OUTPUT_DIR/report): a new or empty directory, or one a report wrote")
       ->check(kNotEmpty);
   report->add_flag("--strict", report_args.strict, "Exit with an error when a section cannot be made");
+  report->add_option("--x", report_args.x_key,
+                     "Sweep report: the swept key to plot against (default: the numeric swept key with the most "
+                     "values, as sweep.png; docs/OUTPUT.md)")
+      ->check(kNotEmpty);
 
   try {
     app.parse(argc, argv);

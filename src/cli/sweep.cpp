@@ -194,6 +194,24 @@ extern "C" void on_sweep_signal(int) {
 
 std::string quote_arg(const std::string& x) { return shell_quote(x); }
 
+// The command that continues an interrupted sweep: the user's command with every option it was
+// given (a sweep option added to SweepArgs belongs here too), and --resume.
+std::string continue_command(const SweepArgs& a, const std::string& self) {
+  std::string cmd = quote_arg(self) + " sweep " + quote_arg(a.case_dir);
+  if (!a.out_dir.empty()) cmd += " --out " + quote_arg(a.out_dir);
+  if (a.jobs > 0) cmd += " -j " + std::to_string(a.jobs);
+  if (a.quiet) cmd += " -q";
+  for (const auto& o : a.overrides) cmd += " --set " + quote_arg(o);
+  return cmd + " --resume";
+}
+
+// "12 s" (one decimal under 10 s): the wall times of the progress lines
+std::string seconds_text(double s) {
+  char b[32];
+  std::snprintf(b, sizeof b, s < 10 ? "%.1f s" : "%.0f s", s);
+  return b;
+}
+
 std::string sanitize(const std::string& s) {
   std::string r;
   for (char c : s) r += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-') ? c : '_';
@@ -400,6 +418,32 @@ int command_sweep(const SweepArgs& a) {
       std::fprintf(stderr, "sweep: resuming: %zu of %zu variants finished earlier\n", earlier, variants.size());
   }
   auto log_of = [&](std::size_t k) { return dirs[k].string() + ".log"; };
+  // what became of each variant in this sweep (the counts of the progress lines and of an
+  // interruption's summary say exactly this)
+  enum : int { kNotStarted = 0, kRunning = 1, kDone = 2, kStopped = 3, kFailed = 4 };
+  std::vector<int> state(variants.size(), kNotStarted);
+  std::size_t finished_count = 0;  // the variants with their results, earlier ones (--resume) included
+  for (std::size_t k = 0; k < variants.size(); ++k) finished_count += skip[k];
+  // "(variant 12 s, sweep 30 s)": the variant's own wall time and the time since the sweep started
+  auto times_text = [&](std::chrono::steady_clock::time_point variant_start, std::chrono::steady_clock::time_point sweep_start) {
+    return "(variant " + seconds_text(wall_seconds_since(variant_start)) + ", sweep " +
+           seconds_text(wall_seconds_since(sweep_start)) + " elapsed)";
+  };
+  // one progress line: finished variants are counted ("3/6 done": 3 of the 6 have their
+  // results), a stopped or failed one is not; under MPI each rank says its own, uncounted
+  auto progress = [&](std::size_t k, int code, const std::string& who, const std::string& times) {
+    if (code == 0 && who.empty())
+      std::fprintf(stderr, "sweep: %zu/%zu done     %s  %s\n", finished_count, variants.size(),
+                   dirs[k].filename().string().c_str(), times.c_str());
+    else if (code == 0)
+      std::fprintf(stderr, "sweep: %sdone     %s  %s\n", who.c_str(), dirs[k].filename().string().c_str(), times.c_str());
+    else if (code == 130)
+      std::fprintf(stderr, "sweep: %sstopped     %s  %s, %s\n", who.c_str(), dirs[k].filename().string().c_str(),
+                   times.c_str(), resumable(k) ? "with a checkpoint" : "before its first checkpoint");
+    else
+      std::fprintf(stderr, "sweep: %sFAILED      %s  %s, exit code %d: see %s\n", who.c_str(),
+                   dirs[k].filename().string().c_str(), times.c_str(), code, log_of(k).c_str());
+  };
   bool stopped = false;
   std::vector<int> handled;  // the stop signals the sweep handles (not those it inherited ignored)
   if (mpi::active()) {
@@ -419,6 +463,7 @@ int command_sweep(const SweepArgs& a) {
       ra.quiet = true;
       ra.alone = true;
       ra.resume = a.resume && resumable(k);
+      const auto variant_start = std::chrono::steady_clock::now();
       std::fflush(nullptr);
       const int saved_out = dup(STDOUT_FILENO), saved_err = dup(STDERR_FILENO);
       std::FILE* log = std::fopen(log_of(k).c_str(), a.resume ? "a" : "w");
@@ -435,12 +480,13 @@ int command_sweep(const SweepArgs& a) {
       close(saved_err);
       if (log) std::fclose(log);
       if (code != 0 && code != 130) ++failed;
+      state[k] = code == 0 ? kDone : code == 130 ? kStopped : kFailed;
       if (!a.quiet || code != 0)
-        std::fprintf(stderr, "sweep: rank %zu: %s %s  (%.0fs)\n", rank,
-                     code == 0 ? "done  " : code == 130 ? "stopped" : "FAILED",
-                     dirs[k].filename().string().c_str(), wall_seconds_since(start));
+        progress(k, code, "rank " + std::to_string(rank) + ": ", times_text(variant_start, start));
     }
     failed = static_cast<int>(mpi::sum(failed));
+    // rank 0 learns what became of the others' variants (each variant is one rank's)
+    for (std::size_t k = 0; k < variants.size(); ++k) state[k] = static_cast<int>(mpi::sum(state[k]));
     stopped = mpi::sum(stop_requested() ? 1 : 0) > 0;
     if (rank != 0) return stopped ? 130 : failed ? 1 : 0;
     done = variants.size();  // rank 0 gathers below
@@ -457,6 +503,7 @@ int command_sweep(const SweepArgs& a) {
     }
   }
   std::map<pid_t, std::size_t> children;
+  std::map<pid_t, std::chrono::steady_clock::time_point> started_at;
   const auto start = std::chrono::steady_clock::now();
   int forwarded = 0;
   for (std::size_t k = 0; k < variants.size() && !mpi::active(); ++k) done += skip[k];
@@ -510,6 +557,8 @@ int command_sweep(const SweepArgs& a) {
         std::fprintf(stderr, "error: sweep: cannot start a variant: %s\n", std::strerror(errno));
         break;
       }
+      state[next] = kRunning;
+      started_at[pid] = std::chrono::steady_clock::now();
       children[pid] = next++;
       ++running;
     }
@@ -541,28 +590,35 @@ int command_sweep(const SweepArgs& a) {
     const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
     const bool interrupted = WIFEXITED(status) && WEXITSTATUS(status) == 130;
     if (!ok && !interrupted) ++failed;
+    state[k] = ok ? kDone : interrupted ? kStopped : kFailed;
+    finished_count += ok;
+    const std::string times = times_text(started_at[pid], start);
+    started_at.erase(pid);
     if (!a.quiet || !ok)
-      std::fprintf(stderr, "sweep: %zu/%zu %s %s  (%.0fs)\n", done, variants.size(),
-                   ok ? "done  " : interrupted ? "stopped" : "FAILED", dirs[k].filename().string().c_str(),
-                   wall_seconds_since(start));
+      progress(k, ok ? 0 : interrupted ? 130 : WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status),
+               "", times);
   }
   if (!mpi::active()) stopped = g_sweep_signals.load() > 0;
   if (stopped) {
-    std::size_t finished_now = 0, with_checkpoint = 0, not_started = 0;
+    // each variant in exactly one count: finished (now or earlier), failed, stopped with a
+    // checkpoint (or left with one by an earlier sweep), stopped before its first checkpoint,
+    // not started
+    std::size_t finished_now = 0, failed_now = 0, with_checkpoint = 0, stopped_early = 0, not_started = 0;
     for (std::size_t k = 0; k < variants.size(); ++k) {
       if (finished(k)) ++finished_now;
+      else if (state[k] == kFailed) ++failed_now;
       else if (resumable(k)) ++with_checkpoint;
+      else if (state[k] != kNotStarted) ++stopped_early;
       else ++not_started;
     }
-    std::string cmd = quote_arg(self) + " sweep " + quote_arg(a.case_dir);
-    if (!a.out_dir.empty()) cmd += " --out " + quote_arg(a.out_dir);
-    if (a.jobs > 0) cmd += " -j " + std::to_string(a.jobs);
-    for (const auto& o : a.overrides) cmd += " --set " + quote_arg(o);
-    std::fprintf(stderr,
-                 "sweep: interrupted: %zu of %zu variants finished, %zu stopped with a checkpoint, %zu not started or "
-                 "failed; no table was made. Continue with:\n  %s%s --resume\n",
-                 finished_now, variants.size(), with_checkpoint, not_started,
-                 mpi::active() ? ("mpirun -np " + std::to_string(mpi::world_size()) + " ").c_str() : "", cmd.c_str());
+    std::string counts = std::to_string(finished_now) + " of " + std::to_string(variants.size()) +
+                         " variants finished, " + std::to_string(with_checkpoint) + " stopped with a checkpoint";
+    if (stopped_early) counts += ", " + std::to_string(stopped_early) + " stopped before their first checkpoint (they start again)";
+    counts += ", " + std::to_string(not_started) + " not started";
+    if (failed_now) counts += ", " + std::to_string(failed_now) + " failed (their .log says why; --resume runs them again)";
+    std::fprintf(stderr, "sweep: interrupted: %s; no table was made. Continue with:\n  %s%s\n", counts.c_str(),
+                 mpi::active() ? ("mpirun -np " + std::to_string(mpi::world_size()) + " ").c_str() : "",
+                 continue_command(a, self).c_str());
     return 130;
   }
   // gather
@@ -581,31 +637,44 @@ int command_sweep(const SweepArgs& a) {
   for (const auto& [key, values] : axes) tsv << "\t" << key;
   for (const auto& c : columns) tsv << "\t" << c;
   tsv << "\n";
-  const std::vector<std::string> headline = {"temperature.mean",
-                                             "temperature.stderr",
-                                             "a2.mean",
-                                             "a2.stderr",
-                                             "a3.mean",
-                                             "a3.stderr",
-                                             "mode.decay_rate",
-                                             "mode.decay_rate_stderr",
-                                             "profile.exponent",
-                                             "profile.exponent_stderr",
-                                             "pressure.Z",
-                                             "pressure.Z_stderr",
-                                             "theory.Z",
-                                             "theory.medium_steady_temperature",
-                                             "theory.wall_balance_temperature",
-                                             "theory.equilibrium.maxwellian.T",
-                                             "theory.equilibrium.grad.T",
-                                             "theory.equilibrium.sonine.T",
-                                             "theory.expansion.first_order.T",
-                                             "theory.hydro.decay_rate",
-                                             "theory.hydro.decay_rate_kinetic",
-                                             "theory.hydro.thermal_diffusion_exponent_kinetic"};
+  // sweep.md's columns (docs/OUTPUT.md, "Sweep directories"): a headline quantity, its error,
+  // and the theory values of it, each beside the measured quantity it belongs to. A column is
+  // shown only when some variant has a number in it (a key null in every variant is left
+  // out), and a theory column only when its measured quantity is shown: the hydrodynamic
+  // limit's theory.hydro.* (constant in a homogeneous case, which measures no mode or profile)
+  // does not crowd a homogeneous sweep, nor theory.Z one without pressure.Z.
+  const std::vector<std::pair<std::string, std::string>> headline = {  // column, its measured quantity
+      {"temperature.mean", ""},
+      {"temperature.stderr", "temperature.mean"},
+      {"a2.mean", ""},
+      {"a2.stderr", "a2.mean"},
+      {"a3.mean", ""},
+      {"a3.stderr", "a3.mean"},
+      {"mode.decay_rate", ""},
+      {"mode.decay_rate_stderr", "mode.decay_rate"},
+      {"profile.exponent", ""},
+      {"profile.exponent_stderr", "profile.exponent"},
+      {"pressure.Z", ""},
+      {"pressure.Z_stderr", "pressure.Z"},
+      {"theory.Z", "pressure.Z"},
+      {"theory.medium_steady_temperature", "temperature.mean"},
+      {"theory.wall_balance_temperature", "temperature.mean"},
+      {"theory.equilibrium.maxwellian.T", "temperature.mean"},
+      {"theory.equilibrium.grad.T", "temperature.mean"},
+      {"theory.equilibrium.sonine.T", "temperature.mean"},
+      {"theory.expansion.first_order.T", "temperature.mean"},
+      {"theory.hydro.decay_rate", "mode.decay_rate"},
+      {"theory.hydro.decay_rate_kinetic", "mode.decay_rate"},
+      {"theory.hydro.thermal_diffusion_exponent_kinetic", "profile.exponent"}};
+  auto has_number = [&](const std::string& c) {
+    return std::any_of(rows.begin(), rows.end(), [&](const auto& r) {
+      const auto it = r.find(c);
+      return it != r.end() && std::isfinite(it->second);
+    });
+  };
   std::vector<std::string> shown;
-  for (const auto& h : headline)
-    if (columns.count(h)) shown.push_back(h);
+  for (const auto& [h, measured] : headline)
+    if (has_number(h) && (measured.empty() || has_number(measured))) shown.push_back(h);
   md << "| variant |";
   for (const auto& [key, values] : axes) md << " " << key << " |";
   for (const auto& h : shown) md << " " << h << " |";

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -153,6 +154,10 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_TRUE(fs::exists(out / "variant-0_seed_1" / "summary.json"));
   EXPECT_TRUE(fs::exists(out / "ensemble.json"));
   EXPECT_NE(r.err.find("sweep: 2/2 done"), std::string::npos) << r.err;  // the progress lines
+  // each with the variant's own wall time and the sweep's, labelled (review 5: "(30s)" was the
+  // time since the sweep started, unlabelled)
+  EXPECT_TRUE(std::regex_search(r.err, std::regex(R"(sweep: 2/2 done +variant-1_seed_2  \(variant [0-9.]+ s, sweep [0-9.]+ s elapsed\))")))
+      << r.err;
   r = sweep("3,4,5");
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_NE(r.err.find("sweep: the previous sweep in " + out.string() + " was moved to"), std::string::npos) << r.err;
@@ -445,10 +450,17 @@ TEST_F(OutputDir, InterruptedSweepResumes) {
   RunResult r = run_binary(sweep, opt);
   EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
   EXPECT_NE(r.err.find("sweep: stop requested"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("sweep: interrupted: 1 of 3 variants finished, 1 stopped with a checkpoint, 1 not started"),
+  EXPECT_NE(r.err.find("sweep: interrupted: 1 of 3 variants finished, 1 stopped with a checkpoint, 1 not started;"),
             std::string::npos)
       << r.err;
-  EXPECT_NE(r.err.find(" --resume"), std::string::npos) << r.err;
+  // a stopped variant is no progress: said without a count (review 5: "2/3 stopped")
+  EXPECT_NE(r.err.find("sweep: stopped     variant-1_seed_2  (variant "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(", with a checkpoint\n"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("2/3"), std::string::npos) << r.err;
+  // the command that continues it has every option the user gave
+  EXPECT_NE(r.err.find(" sweep " + case_dir().string() + " --out " + out.string() + " -j 1 --set run.seed=1,2,3 --resume\n"),
+            std::string::npos)
+      << r.err;
   EXPECT_TRUE(fs::exists(out / "variant-0_seed_1" / "summary.json"));
   EXPECT_FALSE(fs::exists(out / "variant-1_seed_2"));
   EXPECT_FALSE(fs::exists(out / "variant-2_seed_3.log"));  // never started
@@ -740,4 +752,53 @@ collisions = 6
   const std::string head = md.substr(header, md.find('\n', header) - header);
   EXPECT_NE(head.find("| pressure.Z |"), std::string::npos) << head;
   EXPECT_NE(head.find("| theory.Z |"), std::string::npos) << head;
+}
+
+// A quiet sweep stopped: the command printed to continue it keeps -q (review 5: it dropped -q,
+// so the resumed sweep printed progress lines the user had turned off), and the counts say
+// what happened to each variant.
+TEST_F(OutputDir, InterruptedQuietSweepSaysHowToContinueWithTheSameOptions) {
+  std::string c = kCase;
+  c.replace(c.find("particles = 1000"), 16, "particles = 100000");  // about 2 s a variant (one thread)
+  c.replace(c.find("t_end = 0.2"), 11, "t_end = 50.0");
+  write_text(case_dir() / "case.toml", c);
+  const fs::path out = tmp / "quiet";
+  RunOptions opt;
+  opt.cwd = work();
+  opt.timeout_s = 120;
+  opt.send_signal = SIGINT;
+  opt.send_when = "";  // 0.3 s after the start: the first variant runs, the second waits
+  const RunResult r = run_binary({kBinary, "sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set",
+                                  "run.seed=1,2", "--set", "dsmc.dt=0.01"},
+                                 opt);
+  EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
+  EXPECT_NE(r.err.find("sweep: interrupted: 0 of 2 variants finished, 1 stopped with a checkpoint, 1 not started;"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("not started or failed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(" sweep " + case_dir().string() + " --out " + out.string() +
+                       " -j 1 -q --set run.seed=1,2 --set dsmc.dt=0.01 --resume\n"),
+            std::string::npos)
+      << r.err;
+}
+
+// sweep.md shows a theory column only beside its measured quantity, and no column that is
+// empty in every variant (review 5: a homogeneous DSMC sweep had the hydrodynamic limit's
+// theory.hydro.thermal_diffusion_exponent_kinetic, constant and about no measured number)
+TEST_F(OutputDir, HomogeneousSweepTableLeavesOutTheHydroTheory) {
+  const fs::path out = work() / "homogeneous";
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "--out", out.string(), "-j", "1",
+                                 "-q", "--set", "run.threads=1", "--set", "background.density=1.0"});
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  const std::string md = read_text(out / "sweep.md");
+  const std::size_t header = md.find("| variant |");
+  ASSERT_NE(header, std::string::npos) << md;
+  const std::string head = md.substr(header, md.find('\n', header) - header);
+  EXPECT_NE(head.find("| temperature.mean |"), std::string::npos) << head;
+  EXPECT_NE(head.find("| theory.equilibrium.sonine.T |"), std::string::npos) << head;
+  EXPECT_EQ(head.find("theory.hydro."), std::string::npos) << head;
+  EXPECT_EQ(head.find("mode."), std::string::npos) << head;
+  EXPECT_EQ(head.find("theory.Z"), std::string::npos) << head;
+  // sweep.tsv keeps every column
+  EXPECT_NE(read_text(out / "sweep.tsv").find("theory.hydro.thermal_diffusion_exponent_kinetic"), std::string::npos);
 }
