@@ -82,7 +82,7 @@ int cli_main(int argc, char** argv) {
   sweep->add_option("case_dir", sweep_args.case_dir, "Case directory holding case.toml")->required();
   sweep->add_option("--set", sweep_args.overrides, "section.key=v1,v2,... (repeatable: the cartesian product is run)")->required();
   sweep->add_option("--out", sweep_args.out_dir, "Sweep directory (default CASE_DIR/sweep)")->check(kNotEmpty);
-  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once, >= 1 (default: number of cores)")
+  sweep->add_option("--jobs,-j", sweep_args.jobs, "Variants run at once, >= 1 (default: the cores not busy with other processes)")
       ->check(CLI::Range(1, 4096));
   sweep->add_flag("--quiet,-q", sweep_args.quiet,
                   "No progress lines (a failed variant, warnings and errors are still reported)");

@@ -393,7 +393,19 @@ int command_sweep(const SweepArgs& a) {
                  ec.message().c_str());
     return 2;
   }
-  const int jobs = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
+  // -j unset: the cores other processes leave free (core_use(), as a run's automatic threads;
+  // review 4: all cores even on a busy machine), said when that is fewer than all. Results do
+  // not depend on it.
+  int jobs = a.jobs;
+  if (jobs <= 0) {
+    const CoreUse use = core_use();
+    jobs = automatic_threads(use);
+    if (jobs < use.cores && mpi::world_rank() == 0 && !mpi::active())
+      std::fprintf(stderr,
+                   "note: %d of %d cores busy with other processes: running %d variant(s) at a time; -j N chooses "
+                   "(results do not depend on it)\n",
+                   busy_cores(use), use.cores, jobs);
+  }
   const std::string self = fs::canonical("/proc/self/exe").string();
   std::vector<fs::path> dirs;
   for (std::size_t k = 0; k < variants.size(); ++k) {

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <sys/file.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -801,4 +802,33 @@ TEST_F(OutputDir, HomogeneousSweepTableLeavesOutTheHydroTheory) {
   EXPECT_EQ(head.find("theory.Z"), std::string::npos) << head;
   // sweep.tsv keeps every column
   EXPECT_NE(read_text(out / "sweep.tsv").find("theory.hydro.thermal_diffusion_exponent_kinetic"), std::string::npos);
+}
+
+// sweep -j unset runs as many variants at once as cores are free, as a run chooses its threads
+// (review 4: all cores even on a busy machine), and says so. Every core is kept busy by a spin
+// loop here, so one variant at a time whatever the machine.
+TEST_F(OutputDir, SweepWithoutJobsRunsOneVariantPerFreeCore) {
+  const long cores = std::max(1L, sysconf(_SC_NPROCESSORS_ONLN));
+  std::vector<pid_t> spinners;
+  for (long k = 0; k < cores; ++k) {
+    const pid_t p = fork();
+    if (p == 0) {
+      for (volatile unsigned long i = 0;; ++i) {
+      }
+    }
+    if (p > 0) spinners.push_back(p);
+  }
+  ::usleep(200000);  // let them show in /proc/stat
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--out", (work() / "busy").string(), "--set",
+                                 "run.seed=1,2", "--set", "run.threads=1"});
+  for (pid_t p : spinners) {
+    ::kill(p, SIGKILL);
+    ::waitpid(p, nullptr, 0);
+  }
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("sweep: 2 variants, 1 at a time"), std::string::npos) << r.err;
+  if (cores > 1)
+    EXPECT_NE(r.err.find("cores busy with other processes: running 1 variant(s) at a time; -j N chooses"),
+              std::string::npos)
+        << r.err;
 }
