@@ -59,6 +59,12 @@ class OutputDir : public ::testing::Test {
   TempDir tmp;
   fs::path case_dir() const { return tmp / "case"; }
   fs::path work() const { return tmp / "work"; }
+  // the header line of a sweep's sweep.md table ("" if none)
+  static std::string sweep_table_header(const fs::path& sweep) {
+    const std::string md = read_text(sweep / "sweep.md");
+    const std::size_t header = md.find("| variant |");
+    return header == std::string::npos ? std::string() : md.substr(header, md.find('\n', header) - header);
+  }
   void SetUp() override {
     write_text(case_dir() / "case.toml", kCase);
     fs::create_directories(work());
@@ -155,7 +161,7 @@ TEST_F(OutputDir, SweepMovesThePreviousSweepAsideAndFixedKeysAreNoAxes) {
   EXPECT_TRUE(fs::exists(out / "variant-0_seed_1" / "summary.json"));
   EXPECT_TRUE(fs::exists(out / "ensemble.json"));
   EXPECT_NE(r.err.find("sweep: 2/2 done"), std::string::npos) << r.err;  // the progress lines
-  // each with the variant's own wall time and the sweep's, labelled (review 5: "(30s)" was the
+  // each with the variant's own wall time and the sweep's, labelled (review 4: "(30s)" was the
   // time since the sweep started, unlabelled)
   EXPECT_TRUE(std::regex_search(r.err, std::regex(R"(sweep: 2/2 done +variant-1_seed_2  \(variant [0-9.]+ s, sweep [0-9.]+ s elapsed\))")))
       << r.err;
@@ -454,7 +460,7 @@ TEST_F(OutputDir, InterruptedSweepResumes) {
   EXPECT_NE(r.err.find("sweep: interrupted: 1 of 3 variants finished, 1 stopped with a checkpoint, 1 not started;"),
             std::string::npos)
       << r.err;
-  // a stopped variant is no progress: said without a count (review 5: "2/3 stopped")
+  // a stopped variant is no progress: said without a count (review 4: "2/3 stopped")
   EXPECT_NE(r.err.find("sweep: stopped     variant-1_seed_2  (variant "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find(", with a checkpoint\n"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("2/3"), std::string::npos) << r.err;
@@ -747,15 +753,13 @@ collisions = 6
   const RunResult r = grainbath({"sweep", (tmp / "edmd").string(), "--set", "edmd.packing_fraction=0.2,0.4", "--out",
                                  out.string(), "-j", "1", "-q"});
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
-  const std::string md = read_text(out / "sweep.md");
-  const std::size_t header = md.find("| variant |");
-  ASSERT_NE(header, std::string::npos) << md;
-  const std::string head = md.substr(header, md.find('\n', header) - header);
+  const std::string head = sweep_table_header(out);
+  ASSERT_FALSE(head.empty()) << read_text(out / "sweep.md");
   EXPECT_NE(head.find("| pressure.Z |"), std::string::npos) << head;
   EXPECT_NE(head.find("| theory.Z |"), std::string::npos) << head;
 }
 
-// A quiet sweep stopped: the command printed to continue it keeps -q (review 5: it dropped -q,
+// A quiet sweep stopped: the command printed to continue it keeps -q (review 4: it dropped -q,
 // so the resumed sweep printed progress lines the user had turned off), and the counts say
 // what happened to each variant.
 TEST_F(OutputDir, InterruptedQuietSweepSaysHowToContinueWithTheSameOptions) {
@@ -784,17 +788,15 @@ TEST_F(OutputDir, InterruptedQuietSweepSaysHowToContinueWithTheSameOptions) {
 }
 
 // sweep.md shows a theory column only beside its measured quantity, and no column that is
-// empty in every variant (review 5: a homogeneous DSMC sweep had the hydrodynamic limit's
+// empty in every variant (review 4: a homogeneous DSMC sweep had the hydrodynamic limit's
 // theory.hydro.thermal_diffusion_exponent_kinetic, constant and about no measured number)
 TEST_F(OutputDir, HomogeneousSweepTableLeavesOutTheHydroTheory) {
   const fs::path out = work() / "homogeneous";
   const RunResult r = grainbath({"sweep", case_dir().string(), "--set", "run.seed=1,2", "--out", out.string(), "-j", "1",
                                  "-q", "--set", "run.threads=1", "--set", "background.density=1.0"});
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
-  const std::string md = read_text(out / "sweep.md");
-  const std::size_t header = md.find("| variant |");
-  ASSERT_NE(header, std::string::npos) << md;
-  const std::string head = md.substr(header, md.find('\n', header) - header);
+  const std::string head = sweep_table_header(out);
+  ASSERT_FALSE(head.empty()) << read_text(out / "sweep.md");
   EXPECT_NE(head.find("| temperature.mean |"), std::string::npos) << head;
   EXPECT_NE(head.find("| theory.equilibrium.sonine.T |"), std::string::npos) << head;
   EXPECT_EQ(head.find("theory.hydro."), std::string::npos) << head;

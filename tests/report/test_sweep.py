@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """report_sweep: a 3x2 sweep of a homogeneous DSMC case over background.mass_ratio and
-background.knudsen (review 5), then its sweep.png (scripts/plot_sweep.py) and `grainbath
+background.knudsen (review 4), then its sweep.png (scripts/plot_sweep.py) and `grainbath
 report`:
 
 1. both plot against the same key, by the rule of docs/OUTPUT.md (the numeric swept key with
