@@ -128,10 +128,6 @@ inline double haff_time(int dims, double packing, double g, double e, double t0_
   if (sonine) zeta *= 1.0 + 3.0 * a2_van_noije_ernst(dims, e) / 16.0;
   return 2.0 / zeta;
 }
-inline double haff_temperature(double t, double t0_temperature, double haff_t0) {
-  const double s = 1.0 + t / haff_t0;
-  return t0_temperature / (s * s);
-}
 
 // Temperature relaxation of Maxwellian grains (mass 1) in the background medium (elastic
 // grain-medium collisions, rate K |g| per grain, K = nB/eps, alpha = mB/(m + mB)); re-derived

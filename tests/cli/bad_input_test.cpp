@@ -420,6 +420,11 @@ TEST_F(BadInput, EdmdOutOfRangeEveryParameter) {
   const std::vector<Range> cases = {
       {"edmd", "packing_fraction", "0.0", "(0.0, 1.0)"},
       {"edmd", "packing_fraction", "1.0", "(0.0, 1.0)"},
+      // between close packing (hexagonal pi/(2 sqrt 3) = 0.9069, fcc pi/(3 sqrt 2) = 0.7405)
+      // and 1: refused as above close packing, not only by the lattice start's spacing check
+      // (mutation audit closures-hydro, addendum row N2)
+      {"edmd", "packing_fraction", "0.91", "at or above close packing 0.9069"},
+      {"edmd", "packing_fraction", "0.75", "at or above close packing 0.74048 for spheres", {{"edmd.dimensions", "3"}}},
       {"edmd", "particles", "1", "found 1"},
       {"edmd", "dimensions", "4", "found 4"},
       {"edmd", "dimensions", "1", "found 1"},

@@ -1,9 +1,13 @@
 // Statistics of the DSMC summaries on synthetic data with a known answer: the density-mode
-// decay fit (src/dsmc/mode_fit.hpp).
+// decay fit (src/dsmc/mode_fit.hpp), the blocked errors and their plateau flag
+// (src/core/run_support.hpp), the sampled moments (src/dsmc/moments.hpp).
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <numbers>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -436,4 +440,336 @@ TEST(DsmcMoments, ThirdSonineCoefficientOfKnownPopulations) {
               std::sqrt(8.0 / (15.0 * N)));
   EXPECT_NEAR(mm.a3, 0.0, 4 * sigma);
   EXPECT_NEAR(mm.a2, 0.0, 4 * std::sqrt(8.0 / (15.0 * N)));
+}
+
+// ---- block averaging: unbiasedness, invariances, the plateau verdict ----------------------
+// (mutation audit dsmc-core, docs/reviews/mutation-audit-dsmc-core.md)
+
+namespace {
+
+// R replicas of n uncorrelated standard normal samples: the mean over replicas of stderr^2 * n,
+// for the index blocking and for the clock blocking on an evenly advancing clock.
+std::pair<double, double> mean_scaled_variance(int n, int R, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<double> x(n), clock(n);
+  for (int k = 0; k < n; ++k) clock[k] = 0.1 * k;
+  double index = 0.0, by_clock = 0.0;
+  for (int r = 0; r < R; ++r) {
+    for (double& v : x) v = g(rng);
+    const double a = grainbath::block_average(x).stderr_, b = grainbath::block_average(x, clock).stderr_;
+    index += a * a * n / R, by_clock += b * b * n / R;
+  }
+  return {index, by_clock};
+}
+
+}  // namespace
+
+// With one blocking level (16 <= n < 32 for the index, n = 16 for the clock: 16 blocks of one
+// sample) and below 16 samples (no blocking), the error of uncorrelated samples is the plain
+// standard error, whose square is an unbiased estimate of the variance of the mean, 1/n for
+// unit-variance samples: E[stderr^2] n = 1 (the n - 1 of the sample variance, and the clock
+// estimate's B/(B - 1), are what make it unbiased). 40000 replicas: the sample variance with
+// n - 1 degrees of freedom has relative SD sqrt(2/(n - 1)), so the mean is known to 0.2-0.5 %;
+// bound 4 of those. Dividing by n instead of n - 1 is 6-12 % low.
+TEST(DsmcStats, BlockedErrorOfUncorrelatedSamplesIsUnbiased) {
+  const int R = 40000;
+  for (int n : {8, 16, 24}) {
+    const auto [index, by_clock] = mean_scaled_variance(n, R, 40 + n);
+    const double tol = 4.0 * std::sqrt(2.0 / (n - 1)) / std::sqrt(double(R));
+    std::printf("n = %d: E[stderr^2] n = %.4f (index), %.4f (clock), tolerance %.4f\n", n, index, by_clock, tol);
+    EXPECT_NEAR(index, 1.0, tol) << n;
+    if (n == 16) {
+      EXPECT_NEAR(by_clock, 1.0, tol) << n;
+    }
+  }
+}
+
+// Over many levels the error is the largest level's (conservative), so for uncorrelated
+// samples it exceeds the plain error by the spread of the levels' estimates, but only by that:
+// n = 1024 (7 levels, 1024 to 16 blocks) gives sqrt(E[stderr^2] n) = 1.096 for both blockings
+// (2000 replicas). Bound: within [1, 1.25]. Pairs of samples not averaged but thinned (every
+// other sample kept) would grow the error as sqrt(2^level), 8 times at the last level.
+TEST(DsmcStats, BlockedErrorOfUncorrelatedSamplesIsNearThePlainErrorAtManyLevels) {
+  const auto [index, by_clock] = mean_scaled_variance(1024, 2000, 51);
+  std::printf("n = 1024: sqrt(E[stderr^2] n) = %.4f (index), %.4f (clock)\n", std::sqrt(index), std::sqrt(by_clock));
+  for (double v : {index, by_clock}) {
+    EXPECT_GT(std::sqrt(v), 1.0);
+    EXPECT_LT(std::sqrt(v), 1.25);
+  }
+}
+
+// The error of a mean does not depend on where the series sits: adding a constant leaves both
+// blockings' errors and flags unchanged (to round-off of the shifted sums). And it is the
+// largest over the levels, so (index blocking) never below the plain error of the samples taken
+// as uncorrelated; an anticorrelated series (x_k = e_k - e_(k-1): its blocks average out, the
+// higher levels' errors fall) is where taking another level than the largest would show.
+TEST(DsmcStats, BlockedErrorIsShiftInvariantAndNeverBelowThePlainError) {
+  std::mt19937_64 rng(61);
+  std::normal_distribution<double> g;
+  const int n = 700;
+  std::vector<double> ar(n), anti(n), clock(n);
+  double prev = g(rng);
+  for (int k = 0; k < n; ++k) {
+    ar[k] = k ? 0.9 * ar[k - 1] + std::sqrt(1 - 0.81) * g(rng) : g(rng);
+    const double e = g(rng);
+    anti[k] = e - prev;
+    prev = e;
+    clock[k] = 0.5 * k + 0.2 * std::sqrt(double(k));  // advancing unevenly
+  }
+  for (const auto* s : {&ar, &anti}) {
+    std::vector<double> shifted = *s;
+    for (double& v : shifted) v += 1000.0;
+    for (bool use_clock : {false, true}) {
+      const grainbath::MeanError a = use_clock ? grainbath::block_average(*s, clock) : grainbath::block_average(*s);
+      const grainbath::MeanError b =
+          use_clock ? grainbath::block_average(shifted, clock) : grainbath::block_average(shifted);
+      EXPECT_NEAR(b.mean - 1000.0, a.mean, 1e-9);
+      EXPECT_NEAR(b.stderr_, a.stderr_, 1e-9 * a.stderr_ + 1e-12) << use_clock;
+      EXPECT_EQ(a.plateau, b.plateau) << use_clock;
+      double m = 0.0, var = 0.0;
+      for (double v : *s) m += v / n;
+      for (double v : *s) var += (v - m) * (v - m) / (n - 1);
+      // the index blocking's first level is the plain error itself (the clock's finest level
+      // has blocks of one or two samples, which an anticorrelated pair can cancel within)
+      if (!use_clock) {
+        EXPECT_GE(a.stderr_, std::sqrt(var / n) * (1 - 1e-12));
+      }
+    }
+  }
+}
+
+// The plateau verdict against the criterion it implements (Lee, Needs & Drummond 2011, eq. 14):
+// blocks of m samples suffice when m^3 > 2 n s^2, s the statistical inefficiency. For an AR(1)
+// series of coefficient rho, s = (1 + rho)/(1 - rho) exactly, so the smallest sufficient block,
+// (2 n s^2)^(1/3), is known: n = 4096 with rho = 0.99 (s = 199) needs 686 samples, more than
+// the longest blocks allowed (n/16 = 256): no plateau; rho = 0.5 (s = 3) needs 42: plateau. In
+// at least 95 % of 200 replicas each, for both blockings (the verdict uses the measured
+// e_m/e_1, so a few replicas of a series near the bound may go either way). A criterion with
+// (e_m/e_1)^2 for the fourth power (s for s^2) would call the rho = 0.99 series converged.
+TEST(DsmcStats, PlateauFlagFollowsTheLeeNeedsDrummondBlockLength) {
+  const int n = 4096, R = 200;
+  std::vector<double> clock(n);
+  for (int k = 0; k < n; ++k) clock[k] = k;
+  std::mt19937_64 rng(71);
+  std::normal_distribution<double> g;
+  for (double rho : {0.99, 0.5}) {
+    int index = 0, by_clock = 0;
+    std::vector<double> x(n);
+    for (int r = 0; r < R; ++r) {
+      x[0] = g(rng);
+      for (int k = 1; k < n; ++k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
+      const grainbath::MeanError a = grainbath::block_average(x), b = grainbath::block_average(x, clock);
+      EXPECT_TRUE(a.plateau_judged && b.plateau_judged);
+      index += a.plateau, by_clock += b.plateau;
+    }
+    std::printf("AR(1) rho = %.2f, n = %d: plateau in %d (index), %d (clock) of %d\n", rho, n, index, by_clock, R);
+    if (rho > 0.9) {
+      EXPECT_LE(index, R / 20);
+      EXPECT_LE(by_clock, R / 20);
+    } else {
+      EXPECT_GE(index, R - R / 20);
+      EXPECT_GE(by_clock, R - R / 20);
+    }
+  }
+}
+
+// ---- slow_mode_error: the shortest resolved mode and a strongly varying mean density ------
+// (mutation audit dsmc-core, docs/reviews/mutation-audit-dsmc-core.md)
+
+namespace {
+
+// The replica scatter of Q = sum_i w_i dn_i/n_i under slow_mode_error's model, by Monte Carlo
+// as in SlowModeErrorMatchesAMonteCarloOfItsModel: every mode m = 1 .. cells/2 an exactly
+// stepped Ornstein-Uhlenbeck pair (variance 2/N, rate D q^2), window means by summing the
+// steps, cell averages of cos and sin by 40 points across each cell.
+double slow_mode_scatter(const std::vector<double>& w, const std::vector<double>& r, double L, double N, double D,
+                         double W, int R, int steps, std::uint64_t seed) {
+  const int cells = static_cast<int>(w.size()), modes = cells / 2;
+  const double h = L / cells;
+  std::vector<double> cc(modes * cells), ss(modes * cells);
+  for (int m = 1; m <= modes; ++m)
+    for (int i = 0; i < cells; ++i) {
+      double c = 0, s = 0;
+      for (int j = 0; j < 40; ++j) {
+        const double xx = i * h + (j + 0.5) * h / 40, q = 2 * std::numbers::pi * m / L;
+        c += std::cos(q * xx) / 40, s += std::sin(q * xx) / 40;
+      }
+      cc[(m - 1) * cells + i] = c, ss[(m - 1) * cells + i] = s;
+    }
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g;
+  const double dt = W / steps, sd0 = std::sqrt(2.0 / N);
+  double mean = 0, sq = 0;
+  for (int rep = 0; rep < R; ++rep) {
+    double q_sum = 0.0;
+    for (int m = 1; m <= modes; ++m) {
+      const double q = 2 * std::numbers::pi * m / L, rho = std::exp(-D * q * q * dt), kick = sd0 * std::sqrt(1 - rho * rho);
+      double a = sd0 * g(rng), b = sd0 * g(rng), am = 0, bm = 0;
+      for (int k = 0; k < steps; ++k) {
+        const double a1 = rho * a + kick * g(rng), b1 = rho * b + kick * g(rng);
+        am += 0.5 * (a + a1) / steps, bm += 0.5 * (b + b1) / steps;
+        a = a1, b = b1;
+      }
+      for (int i = 0; i < cells; ++i) q_sum += w[i] * (am * cc[(m - 1) * cells + i] + bm * ss[(m - 1) * cells + i]) / r[i];
+    }
+    mean += q_sum, sq += q_sum * q_sum;
+  }
+  mean /= R;
+  return std::sqrt((sq - R * mean * mean) / (R - 1));
+}
+
+}  // namespace
+
+// (a) Weights alternating from cell to cell, (-1)^i, see only the shortest mode the cells
+// resolve, m = cells/2 (the alternating sum of any other mode m <= cells/2 over the cells
+// vanishes), whose cell average is sinc(pi/2) = 2/pi: the formula must include that mode (its
+// sum runs to cells/2) with the half-cell argument of the sinc. A short window (D q^2 W = 0.5
+// for that mode) keeps it from averaging away. (b) A mean density varying by a factor 4 across
+// the box (r_i = n_i/nbar from 0.4 to 1.6) and Q the relative density fluctuation of the
+// thinnest cell alone: the fluctuation is relative to the mean density and Q to the cell's,
+// dn_i/n_i = (dn_i/nbar)/r_i, so its error scales as 1/r_i (2.5 here). 2000 replicas each: the
+// scatter is known to 1.6 %; bound 6 %.
+TEST(DsmcStats, SlowModeErrorAtTheShortestModeAndInAStronglyVaryingDensity) {
+  const int cells = 16;
+  const double L = 2.0, h = L / cells, N = 5000.0;
+  std::vector<double> x(cells), ones(cells, 1.0), alt(cells), thinnest(cells, 0.0), r(cells);
+  double rbar = 0.0;
+  for (int i = 0; i < cells; ++i) {
+    x[i] = (i + 0.5) * h, alt[i] = i % 2 ? -1.0 : 1.0;
+    r[i] = 1.0 + 0.6 * std::cos(2 * std::numbers::pi * x[i] / L), rbar += r[i] / cells;
+  }
+  for (double& v : r) v /= rbar;
+  thinnest[cells / 2] = 1.0;  // r = 0.4 there (x = L/2)
+  struct Case {
+    const char* name;
+    const std::vector<double>&w, &r;
+    double D, W;
+    int steps;
+    std::uint64_t seed;
+  };
+  for (const Case& c : {Case{"alternating weights", alt, ones, 0.0008, 1.0, 200, 37},
+                        Case{"thinnest cell", thinnest, r, 0.03, 12.0, 1200, 38}}) {
+    const double mc = slow_mode_scatter(c.w, c.r, L, N, c.D, c.W, 2000, c.steps, c.seed);
+    const double formula = grainbath::dsmc::slow_mode_error(x, c.w, c.r, L, h, N, c.D, c.W);
+    std::printf("%s: Monte Carlo %.5f, formula %.5f (ratio %.4f)\n", c.name, mc, formula, formula / mc);
+    EXPECT_NEAR(formula / mc, 1.0, 0.06) << c.name;
+  }
+}
+
+// The mode fit's error when the samples are about one correlation time 1/Gamma apart, so that
+// the noise covariance's diagonal carries a good part of the sum (at cases/density-mode's
+// spacing, 0.0126/Gamma, it carries 1 %): OU noise as in ModeDecayFitUnbiasedWithCorrelatedNoise
+// with N = 1e7, A0 = 0.3, samples every 1.6 to t = 12. The reported error must match the
+// replica scatter (4000 replicas: known to 1.1 %; bound 5 %) and the rate be unbiased.
+TEST(DsmcStats, ModeDecayErrorMatchesTheScatterAtCoarseSampling) {
+  const int R = 4000;
+  const double N = 1e7, A0 = 0.3, G = 0.63, dt = 1.6, tend = 12.0;
+  std::vector<double> t;
+  for (int k = 0; k * dt <= tend + 1e-9; ++k) t.push_back(k * dt);
+  std::mt19937_64 rng(91);
+  std::normal_distribution<double> g;
+  const double sig = std::sqrt(2.0 / N), rho = std::exp(-G * dt);
+  double mean = 0, sq = 0, err = 0;
+  std::vector<double> A(t.size());
+  for (int r = 0; r < R; ++r) {
+    double xi = sig * g(rng);
+    for (std::size_t k = 0; k < t.size(); ++k) {
+      if (k) xi = rho * xi + sig * std::sqrt(1 - rho * rho) * g(rng);
+      A[k] = A0 * std::exp(-G * t[k]) + xi;
+    }
+    const auto f = grainbath::dsmc::fit_mode_decay(t, A, 2.0 / N, 0.0, tend);
+    ASSERT_TRUE(std::isfinite(f.rate));
+    mean += f.rate / R, sq += f.rate * f.rate, err += f.rate_stderr / R;
+  }
+  const double sd = std::sqrt((sq - R * mean * mean) / (R - 1));
+  std::printf("coarse sampling: rate %.6f +- %.6f (true %.2f), scatter %.6f, mean stderr %.6f (ratio %.4f)\n", mean,
+              sd / std::sqrt(R), G, sd, err, err / sd);
+  EXPECT_NEAR(mean, G, 4 * sd / std::sqrt(R));
+  EXPECT_NEAR(err / sd, 1.0, 0.05);
+}
+
+// Moments that must hang together whatever the population (mutation audit dsmc-core,
+// docs/reviews/mutation-audit-dsmc-core.md): a skewed, anisotropic, drifting population of
+// grains of mass 2 (velocity components from exponential and uniform draws mixed by a fixed
+// matrix, so that every pressure component and heat flux is non-zero). Checked, each against
+// sums over the raw velocities taken here:
+//  - Koenig's theorem: the kinetic energy is N (m u^2/2 + 3T/2), and tr P/n = 3T;
+//  - the lab-frame energy flux per grain, (1/N) sum (m/2)|v|^2 v_i, splits into the heat flux,
+//    the pressure's work and the convected energy (e.g. Chapman & Cowling, Sec. 2.45):
+//      q_i + sum_j (P_ij/n) u_j + u_i (3T/2 + m u^2/2);
+//  - rotating every velocity by R rotates the pressure tensor and the heat flux as a tensor
+//    and a vector: P' = R P R^T, q' = R q, and leaves T, a2, a3 unchanged.
+TEST(DsmcMoments, EnergyFluxAndKineticEnergySplitIntoTheirFrameParts) {
+  using grainbath::dsmc::Particles;
+  const double mass = 2.0;
+  const std::size_t N = 20000;  // several blocks of 4096
+  std::mt19937_64 rng(17);
+  std::exponential_distribution<double> ex;
+  std::uniform_real_distribution<double> un(-1.0, 1.0);
+  const double Mx[3][3] = {{1.0, 0.3, -0.2}, {0.1, 0.7, 0.4}, {-0.3, 0.2, 1.2}};
+  const double drift[3] = {0.4, -0.7, 0.25};
+  Particles p;
+  p.resize(N, false);
+  std::vector<std::array<double, 3>> v(N);
+  for (std::size_t i = 0; i < N; ++i) {
+    const double z[3] = {ex(rng), un(rng), ex(rng) - un(rng)};
+    for (int a = 0; a < 3; ++a) v[i][a] = drift[a] + Mx[a][0] * z[0] + Mx[a][1] * z[1] + Mx[a][2] * z[2];
+    p.set_velocity(i, {v[i][0], v[i][1], v[i][2]});
+  }
+  const auto m = grainbath::dsmc::measure_moments(p, 0, N, mass);
+  const double u[3] = {m.mean_velocity.x, m.mean_velocity.y, m.mean_velocity.z};
+  const double q[3] = {m.heat_flux.x, m.heat_flux.y, m.heat_flux.z};
+  // P/n as a matrix from the xx yy zz xy xz yz storage
+  auto tensor = [](const std::array<double, 6>& s) {
+    return std::array<std::array<double, 3>, 3>{{{s[0], s[3], s[4]}, {s[3], s[1], s[5]}, {s[4], s[5], s[2]}}};
+  };
+  const auto P = tensor(m.pressure);
+  double u2 = 0.0, e_raw = 0.0, flux[3] = {0, 0, 0};
+  for (int a = 0; a < 3; ++a) u2 += u[a] * u[a];
+  for (const auto& w : v) {
+    const double w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    e_raw += 0.5 * mass * w2;
+    for (int a = 0; a < 3; ++a) flux[a] += 0.5 * mass * w2 * w[a] / N;
+  }
+  const double scale = 0.5 * mass * u2 + 1.5 * m.temperature;
+  EXPECT_NEAR(m.kinetic_energy, e_raw, 1e-11 * e_raw);
+  EXPECT_NEAR(m.kinetic_energy, N * scale, 1e-11 * e_raw);
+  EXPECT_NEAR(P[0][0] + P[1][1] + P[2][2], 3.0 * m.temperature, 1e-12 * m.temperature);
+  for (int a = 0; a < 3; ++a) {
+    const double split = q[a] + P[a][0] * u[0] + P[a][1] * u[1] + P[a][2] * u[2] + u[a] * scale;
+    EXPECT_NEAR(split, flux[a], 1e-10 * (std::abs(flux[a]) + scale)) << a;
+  }
+  // the population is not degenerate: every component is there to be mixed up
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_GT(std::abs(q[a]), 0.05) << a;
+    for (int b = 0; b < 3; ++b) EXPECT_GT(std::abs(P[a][b]), 0.05) << a << b;
+  }
+  // rotation by R = Rz(0.7) Rx(-1.1)
+  const double cz = std::cos(0.7), sz = std::sin(0.7), cx = std::cos(-1.1), sx = std::sin(-1.1);
+  const double R[3][3] = {{cz, -sz * cx, sz * sx}, {sz, cz * cx, -cz * sx}, {0.0, sx, cx}};
+  Particles pr;
+  pr.resize(N, false);
+  for (std::size_t i = 0; i < N; ++i) {
+    double w[3];
+    for (int a = 0; a < 3; ++a) w[a] = R[a][0] * v[i][0] + R[a][1] * v[i][1] + R[a][2] * v[i][2];
+    pr.set_velocity(i, {w[0], w[1], w[2]});
+  }
+  const auto mr = grainbath::dsmc::measure_moments(pr, 0, N, mass);
+  const auto Pr = tensor(mr.pressure);
+  const double qr[3] = {mr.heat_flux.x, mr.heat_flux.y, mr.heat_flux.z};
+  EXPECT_NEAR(mr.temperature, m.temperature, 1e-12 * m.temperature);
+  EXPECT_NEAR(mr.a2, m.a2, 1e-11);
+  EXPECT_NEAR(mr.a3, m.a3, 1e-10);
+  for (int a = 0; a < 3; ++a) {
+    double rq = 0.0;
+    for (int b = 0; b < 3; ++b) {
+      rq += R[a][b] * q[b];
+      double rpr = 0.0;
+      for (int c = 0; c < 3; ++c)
+        for (int d = 0; d < 3; ++d) rpr += R[a][c] * P[c][d] * R[b][d];
+      EXPECT_NEAR(Pr[a][b], rpr, 1e-12 * m.temperature) << a << b;
+    }
+    EXPECT_NEAR(qr[a], rq, 1e-11 * (std::abs(rq) + 1.0)) << a;
+  }
 }

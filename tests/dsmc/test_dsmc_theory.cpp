@@ -15,6 +15,7 @@
 #include <numbers>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "core/case_file.hpp"
 #include "dsmc/dsmc.hpp"
@@ -264,4 +265,147 @@ t_end = 1.0
   p.delta = 0.0;
   const double Te = closures::equilibrium_temperature(closures::Closure::maxwellian, p);
   EXPECT_NEAR(value(case_theory(toml_e), "equilibrium.maxwellian.T"), Te, 1e-12 * Te);
+}
+
+// A power law without velocity dependence (delta = 0) is a constant restitution
+// e = 1 - 2 beta (docs eq. of the power law: e(g) = 1 - 2 beta (g/g0)^delta), and the DSMC
+// theory must treat it as one: a free-cooling case with law = "power", beta = 0.1, delta = 0
+// has the same theory block and the same Haff and cooling-state series as law = "constant",
+// e = 0.8 (mutation audit dsmc-core, docs/reviews/mutation-audit-dsmc-core.md).
+TEST(DsmcTheory, PowerLawWithoutVelocityDependenceIsAConstantRestitution) {
+  const std::string base = R"(
+[grains]
+density = 0.9
+mass = 1.5
+temperature = 1.3
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 12.0
+)";
+  const std::string constant = base + "[restitution]\nlaw = \"constant\"\ne = 0.8\n";
+  const std::string power = base + "[restitution]\nlaw = \"power\"\nbeta = 0.1\ndelta = 0.0\n";
+  const auto a = case_theory(constant), b = case_theory(power);
+  ASSERT_GT(a.size(), 5u);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].first, b[i].first);
+    EXPECT_NEAR(b[i].second, a[i].second, 1e-14 * std::abs(a[i].second)) << a[i].first;
+  }
+  const std::vector<double> times = {0.0, 4.0, 12.0};
+  const auto sa = dsmc::relaxation_series(case_config(constant), times),
+             sb = dsmc::relaxation_series(case_config(power), times);
+  ASSERT_EQ(sa.size(), sb.size());
+  ASSERT_FALSE(sa.empty());
+  for (std::size_t i = 0; i < sa.size(); ++i)
+    for (std::size_t k = 0; k < times.size(); ++k)
+      EXPECT_NEAR(sb[i].second[k], sa[i].second[k], 1e-14 * sa[i].second[k]) << sa[i].first;
+}
+
+// The second-Sonine Haff law (theory.haff.temperature_at_t_end_sonine2 and
+// /theory/haff/temperature_sonine2) cools at the rate zeta0 times the key
+// hcs.cooling_rate_ratio_sonine2 (docs/closures.md eq. H10 with the linear a2, a3: checked
+// against 1 + 3 a2/16 + a3/64 above); integrated here from the collision rule as in
+// HaffLawWithAndWithoutA2FromTheCollisionRule. With the nonlinear a2, a3 the rate ratio differs
+// by 2e-4 of itself at e = 0.3 and by 2e-6 at e = 0.6 and 0.9 (the temperature at t_end, far
+// into the Haff regime, by about twice that), all above the tolerance.
+TEST(DsmcTheory, SecondSonineHaffLawCoolsAtTheKeysRateRatio) {
+  for (const double e : {0.3, 0.6, 0.9}) {
+    char toml[512];
+    std::snprintf(toml, sizeof toml, R"(
+[grains]
+density = 1.1
+mass = 0.8
+temperature = 2.0
+[restitution]
+law = "constant"
+e = %.17g
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 15.0
+)",
+                  e);
+    const dsmc::Config c = case_config(toml);
+    const auto th = dsmc::theory_values(c);
+    const double ratio = value(th, "hcs.cooling_rate_ratio_sonine2");
+    const double expected = cooled(2.0, 15.0, 1.1, 0.8, e, ratio);
+    std::printf("e = %.1f: T(t_end) sonine2 %.9f, from the collision rule x %.6f: %.9f\n", e,
+                value(th, "haff.temperature_at_t_end_sonine2"), ratio, expected);
+    EXPECT_NEAR(value(th, "haff.temperature_at_t_end_sonine2") / expected, 1.0, 1e-8) << e;
+    const std::vector<double> times = {0.0, 5.0, 15.0};
+    int found = 0;
+    for (const auto& [name, s] : dsmc::relaxation_series(c, times)) {
+      if (name != "haff/temperature_sonine2") continue;
+      ++found;
+      for (std::size_t k = 0; k < times.size(); ++k)
+        EXPECT_NEAR(s[k] / cooled(2.0, times[k], 1.1, 0.8, e, ratio), 1.0, 1e-8) << times[k];
+    }
+    EXPECT_EQ(found, 1) << e;
+  }
+}
+
+// The closures' relaxation series of a DSMC case are those of closures::relax for the case's
+// parameters, with the background velocity and the grains' drift component by component: a
+// drift in y and z different from the background's, which the exchange terms couple through
+// |u - uB| (mutation audit dsmc-core).
+TEST(DsmcTheory, RelaxationSeriesUseTheCasesVelocitiesComponentByComponent) {
+  const std::string toml = R"(
+[grains]
+density = 0.6
+mass = 1.4
+temperature = 2.2
+drift = [0.3, -0.5, 0.8]
+[background]
+mass_ratio = 0.35
+density = 1.2
+temperature = 1.1
+knudsen = 0.4
+velocity = [0.1, 0.6, -0.4]
+[restitution]
+law = "power"
+beta = 0.04
+delta = 0.5
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 2.0
+)";
+  const std::vector<double> times = {0.0, 0.3, 1.0, 2.0};
+  const auto series = dsmc::relaxation_series(case_config(toml), times);
+  closures::Parameters p{};
+  p.alpha = 0.35;
+  p.mass = 1.4;
+  p.nB = 1.2;
+  p.TB = 1.1;
+  p.eps = 0.4;
+  p.n = 0.6;
+  p.beta = 0.04;
+  p.delta = 0.5;
+  p.uB = {0.1, 0.6, -0.4};
+  const closures::RelaxationState init{{0.3, -0.5, 0.8}, 2.2, 0.0};
+  int checked = 0;
+  for (auto which : {closures::Closure::maxwellian, closures::Closure::grad}) {
+    const auto states = closures::relax(which, p, init, times);
+    const std::string name = closures::to_string(which);
+    for (const auto& [key, v] : series) {
+      if (key == name + "/temperature") {
+        for (std::size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(v[k], states[k].T, 1e-12) << key << " " << k;
+        ++checked;
+      }
+      if (key == name + "/velocity") {
+        ASSERT_EQ(v.size(), 3 * times.size());
+        for (std::size_t k = 0; k < times.size(); ++k)
+          for (int a = 0; a < 3; ++a) EXPECT_NEAR(v[3 * k + a], states[k].u[a], 1e-12) << key << " " << k << " " << a;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 4);
+  // the velocities do relax towards the background's, in y and z too
+  for (const auto& [key, v] : series)
+    if (key == "maxwellian/velocity") {
+      EXPECT_LT(std::abs(v[3 * 3 + 1] - 0.6), 0.5 * std::abs(-0.5 - 0.6));
+      EXPECT_LT(std::abs(v[3 * 3 + 2] + 0.4), 0.5 * std::abs(0.8 + 0.4));
+    }
 }
