@@ -891,7 +891,7 @@ TEST_F(BadInput, CommandLineMistakesExitTwoAndNameTheSubcommand) {
   EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
   // an empty --out (an unset variable: --out "$DIR") meant the default directory, and --out=
   // took the next word (`sweep ... --out= -q` wrote into "-q"): refused, nothing written
-  for (const std::string& command : {"run", "sweep", "report"}) {
+  for (const std::string command : {"run", "sweep", "report"}) {
     std::vector<std::string> args = {command, case_dir().string()};
     if (command == "sweep") args.insert(args.end(), {"--set", "run.seed=1,2"});
     for (const std::vector<std::string>& out : {std::vector<std::string>{"--out", ""}, {"--out=", "-q"}}) {

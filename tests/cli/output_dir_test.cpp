@@ -430,8 +430,8 @@ TEST_F(OutputDir, ABuildWithoutMpiRefusesToRunAsOneOfSeveralMpiProcesses) {
 // used to differ in the /parameters attribute run.threads; review 2, B7)
 TEST_F(OutputDir, ResultsFileIsTheSameBytesAtOneAndTwoThreads) {
   for (const char* t : {"1", "2"}) {
-    const RunResult r = grainbath({"run", case_dir().string(), "--out", (tmp / ("t" + std::string(t))).string(),
-                                   "--quiet", "--set", std::string("run.threads=") + t});
+    const RunResult r = grainbath({"run", case_dir().string(), "--out", (tmp / std::string("t").append(t)).string(),
+                                   "--quiet", "--set", std::string("run.threads=").append(t)});
     ASSERT_EQ(r.code, 0) << r.describe();
   }
   EXPECT_EQ(read_text(tmp / "t1" / "results.h5"), read_text(tmp / "t2" / "results.h5"));
@@ -815,8 +815,8 @@ TEST_F(OutputDir, SweepWithoutJobsRunsOneVariantPerFreeCore) {
   for (long k = 0; k < cores; ++k) {
     const pid_t p = fork();
     if (p == 0) {
-      for (volatile unsigned long i = 0;; ++i) {
-      }
+      volatile unsigned long spins = 0;
+      for (;;) spins = spins + 1;
     }
     if (p > 0) spinners.push_back(p);
   }
@@ -829,8 +829,9 @@ TEST_F(OutputDir, SweepWithoutJobsRunsOneVariantPerFreeCore) {
   }
   ASSERT_EQ(r.code, 0) << r.describe();
   EXPECT_NE(r.err.find("sweep: 2 variants, 1 at a time"), std::string::npos) << r.err;
-  if (cores > 1)
+  if (cores > 1) {
     EXPECT_NE(r.err.find("cores busy with other processes: running 1 variant(s) at a time; -j N chooses"),
               std::string::npos)
         << r.err;
+  }
 }
