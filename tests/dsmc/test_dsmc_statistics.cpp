@@ -139,6 +139,13 @@ TEST(DsmcStats, ModeDecayFitUnbiasedWithWhiteNoise) {
 
 namespace {
 
+// x <- a unit-variance AR(1) series, x_k = rho x_{k-1} + sqrt(1 - rho^2) xi_k, x_0 = xi_0
+// (integrated autocorrelation time 2 tau_int = (1 + rho)/(1 - rho) samples)
+void fill_ar1(std::vector<double>& x, double rho, std::mt19937_64& rng, std::normal_distribution<double>& g) {
+  x[0] = g(rng);
+  for (std::size_t k = 1; k < x.size(); ++k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
+}
+
 // R replicas of a unit-variance OU series correlated over one unit of `clock`, sampled n
 // times at equal t while the clock rate falls by `ratio` across the window, linearly in 1/rate
 // (free cooling: rate ~ sqrt(T) ~ 1/(1 + t/t0)); `span` is the clock length of the window.
@@ -245,12 +252,9 @@ TEST(DsmcStats, ShortWindowsAreNotJudgedForAPlateau) {
   auto judged_and_passed = [&](int n, double rho, int R) {
     std::vector<double> x(n), clock(n);
     int judged = 0, passed = 0;
+    for (int k = 0; k < n; ++k) clock[k] = 0.3 * k;
     for (int r = 0; r < R; ++r) {
-      x[0] = g(rng);
-      for (int k = 0; k < n; ++k) {
-        if (k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
-        clock[k] = 0.3 * k;
-      }
+      fill_ar1(x, rho, rng, g);
       // the clock blocking (DSMC's window errors: B = 2^j blocks, at least 16) and the halving
       // blocking of the sample index (n, n/2, ... blocks: its threshold depends on n's bits)
       const grainbath::MeanError c = grainbath::block_average(x, clock), t = grainbath::block_average(x);
@@ -299,12 +303,9 @@ TEST(DsmcStats, PlateauTestRarelyFlagsUncorrelatedWindowsAndStillFlagsCorrelated
   auto passed_fraction = [&](int n, double rho) {
     std::vector<double> x(n), clock(n);
     int pass_clock = 0, pass_index = 0;
+    for (int k = 0; k < n; ++k) clock[k] = 0.1 * k;
     for (int r = 0; r < R; ++r) {
-      x[0] = g(rng);
-      for (int k = 0; k < n; ++k) {
-        if (k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
-        clock[k] = 0.1 * k;
-      }
+      fill_ar1(x, rho, rng, g);
       const grainbath::MeanError c = grainbath::block_average(x, clock), t = grainbath::block_average(x);
       EXPECT_TRUE(c.plateau_judged);
       pass_clock += c.plateau;
@@ -557,8 +558,7 @@ TEST(DsmcStats, PlateauFlagFollowsTheLeeNeedsDrummondBlockLength) {
     int index = 0, by_clock = 0;
     std::vector<double> x(n);
     for (int r = 0; r < R; ++r) {
-      x[0] = g(rng);
-      for (int k = 1; k < n; ++k) x[k] = rho * x[k - 1] + std::sqrt(1 - rho * rho) * g(rng);
+      fill_ar1(x, rho, rng, g);
       const grainbath::MeanError a = grainbath::block_average(x), b = grainbath::block_average(x, clock);
       EXPECT_TRUE(a.plateau_judged && b.plateau_judged);
       index += a.plateau, by_clock += b.plateau;
