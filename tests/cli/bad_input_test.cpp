@@ -1352,3 +1352,30 @@ TEST_F(BadInput, EdmdPackingAboveTheLatticeStartSaysTheLargestForThisN) {
                   {"--set", "edmd.packing_fraction=0.9", "--set", "edmd.dimensions=2", "--set", "edmd.particles=1000"},
                   "check", "--set");
 }
+
+// `theory`'s JSON says what its numbers are in and what the expansion's orders mean (review 4:
+// no units, no hint that eps is background.knudsen), and the EDMD run's table names the
+// reference equation of state (review 4: "elastic EOS").
+TEST_F(BadInput, TheoryJsonNamesItsUnitsAndTheRunTableTheEquationOfState) {
+  write_text(case_file(), dsmc_case().text());
+  auto r = grainbath({"theory", case_dir().string(), "--set", "background.density=1.0", "--set",
+                      "background.knudsen=0.05"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.out.find("\"units\": \"DSMC units: lengths in grain-grain mean free paths"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("T = T0 + eps T1 + eps^2 T2 in the Knudsen number eps = background.knudsen = 0.05"),
+            std::string::npos)
+      << r.out;
+  write_text(case_file(), edmd_case().text());
+  r = grainbath({"theory", case_dir().string()});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.out.find("\"units\": \"EDMD units: lengths in grain diameters"), std::string::npos) << r.out;
+  for (const char* dims : {"2", "3"}) {
+    r = grainbath({"run", case_dir().string(), "--out", (tmp.path() / (std::string("eos") + dims)).string(), "--quiet",
+                   "--set", std::string("edmd.dimensions=") + dims, "--set", "edmd.particles=125", "--set",
+                   "edmd.packing_fraction=0.2", "--set", "edmd.equilibrate=1", "--set", "edmd.collisions=3"});
+    ASSERT_EQ(r.code, 0) << r.describe();
+    EXPECT_NE(r.out.find(std::string(dims) == "2" ? "theory: Z, Kolafa-Rottner fit" : "theory: Z, Carnahan-Starling"),
+              std::string::npos)
+        << r.out;
+  }
+}
