@@ -82,7 +82,9 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
   std::optional<std::chrono::steady_clock::time_point> send_at;
   while (open_fds > 0) {
     if (opt.send_signal && !sent) {
-      if (!send_at && r.err.find(opt.send_when) != std::string::npos)
+      std::error_code ec;
+      if (!send_at && r.err.find(opt.send_when) != std::string::npos &&
+          (opt.send_when_exists.empty() || fs::exists(opt.send_when_exists, ec)))
         send_at = std::chrono::steady_clock::now() + std::chrono::milliseconds(300);
       if (send_at && std::chrono::steady_clock::now() >= *send_at) {
         ::kill(pid, opt.send_signal);

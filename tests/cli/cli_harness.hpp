@@ -44,6 +44,7 @@ struct RunOptions {
   double timeout_s = 60;
   int send_signal = 0;                    // if set: sent once stderr contains send_when (then 0.3 s later)
   std::string send_when;
+  fs::path send_when_exists;              // if set too: and once this path exists (a quiet process)
   std::string send_again_when;            // if set: the same signal once more when stderr contains it
   std::vector<std::pair<std::string, std::string>> env;  // extra environment variables
 };

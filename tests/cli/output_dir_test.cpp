@@ -772,7 +772,11 @@ TEST_F(OutputDir, InterruptedQuietSweepSaysHowToContinueWithTheSameOptions) {
   opt.cwd = work();
   opt.timeout_s = 120;
   opt.send_signal = SIGINT;
-  opt.send_when = "";  // 0.3 s after the start: the first variant runs, the second waits
+  // 0.3 s after the first variant's log appears (the sweep's stop handlers are in place by
+  // then; a fixed 0.3 s after the start killed a slow-starting sweep under ASan): the first
+  // variant runs, the second waits
+  opt.send_when = "";
+  opt.send_when_exists = out / "variant-0_seed_1.log";
   const RunResult r = run_binary({kBinary, "sweep", case_dir().string(), "--out", out.string(), "-j", "1", "-q", "--set",
                                   "run.seed=1,2", "--set", "dsmc.dt=0.01"},
                                  opt);
