@@ -341,6 +341,50 @@ TEST(DsmcStats, PlateauTestRarelyFlagsUncorrelatedWindowsAndStillFlagsCorrelated
   }
 }
 
+namespace {
+
+// The replica scatter of Q = sum_i w_i dn_i/n_i under slow_mode_error's model, by Monte Carlo
+// (SlowModeError* tests below): every mode m = 1 .. cells/2 an exactly
+// stepped Ornstein-Uhlenbeck pair (variance 2/N, rate D q^2), window means by summing the
+// steps, cell averages of cos and sin by 40 points across each cell.
+double slow_mode_scatter(const std::vector<double>& w, const std::vector<double>& r, double L, double N, double D,
+                         double W, int R, int steps, std::uint64_t seed) {
+  const int cells = static_cast<int>(w.size()), modes = cells / 2;
+  const double h = L / cells;
+  std::vector<double> cc(modes * cells), ss(modes * cells);
+  for (int m = 1; m <= modes; ++m)
+    for (int i = 0; i < cells; ++i) {
+      double c = 0, s = 0;
+      for (int j = 0; j < 40; ++j) {
+        const double xx = i * h + (j + 0.5) * h / 40, q = 2 * std::numbers::pi * m / L;
+        c += std::cos(q * xx) / 40, s += std::sin(q * xx) / 40;
+      }
+      cc[(m - 1) * cells + i] = c, ss[(m - 1) * cells + i] = s;
+    }
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> g;
+  const double dt = W / steps, sd0 = std::sqrt(2.0 / N);
+  double mean = 0, sq = 0;
+  for (int rep = 0; rep < R; ++rep) {
+    double q_sum = 0.0;
+    for (int m = 1; m <= modes; ++m) {
+      const double q = 2 * std::numbers::pi * m / L, rho = std::exp(-D * q * q * dt), kick = sd0 * std::sqrt(1 - rho * rho);
+      double a = sd0 * g(rng), b = sd0 * g(rng), am = 0, bm = 0;
+      for (int k = 0; k < steps; ++k) {
+        const double a1 = rho * a + kick * g(rng), b1 = rho * b + kick * g(rng);
+        am += 0.5 * (a + a1) / steps, bm += 0.5 * (b + b1) / steps;
+        a = a1, b = b1;
+      }
+      for (int i = 0; i < cells; ++i) q_sum += w[i] * (am * cc[(m - 1) * cells + i] + bm * ss[(m - 1) * cells + i]) / r[i];
+    }
+    mean += q_sum, sq += q_sum * q_sum;
+  }
+  mean /= R;
+  return std::sqrt((sq - R * mean * mean) / (R - 1));
+}
+
+}  // namespace
+
 // slow_mode_error (dsmc/mode_fit.hpp) against a Monte Carlo of its own model, built without
 // its closed forms: Ornstein-Uhlenbeck mode amplitudes (variance 2/N, rate D q^2) stepped
 // exactly in time, their window means by summing the steps, the cell averages of cos and sin
@@ -348,7 +392,7 @@ TEST(DsmcStats, PlateauTestRarelyFlagsUncorrelatedWindowsAndStillFlagsCorrelated
 // ln n against the isobaric ln TB of cases/thermal-gradient. The formula's error must match
 // the replica scatter of Q = sum_i w_i dn_i/n_i (2000 replicas: known to 1.6 %; bound 6 %).
 TEST(DsmcStats, SlowModeErrorMatchesAMonteCarloOfItsModel) {
-  const int cells = 16, modes = 8, R = 2000, steps = 1200;
+  const int cells = 16, R = 2000, steps = 1200;
   const double L = 2.0, h = L / cells, N = 5000.0, D = 0.03, W = 12.0;
   std::vector<double> x(cells), lx(cells), r(cells), w(cells);
   double xbar = 0.0;
@@ -364,41 +408,10 @@ TEST(DsmcStats, SlowModeErrorMatchesAMonteCarloOfItsModel) {
   double rbar = 0.0;
   for (double v : r) rbar += v / cells;
   for (double& v : r) v /= rbar;
-  // cell averages of cos and sin of each mode by 40 points
-  std::vector<double> cc(modes * cells), ss(modes * cells);
-  for (int m = 1; m <= modes; ++m)
-    for (int i = 0; i < cells; ++i) {
-      double c = 0, s = 0;
-      for (int j = 0; j < 40; ++j) {
-        const double xx = i * h + (j + 0.5) * h / 40, q = 2 * std::numbers::pi * m / L;
-        c += std::cos(q * xx) / 40, s += std::sin(q * xx) / 40;
-      }
-      cc[(m - 1) * cells + i] = c, ss[(m - 1) * cells + i] = s;
-    }
-  std::mt19937_64 rng(31);
-  std::normal_distribution<double> g;
-  const double dt = W / steps, sd0 = std::sqrt(2.0 / N);
-  std::vector<double> Q(R);
-  for (int rep = 0; rep < R; ++rep) {
-    double q_sum = 0.0;
-    for (int m = 1; m <= modes; ++m) {
-      const double q = 2 * std::numbers::pi * m / L, rho = std::exp(-D * q * q * dt), kick = sd0 * std::sqrt(1 - rho * rho);
-      double a = sd0 * g(rng), b = sd0 * g(rng), am = 0, bm = 0;
-      for (int k = 0; k < steps; ++k) {  // midpoint-free: the mean of the step ends
-        const double a1 = rho * a + kick * g(rng), b1 = rho * b + kick * g(rng);
-        am += 0.5 * (a + a1) / steps, bm += 0.5 * (b + b1) / steps;
-        a = a1, b = b1;
-      }
-      for (int i = 0; i < cells; ++i) q_sum += w[i] * (am * cc[(m - 1) * cells + i] + bm * ss[(m - 1) * cells + i]) / r[i];
-    }
-    Q[rep] = q_sum;
-  }
-  double mean = 0, var = 0;
-  for (double v : Q) mean += v / R;
-  for (double v : Q) var += (v - mean) * (v - mean) / (R - 1);
+  const double scatter = slow_mode_scatter(w, r, L, N, D, W, R, steps, 31);
   const double formula = grainbath::dsmc::slow_mode_error(x, w, r, L, h, N, D, W);
-  std::printf("slow modes: Monte Carlo %.5f, formula %.5f (ratio %.4f)\n", std::sqrt(var), formula, formula / std::sqrt(var));
-  EXPECT_NEAR(formula / std::sqrt(var), 1.0, 0.06);
+  std::printf("slow modes: Monte Carlo %.5f, formula %.5f (ratio %.4f)\n", scatter, formula, formula / scatter);
+  EXPECT_NEAR(formula / scatter, 1.0, 0.06);
 }
 
 // The third Sonine coefficient as measure_moments computes it (src/dsmc/moments.cpp),
@@ -577,49 +590,6 @@ TEST(DsmcStats, PlateauFlagFollowsTheLeeNeedsDrummondBlockLength) {
 // ---- slow_mode_error: the shortest resolved mode and a strongly varying mean density ------
 // (mutation audit dsmc-core, docs/reviews/mutation-audit-dsmc-core.md)
 
-namespace {
-
-// The replica scatter of Q = sum_i w_i dn_i/n_i under slow_mode_error's model, by Monte Carlo
-// as in SlowModeErrorMatchesAMonteCarloOfItsModel: every mode m = 1 .. cells/2 an exactly
-// stepped Ornstein-Uhlenbeck pair (variance 2/N, rate D q^2), window means by summing the
-// steps, cell averages of cos and sin by 40 points across each cell.
-double slow_mode_scatter(const std::vector<double>& w, const std::vector<double>& r, double L, double N, double D,
-                         double W, int R, int steps, std::uint64_t seed) {
-  const int cells = static_cast<int>(w.size()), modes = cells / 2;
-  const double h = L / cells;
-  std::vector<double> cc(modes * cells), ss(modes * cells);
-  for (int m = 1; m <= modes; ++m)
-    for (int i = 0; i < cells; ++i) {
-      double c = 0, s = 0;
-      for (int j = 0; j < 40; ++j) {
-        const double xx = i * h + (j + 0.5) * h / 40, q = 2 * std::numbers::pi * m / L;
-        c += std::cos(q * xx) / 40, s += std::sin(q * xx) / 40;
-      }
-      cc[(m - 1) * cells + i] = c, ss[(m - 1) * cells + i] = s;
-    }
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> g;
-  const double dt = W / steps, sd0 = std::sqrt(2.0 / N);
-  double mean = 0, sq = 0;
-  for (int rep = 0; rep < R; ++rep) {
-    double q_sum = 0.0;
-    for (int m = 1; m <= modes; ++m) {
-      const double q = 2 * std::numbers::pi * m / L, rho = std::exp(-D * q * q * dt), kick = sd0 * std::sqrt(1 - rho * rho);
-      double a = sd0 * g(rng), b = sd0 * g(rng), am = 0, bm = 0;
-      for (int k = 0; k < steps; ++k) {
-        const double a1 = rho * a + kick * g(rng), b1 = rho * b + kick * g(rng);
-        am += 0.5 * (a + a1) / steps, bm += 0.5 * (b + b1) / steps;
-        a = a1, b = b1;
-      }
-      for (int i = 0; i < cells; ++i) q_sum += w[i] * (am * cc[(m - 1) * cells + i] + bm * ss[(m - 1) * cells + i]) / r[i];
-    }
-    mean += q_sum, sq += q_sum * q_sum;
-  }
-  mean /= R;
-  return std::sqrt((sq - R * mean * mean) / (R - 1));
-}
-
-}  // namespace
 
 // (a) Weights alternating from cell to cell, (-1)^i, see only the shortest mode the cells
 // resolve, m = cells/2 (the alternating sum of any other mode m <= cells/2 over the cells

@@ -303,6 +303,24 @@ every = 20
 keep = true
 )";
 
+// A resumed run against a straight run of the same length: every summary number (state.hash
+// included) but the wall-clock block, and the summed momentum up to its last bits (the
+// resumed engine was rebuilt at the checkpoint, the straight one not).
+void expect_same_summary_but_momentum_rounding(const EdmdRun& straight, const EdmdRun& resumed) {
+  std::size_t compared = 0;
+  for (const auto& [k, v] : straight.summary.entries()) {
+    if (k.rfind("performance.", 0) == 0) continue;
+    ASSERT_NE(resumed.summary.get(k), nullptr) << k;
+    if (k == "conservation.momentum_change")
+      EXPECT_NEAR(straight.summary.number(k), resumed.summary.number(k), 1e-13);
+    else
+      EXPECT_EQ(v, *resumed.summary.get(k)) << k;
+    ++compared;
+  }
+  EXPECT_GT(compared, 20u);
+  EXPECT_NE(resumed.summary.get("state.hash"), nullptr);
+}
+
 void check_exact_continuation(const char* toml, const std::string& tag) {
   const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-" + tag + "-" + std::to_string(::getpid()));
   fs::remove_all(ck);
@@ -637,21 +655,9 @@ keep = true
   EXPECT_EQ(checkpoints(ck), files);  // nothing removed or added
   const EdmdRun at_end = run_edmd(with_collisions(per_particle), "end-at", ck, true);
   EXPECT_EQ(at_end.summary.number("collision.count"), static_cast<double>(measured));
-  {  // the same as a run of that length (state.hash included), but for the rounding of the
-     // summed momentum: the resumed engine was rebuilt at the checkpoint, the straight one not
+  {  // the same as a run of that length (state.hash included)
     const EdmdRun straight = run_edmd(with_collisions(per_particle), "end-straight", {}, false);
-    std::size_t compared = 0;
-    for (const auto& [k, v] : straight.summary.entries()) {
-      if (k.rfind("performance.", 0) == 0) continue;
-      ASSERT_NE(at_end.summary.get(k), nullptr) << k;
-      if (k == "conservation.momentum_change")
-        EXPECT_NEAR(straight.summary.number(k), at_end.summary.number(k), 1e-13);
-      else
-        EXPECT_EQ(v, *at_end.summary.get(k)) << k;
-      ++compared;
-    }
-    EXPECT_GT(compared, 20u);
-    EXPECT_NE(at_end.summary.get("state.hash"), nullptr);
+    expect_same_summary_but_momentum_rounding(straight, at_end);
     fs::remove_all(straight.dir);
   }
   const EdmdRun longer = run_edmd(with_collisions("35"), "end-longer", ck, true);
@@ -687,20 +693,7 @@ TEST(EdmdRestart, KeepAloneKeepsTheLastRebuildPointAndTheExtensionIsExact) {
   EXPECT_NEAR(extended.summary.number("performance.overall_collisions_per_second") *
                   extended.summary.number("performance.wall_seconds"),
               30000.0, 1e-6 * 30000.0);
-  std::size_t compared = 0;
-  for (const auto& [k, v] : straight.summary.entries()) {
-    if (k.rfind("performance.", 0) == 0) continue;
-    ASSERT_NE(extended.summary.get(k), nullptr) << k;
-    // the resumed engine was rebuilt at the checkpoint, the straight one not: the summed
-    // momentum may differ in its last bits (as in the test above)
-    if (k == "conservation.momentum_change")
-      EXPECT_NEAR(straight.summary.number(k), extended.summary.number(k), 1e-13);
-    else
-      EXPECT_EQ(v, *extended.summary.get(k)) << k;
-    ++compared;
-  }
-  EXPECT_GT(compared, 20u);
-  EXPECT_NE(straight.summary.get("state.hash"), nullptr);
+  expect_same_summary_but_momentum_rounding(straight, extended);
   fs::remove_all(ck);
   for (const auto* r : {&shorter, &extended, &straight}) fs::remove_all(r->dir);
 }
