@@ -527,6 +527,7 @@ std::vector<TransportScalar> transport_scalars(const SlabTransport& t, const Tra
       throw std::logic_error("transport: missing field");
     };
     std::vector<std::pair<std::string, double>> out;
+    out.reserve(32);  // also quiets GCC 12's false -Warray-bounds on the first emplace_back
     const auto& T = get("T");
     const auto& dens = get("density");
     double occ = 0.0, Tm = 0.0;
