@@ -121,9 +121,14 @@ def equation_of_state(run, ctx):
     if run.num("theory.Z_henderson") is not None:
         rows.append(["Z, Henderson (`theory.Z_henderson`)", fmt(run.num("theory.Z_henderson")),
                      deviation(Z, Ze, run.num("theory.Z_henderson"))])
-    if e is not None and e < 1 - 1e-12 and run.num("theory.Z") is not None:
+    Zk = run.num("theory.Z_enskog")  # written where Enskog predicts the run: homogeneous, undriven
+    if Zk is not None and Zk != run.num("theory.Z"):
+        rows.append(["Z, Enskog: EOS's collisional part × (1+e)/2, collision-weighted e (`theory.Z_enskog`)", fmt(Zk),
+                     deviation(Z, Ze, Zk)])
+    elif e is not None and e < 1 - 1e-12 and run.num("theory.Z") is not None:
         Zi = 1 + 0.5 * (1 + e) * (run.num("theory.Z") - 1)
-        rows.append(["Z, EOS with collisional part × (1+⟨e⟩)/2", fmt(Zi), deviation(Z, Ze, Zi)])
+        rows.append(["Z, EOS with collisional part × (1+⟨e⟩)/2 (reference: heated or walled grains)", fmt(Zi),
+                     deviation(Z, Ze, Zi)])
     for label, key in [("g(σ) from Z (`pressure.g_contact`)", "pressure.g_contact"),
                        ("g(σ) from the EOS (`theory.g_contact`)", "theory.g_contact"),
                        ("g(σ) from the collision rate (`collision.g_contact_from_rate`)", "collision.g_contact_from_rate"),

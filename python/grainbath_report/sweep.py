@@ -65,7 +65,10 @@ DSMC_QUANTITIES = [
         ("theory.hydro.thermal_diffusion_exponent_kinetic", None, "drift-diffusion (kinetic)")]),
 ]
 EDMD_QUANTITIES = [
-    ("pressure.Z", "pressure.Z_stderr", "compressibility factor Z", "1", [("theory.Z", "eos", "reference EOS")]),
+    ("pressure.Z", "pressure.Z_stderr", "compressibility factor Z", "1", [
+        ("theory.Z", "eos", "elastic EOS"),
+        # written where it predicts the run (homogeneous, undriven; = theory.Z for elastic grains)
+        ("theory.Z_enskog", "sonine", "Enskog: (1+e)/2 × the EOS's collisional part")]),
     ("pressure.g_contact", None, "g(σ⁺) from Z", "1", [("theory.g_contact", "eos", "reference EOS")]),
     ("g_r.contact_fit", None, "g(σ⁺) from g(r)", "1", [("theory.g_contact", "eos", "reference EOS")]),
     ("collision.frequency_over_enskog", None, "collision frequency / Enskog", "1", []),
@@ -95,6 +98,20 @@ PARAM_LABELS = {
 }
 EXTRA_COLOURS = ["#CC79A7", "#56B4E9", "#D55E00", "#999999"]
 EXTRA_STYLES = [(0, (5, 1, 1, 1)), (0, (1, 1)), (0, (3, 1, 1, 1, 1, 1)), "--"]
+
+
+def distinct_theories(theories, runs):
+    """The theories (index, entry) some run has, without one whose every value repeats an earlier
+    one's (theory.Z_enskog of elastic grains is theory.Z: one curve, not two on top of each other)."""
+    kept = []
+    for i, t in enumerate(theories):
+        vals = [r.num(t[0]) for r in runs]
+        if all(v is None for v in vals):
+            continue
+        if any(all(v == r.num(k[0]) for v, r in zip(vals, runs)) for _, k in kept):
+            continue
+        kept.append((i, t))
+    return kept
 
 
 def swept_parameters(runs):
@@ -129,7 +146,7 @@ def ensemble_section(runs, quantities, paths):
         # the error of a mean of independent runs: sqrt(sum s_i^2)/R
         own_err = float(np.sqrt(np.sum(np.square(own))) / len(own)) if own else None
         th = []
-        for tkey, _style, tlabel in theories:
+        for _, (tkey, _style, tlabel) in distinct_theories(theories, runs):
             tv = [r.num(tkey) for r in runs if r.num(tkey) is not None]
             if tv:
                 t = float(np.mean(tv))
@@ -174,6 +191,10 @@ def sigma_distance(run, key, err_key, tkey):
         return None, "no plateau"
     if unchecked(run, err_key):
         return None, "unchecked"
+    # the elastic EOS predicts only a homogeneous, undriven gas of elastic grains, where the run
+    # wrote theory.Z_enskog equal to it (inelastic grains: Enskog's row; heating, walls: none)
+    if tkey == "theory.Z" and run.num("theory.Z_enskog") != t:
+        return None, "reference only"
     return (v - t) / e, None
 
 
@@ -230,7 +251,7 @@ def build(paths, ctx, x=None, base=None):
     markers = ["o", "s", "D", "^", "v", "<", ">"]
     for qi, (key, err_key, label, unit, theories) in enumerate(quantities):
         # the theories this sweep has, and whether any run's error gives σ distances from them
-        present = [(i, t) for i, t in enumerate(theories) if any(r.num(t[0]) is not None for r in runs)]
+        present = distinct_theories(theories, runs)
         residuals = bool(err_key and present)
         if residuals:
             fig, (ax, axr) = subplots(2, 1, figsize=(9.5, 6.4), sharex=True, gridspec_kw={"height_ratios": [3, 1.7]})

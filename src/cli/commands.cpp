@@ -212,8 +212,19 @@ void print_table(const Summary& s) {
   row("compressibility Z", "pressure.Z", "pressure.Z_stderr");
   // the reference EOS by name (review 4: "elastic EOS" did not say which); theory.Z_henderson
   // is written for disks only
-  theory_row(std::isnan(s.number("theory.Z_henderson")) ? "theory: Z, Carnahan-Starling" : "theory: Z, Kolafa-Rottner fit",
-             "theory.Z", "pressure.Z", "pressure.Z_stderr");
+  // The EOS is a prediction of elastic grains in a homogeneous, undriven gas, where the driver
+  // writes theory.Z_enskog (= theory.Z for e = 1). Elsewhere it is a reference only, without a
+  // distance in sigma: inelastic grains scale the collisional part by (1 + e)/2, and heating or
+  // walls change the contact value itself (review 5: "-52.7 sigma" for dense-medium's e = 0.9)
+  const char* eos = std::isnan(s.number("theory.Z_henderson")) ? "Carnahan-Starling" : "Kolafa-Rottner fit";
+  const double Z_enskog = s.number("theory.Z_enskog");
+  const bool eos_is_prediction = !std::isnan(Z_enskog) && std::abs(Z_enskog - s.number("theory.Z")) <= 1e-12 * Z_enskog;
+  if (eos_is_prediction) {
+    theory_row(("theory: Z, " + std::string(eos)).c_str(), "theory.Z", "pressure.Z", "pressure.Z_stderr");
+  } else {
+    row(("elastic Z, " + std::string(eos)).c_str(), "theory.Z", "");
+    theory_row("theory: Z, Enskog, (1+e)/2 x EOS", "theory.Z_enskog", "pressure.Z", "pressure.Z_stderr");
+  }
   theory_row("theory: medium steady T", "theory.medium_steady_temperature", "temperature.mean", "temperature.stderr");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
   theory_row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "temperature.mean", "temperature.stderr");

@@ -428,6 +428,16 @@ decltype(auto) visit_law(const Config& c, F&& f) {
   if (c.rough) return f(c.rough->law);
   return std::visit(f, c.restitution);
 }
+// The grains exchange energy only among themselves and with the medium (if any): no [heating],
+// no walls, smooth grains. Then the gas is homogeneous and undriven, and two predictions are
+// this run's own (review 5, 2026-12-06: both were printed for every run, e.g. the medium's T of
+// 0.2 beside the 1.33 of an air-table run, "+321.8 sigma"): the medium's steady temperature
+// (theory::steady_temperature_medium balances the medium's heating against the grain-grain
+// losses alone) and Enskog's pressure with the equilibrium contact value. Driving changes the
+// contact value itself (Bizon Fig. 6: G_s 0.37-0.75 of Carnahan-Starling's at nu = 0.5).
+bool homogeneous_and_undriven(const Config& c) {
+  return c.heating.kind == HeatingKind::none && !c.walls[0] && !c.walls[1] && !c.walls[2] && !c.rough;
+}
 // closures/rough parameters of the case (docs/rough.md R1, R15): Enskog collision prefactor
 // G (Henderson chi in 2D, Carnahan-Starling in 3D) in engine units, and the collision-keyed
 // white noise as H_per_collision: each collision adds rate * kick^2 to the kinetic energy on
@@ -483,9 +493,10 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
                    visit_law(c, [&](const auto& law) { return theory::gamma_e(law, D, nu, g, c.temperature); }));
   if (c.background.present()) {
     const double K = c.background.density / c.background.knudsen;
-    out.emplace_back("edmd.medium_steady_temperature", visit_law(c, [&](const auto& law) {
-      return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
-    }));
+    if (homogeneous_and_undriven(c))
+      out.emplace_back("edmd.medium_steady_temperature", visit_law(c, [&](const auto& law) {
+        return theory::steady_temperature_medium(law, D, nu, c.background.temperature, K, c.background.mass_ratio);
+      }));
     // DSMC of the same physics: grain-grain cross-section 1 in DSMC units corresponds to
     // pi sigma^2 g(sigma) here, so [grains] density = pi n g(sigma). 3D only: the DSMC's
     // grains and medium have 3D velocities, so a 2D disk case has no DSMC counterpart (its
@@ -956,6 +967,12 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   summary.set("pressure.g_contact_weighted_e", (Z - 1.0) / (w_e * pref * c.packing_fraction));
   const double g_ref = theory::g_contact_reference(D, c.packing_fraction);
   summary.set("theory.Z", theory::z_reference(D, c.packing_fraction));
+  // Enskog's pressure of inelastic grains with the equilibrium contact value (Garzo-Dufty:
+  // p = n T [1 + 2^{D-2} (1 + e) phi g]): the collisional part of the EOS times (1 + e)/2, with
+  // the collision-weighted restitution the virial sums (w_e = <(1 + e) g_n>_c / <g_n>_c, exactly
+  // 1 + e for a constant e); only where it predicts this run (homogeneous_and_undriven)
+  if (homogeneous_and_undriven(c))
+    summary.set("theory.Z_enskog", 1.0 + 0.5 * w_e * (theory::z_reference(D, c.packing_fraction) - 1.0));
   summary.set("theory.g_contact", g_ref);
   if (D == 2) {
     summary.set("theory.Z_henderson", theory::z_henderson(c.packing_fraction));
@@ -1050,11 +1067,13 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const double vr_scale = c.free_cooling ? std::sqrt(std::numbers::pi) * T1 / (4.0 * T32) : std::sqrt(std::numbers::pi) / (4.0 * std::sqrt(T_mean));
   summary.set("loss.velocity_ratio", vr_scale * vn2_mean / std::max(vn_mean, 1e-300));
   if (c.background.present()) {
-    const double K = c.background.density / c.background.knudsen;
-    const double Tth = theory::steady_temperature_medium(law, D, c.packing_fraction, c.background.temperature, K,
-                                                         c.background.mass_ratio);
-    summary.set("theory.medium_steady_temperature", Tth);
-    summary.set("medium.temperature_over_theory", T_mean / Tth);
+    if (homogeneous_and_undriven(c)) {
+      const double K = c.background.density / c.background.knudsen;
+      const double Tth = theory::steady_temperature_medium(law, D, c.packing_fraction, c.background.temperature, K,
+                                                           c.background.mass_ratio);
+      summary.set("theory.medium_steady_temperature", Tth);
+      summary.set("medium.temperature_over_theory", T_mean / Tth);
+    }
     summary.set("medium.background_collision_rate", t_run > 0 ? f.background_collisions / (N * t_run) : 0.0);
   }
   // conservation
