@@ -178,6 +178,11 @@ void print_table(const Summary& s) {
       std::printf("  %-34s %14.8g +- %.3g%s\n", label, m, e,
                   lower_bound ? " (no plateau: use replicas)" : unchecked ? " (few samples: unchecked)" : "");
   };
+  // DSMC with walls that exchange energy or grains, or a background profile (theory.homogeneous
+  // false): the homogeneous theories are references, not this domain's prediction (run-table
+  // audit 2026-12-06: cases/hot-walls read "+94 sigma", cases/thermal-gradient "+236 sigma")
+  const Summary::Value* hom = s.get("theory.homogeneous");
+  const bool homogeneous = !hom || !std::holds_alternative<bool>(*hom) || std::get<bool>(*hom);
   // A theory value beside the measurement it predicts: the distance (measured - theory) in
   // the measurement's standard errors, only where that error reached its plateau (flag true),
   // as the report does (review 4: the run's table showed no distance and no expansion)
@@ -187,7 +192,7 @@ void print_table(const Summary& s) {
     if (std::isnan(th)) return;
     const Summary::Value* plateau = s.get(err + "_plateau");
     const bool reliable = plateau && std::holds_alternative<bool>(*plateau) && std::get<bool>(*plateau);
-    if (std::isnan(m) || !(e > 0) || !reliable)
+    if (std::isnan(m) || !(e > 0) || !reliable || !homogeneous)
       std::printf("  %-34s %14.8g\n", label, th);
     else
       std::printf("  %-34s %14.8g    measured %+.1f sigma\n", label, th, (m - th) / e);
@@ -215,7 +220,7 @@ void print_table(const Summary& s) {
   // The EOS is a prediction of elastic grains in a homogeneous, undriven gas, where the driver
   // writes theory.Z_enskog (= theory.Z for e = 1). Elsewhere it is a reference only, without a
   // distance in sigma: inelastic grains scale the collisional part by (1 + e)/2, and heating or
-  // walls change the contact value itself (review 5: "-52.7 sigma" for dense-medium's e = 0.9)
+  // walls change the contact value itself (run-table audit 2026-12-06: "-52.7 sigma" for dense-medium's e = 0.9)
   const char* eos = std::isnan(s.number("theory.Z_henderson")) ? "Carnahan-Starling" : "Kolafa-Rottner fit";
   const double Z_enskog = s.number("theory.Z_enskog");
   const bool eos_is_prediction = !std::isnan(Z_enskog) && std::abs(Z_enskog - s.number("theory.Z")) <= 1e-12 * Z_enskog;
@@ -227,6 +232,9 @@ void print_table(const Summary& s) {
   }
   theory_row("theory: medium steady T", "theory.medium_steady_temperature", "temperature.mean", "temperature.stderr");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
+  if (!homogeneous && !std::isnan(s.number("theory.equilibrium.maxwellian.T")))
+    std::printf("  (walls or a background profile: the homogeneous theory below is a reference, not a prediction\n"
+                "   of the domain's means; the report shows the profiles, `grainbath theory` a bulk's own state)\n");
   theory_row("theory: T# local Maxwellian", "theory.equilibrium.maxwellian.T", "temperature.mean", "temperature.stderr");
   theory_row("theory: T# Grad", "theory.equilibrium.grad.T", "temperature.mean", "temperature.stderr");
   theory_row("theory: T# Sonine", "theory.equilibrium.sonine.T", "temperature.mean", "temperature.stderr");

@@ -735,7 +735,8 @@ int command_sweep(const SweepArgs& a) {
       // `profile.exponent_stderr_fit`, `_modes`): the ensemble's error is the replicas' scatter
       // whatever they say
       if (c.rfind("performance.", 0) == 0 || c.rfind("run.", 0) == 0 || ends_with(c, ".stderr") || ends_with(c, "_stderr") ||
-          ends_with(c, "_plateau") || ends_with(c, "_stderr_fit") || ends_with(c, "_stderr_modes"))
+          ends_with(c, "_plateau") || ends_with(c, "_stderr_fit") || ends_with(c, "_stderr_modes") ||
+          c == "theory.homogeneous")  // (a flag of the case, no quantity)
         continue;
       std::vector<double> v;
       for (const auto& r : rows)

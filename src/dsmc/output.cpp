@@ -590,6 +590,15 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   summary.set("energy.inelastic_loss_per_grain", rc.grain.energy_loss * per);
   summary.set("energy.budget_relative_residual", budget_residual / budget_scale);
   summary.set_all("theory", theory);
+  // Whether the homogeneous theories (T#, a2, the eps expansion) predict the whole domain's
+  // means: not with a background profile or with faces that exchange energy or grains
+  // (diffuse, open), whose layers make the gas inhomogeneous (cases/hot-walls: the bulk is
+  // T# at its own density, the box mean is not; run-table audit 2026-12-06: "+94 sigma").
+  // The run's table and the report give distances in sigma only where it is true.
+  bool homogeneous = c.field.profile == BackgroundProfile::uniform;
+  if (c.spatial())
+    for (const Boundary b : c.domain.faces) homogeneous = homogeneous && b != Boundary::diffuse && b != Boundary::open;
+  if (!theory.empty()) summary.set("theory.homogeneous", homogeneous);
   const double collisions = static_cast<double>(rc.bath_collisions + rc.grain.collisions);
   summary.set("performance.wall_seconds", wall);
   // steps advanced by this process (a resumed run counts only its own part)

@@ -430,7 +430,7 @@ decltype(auto) visit_law(const Config& c, F&& f) {
 }
 // The grains exchange energy only among themselves and with the medium (if any): no [heating],
 // no walls, smooth grains. Then the gas is homogeneous and undriven, and two predictions are
-// this run's own (review 5, 2026-12-06: both were printed for every run, e.g. the medium's T of
+// this run's own (run-table audit 2026-12-06, docs/reviews/run-table-audit.md: both were printed for every run, e.g. the medium's T of
 // 0.2 beside the 1.33 of an air-table run, "+321.8 sigma"): the medium's steady temperature
 // (theory::steady_temperature_medium balances the medium's heating against the grain-grain
 // losses alone) and Enskog's pressure with the equilibrium contact value. Driving changes the

@@ -89,6 +89,12 @@ Case edmd_case() {
   return c;
 }
 
+// dsmc_case() in a 1D box of 8 cells with the given faces
+Case with_domain(Case c, const std::string& faces) {
+  c.set("domain", "dimensions", "1").set("domain", "length", "[2.0]").set("domain", "cells", "[8]");
+  return c.set("domain", "boundaries", "[\"" + faces + "\"]");
+}
+
 struct Expect {
   int line;         // 0: no line in the message
   std::string key;  // "" : no key
@@ -1374,11 +1380,45 @@ TEST_F(BadInput, TheoryJsonNamesItsUnitsAndTheRunTableTheEquationOfState) {
                    "--set", std::string("edmd.dimensions=") + dims, "--set", "edmd.particles=125", "--set",
                    "edmd.packing_fraction=0.2", "--set", "edmd.equilibrate=1", "--set", "edmd.collisions=3"});
     ASSERT_EQ(r.code, 0) << r.describe();
-    // (the heated grains of edmd_case(): the EOS is a reference, review 5, below)
+    // (the heated grains of edmd_case(): the EOS is a reference, the run-table audit, below)
     EXPECT_NE(r.out.find(std::string(dims) == "2" ? "elastic Z, Kolafa-Rottner fit" : "elastic Z, Carnahan-Starling"),
               std::string::npos)
         << r.out;
   }
+}
+
+// The DSMC's homogeneous theories (T#, a2, the eps expansion) are this run's prediction only in a
+// homogeneous gas (run-table audit 2026-12-06: cases/hot-walls' box mean read "+94 sigma" from
+// T#, whose bulk is T# at its own density): summary.json says theory.homogeneous, and with
+// diffuse walls or a background profile the table gives no distance and says why.
+TEST_F(BadInput, DsmcRunTableGivesNoDistanceFromTheHomogeneousTheoryInAnInhomogeneousBox) {
+  auto run = [&](const std::string& name, Case c) {
+    // (110 samples in the window: enough for the plateau check, so that a distance can be shown)
+    c.set("dsmc", "particles", "2000").set("dsmc", "t_end", "6.0").set("sampling", "steady_from", "0.5");
+    write_text(case_file(), c.text());
+    const fs::path out = tmp / name;
+    auto r = grainbath({"run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"});
+    EXPECT_EQ(r.code, 0) << r.describe();
+    return std::pair{r.out, read_text(out / "summary.json")};
+  };
+  const std::string note = "(walls or a background profile: the homogeneous theory below is a reference";
+  {
+    const auto [table, json] = run("periodic", with_domain(dsmc_case(), "periodic"));
+    EXPECT_NE(json.find("\"homogeneous\": true"), std::string::npos) << json;
+    EXPECT_EQ(table.find(note), std::string::npos) << table;
+    EXPECT_NE(table.find("measured"), std::string::npos) << table;  // a distance where the theory applies
+  }
+  for (const char* faces : {"diffuse", "open"}) {
+    const auto [table, json] = run(faces, with_domain(dsmc_case(), faces));
+    EXPECT_NE(json.find("\"homogeneous\": false"), std::string::npos) << json;
+    EXPECT_NE(table.find(note), std::string::npos) << table;
+    EXPECT_EQ(table.find("sigma"), std::string::npos) << table;
+  }
+  Case profile = with_domain(dsmc_case(), "periodic");
+  profile.set("background", "profile", "\"isobaric_sine\"").set("background", "amplitude", "0.3");
+  const auto [table, json] = run("profile", profile);
+  EXPECT_NE(json.find("\"homogeneous\": false"), std::string::npos) << json;
+  EXPECT_NE(table.find(note), std::string::npos) << table;
 }
 
 // A number of summary.json's section `section` (the summary is one level of sections deep).
@@ -1392,7 +1432,7 @@ double summary_number(const std::string& json, const std::string& section, const
 }
 
 // The run's table compares a measurement with a theory in standard errors only where the theory
-// predicts this run (review 5, 2026-12-06): the table said "-52.7 sigma" for the elastic EOS
+// predicts this run (run-table audit 2026-12-06, docs/reviews/run-table-audit.md): the table said "-52.7 sigma" for the elastic EOS
 // beside the Z of cases/dense-medium (e = 0.9, whose Enskog Z it matches), and "+321.8 sigma"
 // for the medium's steady T of 0.2 beside an air-table run at T = 1.33. Inelastic grains: the
 // elastic EOS is a reference without a distance, Enskog's (1 + e)/2 scaling is the theory (for
