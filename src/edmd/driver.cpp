@@ -486,6 +486,13 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   }
   const double g = theory::g_contact_reference(D, nu);
   out.emplace_back("edmd.g_contact", g);
+  // Enskog's Z as the run writes it (theory.Z_enskog), where e does not depend on the impact
+  // speed (otherwise the run weights it with its own collisions)
+  if (homogeneous_and_undriven(c) && !std::holds_alternative<BizonRestitution>(c.restitution) &&
+      !std::holds_alternative<PowerLawRestitution>(c.restitution)) {
+    const double e_const = visit_law(c, [](const auto& law) { return restitution(law, 1.0).e; });
+    out.emplace_back("edmd.Z_enskog", 1.0 + 0.5 * (1.0 + e_const) * (theory::z_reference(D, nu) - 1.0));
+  }
   out.emplace_back("edmd.enskog_frequency", theory::enskog_frequency(D, nu, g, c.temperature));
   const double e = visit_law(c, [&](const auto& law) { return restitution(law, std::sqrt(std::numbers::pi * c.temperature)).e; });
   out.emplace_back("edmd.gamma0", theory::gamma0(D, nu, g, e, c.temperature));
