@@ -230,6 +230,9 @@ void print_table(const Summary& s) {
     row(("elastic Z, " + std::string(eos)).c_str(), "theory.Z", "");
     theory_row("theory: Z, Enskog, (1+e)/2 x EOS", "theory.Z_enskog", "pressure.Z", "pressure.Z_stderr");
   }
+  // the loss rate against molecular chaos at the measured contact value (Bizon eqs. 29-30,
+  // Fig. 8): a check that holds for driven grains too, where no Z or T theory is written
+  row("loss rate / chaos, Bizon gamma_e", "loss.gamma_over_gamma_e", "");
   theory_row("theory: medium steady T", "theory.medium_steady_temperature", "temperature.mean", "temperature.stderr");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
   if (!homogeneous && !std::isnan(s.number("theory.equilibrium.maxwellian.T")))

@@ -1475,6 +1475,8 @@ TEST_F(BadInput, EdmdRunTableComparesOnlyWithTheTheoriesOfThisRun) {
     EXPECT_GT(summary_number(json, "medium", "background_collision_rate"), 0.0) << json;
     EXPECT_EQ(table.find("theory:"), std::string::npos) << table;
     EXPECT_NE(table.find("elastic Z, Kolafa-Rottner fit"), std::string::npos) << table;
+    // what holds for driven grains: the loss rate against chaos at the measured contact value
+    EXPECT_NE(table.find("loss rate / chaos, Bizon gamma_e"), std::string::npos) << table;
   }
   Case elastic = inelastic;
   elastic.set("restitution", "law", "\"elastic\"");
@@ -1485,5 +1487,6 @@ TEST_F(BadInput, EdmdRunTableComparesOnlyWithTheTheoriesOfThisRun) {
     EXPECT_EQ(summary_number(json, "theory", "medium_steady_temperature"), 1.0) << json;
     EXPECT_NE(table.find("theory: Z, Kolafa-Rottner fit"), std::string::npos) << table;
     EXPECT_EQ(table.find("elastic Z,"), std::string::npos) << table;
+    EXPECT_EQ(table.find("loss rate"), std::string::npos) << table;  // no losses
   }
 }
