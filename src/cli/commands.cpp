@@ -230,6 +230,12 @@ void print_table(const Summary& s) {
     row(("elastic Z, " + std::string(eos)).c_str(), "theory.Z", "");
     theory_row("theory: Z, Enskog, (1+e)/2 x EOS", "theory.Z_enskog", "pressure.Z", "pressure.Z_stderr");
   }
+  // rough grains (docs/rough.md): the steady ratio R = Trot/Ttr beside models A-E (R11; E keeps
+  // the full beta(gamma), the thesis' best), each the steady root of its rotational equation
+  row("rotational / translational T, R", "rotation.R", "rotation.R_stderr");
+  for (const char* m : {"E", "D", "C", "B", "A"})
+    theory_row(("theory: R, model " + std::string(m)).c_str(), "theory.model_" + std::string(m) + ".R", "rotation.R",
+               "rotation.R_stderr");
   // the loss rate against molecular chaos at the measured contact value (Bizon eqs. 29-30,
   // Fig. 8): a check that holds for driven grains too, where no Z or T theory is written
   row("loss rate / chaos, Bizon gamma_e", "loss.gamma_over_gamma_e", "");

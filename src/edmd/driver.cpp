@@ -1065,10 +1065,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   const double g0 = theory::gamma0(D, c.packing_fraction, Gfor, mean_e, T_loss);
   const double ge = theory::gamma_e(law, D, c.packing_fraction, Gfor, T_loss);
   summary.set("loss.gamma", gamma);
-  summary.set("loss.gamma0", g0);
-  summary.set("loss.gamma_e", ge);
-  if (g0 > 0) summary.set("loss.gamma_over_gamma0", gamma / g0);
-  if (ge > 0) summary.set("loss.gamma_over_gamma_e", gamma / ge);
+  // the chaos rates are those of smooth grains (normal restitution only): rough grains also
+  // lose energy through the tangential restitution (docs/rough.md), and gamma/gamma_e read
+  // 2.65 in cases/rough-driven/mu-0.5 (run-table audit 2026-12-06), which described nothing
+  if (!c.rough) {
+    summary.set("loss.gamma0", g0);
+    summary.set("loss.gamma_e", ge);
+    if (g0 > 0) summary.set("loss.gamma_over_gamma0", gamma / g0);
+    if (ge > 0) summary.set("loss.gamma_over_gamma_e", gamma / ge);
+  }
   // Bizon eq. 33 check: gamma/gamma_e tracks (<v_n^2>_c/<v_n>_c) / (4T/sqrt(pi T)), 1 under molecular chaos
   // (v_n^2)_c/(v_n)_c under molecular chaos: 4 T/sqrt(pi T) steady, 4 <T^3/2>_t/(sqrt(pi) <T>_t) cooling
   const double vr_scale = c.free_cooling ? std::sqrt(std::numbers::pi) * T1 / (4.0 * T32) : std::sqrt(std::numbers::pi) / (4.0 * std::sqrt(T_mean));

@@ -1489,4 +1489,17 @@ TEST_F(BadInput, EdmdRunTableComparesOnlyWithTheTheoriesOfThisRun) {
     EXPECT_EQ(table.find("elastic Z,"), std::string::npos) << table;
     EXPECT_EQ(table.find("loss rate"), std::string::npos) << table;  // no losses
   }
+  // rough grains: R beside models A-E (their steady R11 values), no smooth-grain chaos rate
+  Case rough = edmd_case();
+  rough.set("restitution", "law", "\"walton\"").set("restitution", "e", "0.95").set("restitution", "beta0", "1.0");
+  rough.set("restitution", "mu", "0.5").set("heating", "kick", "0.185").set("edmd", "packing_fraction", "0.05");
+  {
+    const auto [table, json] = run("rough", rough);
+    EXPECT_NE(table.find("rotational / translational T, R"), std::string::npos) << table;
+    for (const char* m : {"A", "B", "C", "D", "E"})
+      EXPECT_NE(table.find(std::string("theory: R, model ") + m), std::string::npos) << m << table;
+    EXPECT_EQ(table.find("loss rate"), std::string::npos) << table;
+    EXPECT_TRUE(std::isnan(summary_number(json, "loss", "gamma_e"))) << json;
+    EXPECT_GT(summary_number(json, "loss", "gamma"), 0.0) << json;
+  }
 }
