@@ -119,7 +119,8 @@ GLANCE = [
     ("profile exponent p", "profile.exponent", "profile.exponent_stderr",
      [("drift-diffusion (paper)", "theory.hydro.thermal_diffusion_exponent"),
       ("drift-diffusion (kinetic)", "theory.hydro.thermal_diffusion_exponent_kinetic")]),
-    ("compressibility factor Z", "pressure.Z", "pressure.Z_stderr", [("reference EOS (elastic)", "theory.Z")]),
+    ("compressibility factor Z", "pressure.Z", "pressure.Z_stderr",
+     [("reference EOS (elastic)", "theory.Z"), ("Enskog: (1+e)/2 × the EOS's collisional part", "theory.Z_enskog")]),
     ("temperature in the medium", "temperature.mean", "temperature.stderr",
      [("medium steady state (EDMD theory)", "theory.medium_steady_temperature")]),
     ("g(σ⁺) from g(r)", "g_r.contact_fit", None, [("reference EOS", "theory.g_contact")]),
@@ -141,11 +142,17 @@ def glance_rows(run):
         if key == "temperature.mean" and free_cooling(run):
             continue  # results from before 2026-12-05: the window mean of a decaying T
         e = run.num(err_key) if err_key else None
+        shown = []
         for label, tkey in theories:
             t = run.num(tkey)
-            if t is not None:
+            if t is not None and t not in shown:  # (Enskog's Z of elastic grains is the EOS's: once)
+                shown.append(t)
                 # a lower-bound error: no deviation in σ (it would overstate the significance)
                 sig = None if lower_bound(run, err_key) else e
+                # the elastic EOS predicts only a homogeneous, undriven gas of elastic grains, where
+                # the run wrote theory.Z_enskog equal to it; elsewhere it is a reference (no σ)
+                if tkey == "theory.Z" and run.num("theory.Z_enskog") != t:
+                    sig, label = None, "elastic EOS (a reference, not this run's theory)"
                 rows.append([quantity, fmt_err(run, v, err_key), label, fmt(t), deviation(v, sig, t)])
     return rows
 

@@ -296,6 +296,10 @@ def main():
             check("The snapshot layout conforms to H5MD 1.1" in md, f"{case}: H5MD layout problems (see report.md)")
             check_edmd_series(a.grainbath, out, env)
             check("/series/time  -> /timeseries/t" in md, f"{case}: the appendix does not list the /series links")
+            # heated inelastic grains: the elastic EOS is a reference, with no distance in σ
+            # (run-table audit 2026-12-06, docs/reviews/run-table-audit.md)
+            eos = [ln for ln in md.splitlines() if "elastic EOS (a reference, not this run's theory)" in ln]
+            check(len(eos) == 1 and " σ" not in eos[0], f"{case}: the glance compares Z with the elastic EOS in σ: {eos}")
         if os.path.isfile(os.path.join(out, "fields.xdmf")):
             check("fields.xdmf checked:" in md and "fields.xdmf problems" not in md,
                   f"{case}: fields.xdmf does not match results.h5 (see report.md)")
