@@ -13,12 +13,14 @@ import os
 # The DSMC window errors that the plateau test judges (src/dsmc/output.cpp); the CLI's run table
 # marks the same ones (src/cli/commands.cpp, print_table).
 PLATEAU_JUDGED = ("temperature.stderr", "a2.stderr", "rotation.R_stderr")
+# the EDMD's (since 2026-12-06 its runs say so too: a note, "(few samples: unchecked)" in the table)
+EDMD_PLATEAU_JUDGED = ("temperature.stderr", "pressure.Z_stderr", "rotation.R_stderr")
 
 
 def error_verdict(solver, err_key, err, plateau):
     """The rule for an error (the single-run report's, common.lower_bound and common.unchecked):
-    "no plateau" when the run flagged it (`<err_key>_plateau` false), "unchecked" for a DSMC
-    window error without the flag (too few samples to judge, or a run from before 2026-12-05),
+    "no plateau" when the run flagged it (`<err_key>_plateau` false), "unchecked" for a DSMC or
+    EDMD window error without the flag (too few samples to judge, or a run from before 2026-12-05),
     else None. `plateau`: True, False or None (absent). No σ distance is given from a flagged or
     unchecked error."""
     if not err_key:
@@ -26,6 +28,8 @@ def error_verdict(solver, err_key, err, plateau):
     if plateau is False:
         return "no plateau"
     if solver == "dsmc" and err_key in PLATEAU_JUDGED and err is not None and plateau is None:
+        return "unchecked"
+    if solver == "edmd" and err_key in EDMD_PLATEAU_JUDGED and err is not None and plateau is None:
         return "unchecked"
     return None
 

@@ -165,13 +165,16 @@ void print_table(const Summary& s) {
     // an error whose blocking reached no plateau (`key.stderr_plateau` false) is unreliable: a
     // lower bound for a series correlated over the window, and a drifting one has no steady mean
     const Summary::Value* plateau = err.empty() ? nullptr : s.get(err + "_plateau");
-    // (a DSMC error without the flag: the window was too short to check, the run's log says so)
+    // (an error without the flag: the window was too short to check, the run's log says so)
     const bool lower_bound = plateau && std::holds_alternative<bool>(*plateau) && !std::get<bool>(*plateau);
     const Summary::Value* solver = s.get("solver");
-    const bool unchecked = !err.empty() && !plateau && solver && std::holds_alternative<std::string>(*solver) &&
-                           std::get<std::string>(*solver) == "dsmc" &&
-                           (err == "temperature.stderr" || err == "a2.stderr" || err == "a3.stderr" ||
-                            err == "rotation.R_stderr");
+    const bool dsmc = solver && std::holds_alternative<std::string>(*solver) && std::get<std::string>(*solver) == "dsmc";
+    const bool edmd = solver && std::holds_alternative<std::string>(*solver) && std::get<std::string>(*solver) == "edmd";
+    const bool unchecked = !err.empty() && !plateau &&
+                           ((dsmc && (err == "temperature.stderr" || err == "a2.stderr" || err == "a3.stderr" ||
+                                      err == "rotation.R_stderr")) ||
+                            (edmd && (err == "temperature.stderr" || err == "pressure.Z_stderr" ||
+                                      err == "rotation.R_stderr")));
     if (std::isnan(e))
       std::printf("  %-34s %14.8g\n", label, m);
     else
