@@ -355,7 +355,10 @@ std::vector<double> PairStatistics::gr() const {
   double volume = 1.0;
   for (int d = 0; d < dims; ++d) volume *= comp(L, d);
   for (std::size_t b = 0; b < g.size(); ++b) {
-    const double r0 = b * gr_bin, r1 = r0 + gr_bin;
+    // the last bin ends at rmax, beyond which no pair is counted (before 2026-12-06 its partial
+    // shell was normalised as a whole one: g(r) low there by the missing fraction, 0.49 for
+    // half a bin in an ideal gas)
+    const double r0 = b * gr_bin, r1 = std::min(r0 + gr_bin, rmax);
     const double shell = dims == 2 ? std::numbers::pi * (r1 * r1 - r0 * r0)
                                    : 4.0 / 3.0 * std::numbers::pi * (r1 * r1 * r1 - r0 * r0 * r0);
     // pairs counted once: of the N(N-1)/2 distinct pairs, the fraction shell/V are ideally

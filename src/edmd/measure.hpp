@@ -36,7 +36,8 @@ struct PairStatistics {
   // as the reference for add()'s cell search); does not count a snapshot.
   void add_all_pairs(const std::vector<Vec3>& x, const std::vector<Vec3>& v);
   // g(r) per bin, reported at the bin centres: pair counts over the ideal-gas count of the
-  // N(N-1)/2 pairs (periodic box).
+  // N(N-1)/2 pairs (periodic box). The last bin ends at rmax (a partial shell when rmax is not
+  // a whole number of bins).
   std::vector<double> gr() const;
   std::vector<double> gr_radii() const;
   std::vector<double> corr_radii() const;
