@@ -29,10 +29,9 @@ struct LineFit {
 };
 
 // Weighted least squares y = a + b x (weights 1/sigma^2; sigma empty: unweighted). The slope
-// error is scaled by sqrt(reduced chi^2) when that exceeds 1 and, for unweighted time
-// series, by the blocking factor of the residuals (correlated noise).
-LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& sigma,
-                 bool correlated) {
+// error is scaled by sqrt(reduced chi^2) when that exceeds 1. (A branch for correlated
+// residuals lost its one caller in 1653ada and went with the output audit, 2026-12-06.)
+LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, const std::vector<double>& sigma) {
   LineFit f;
   const std::size_t n = x.size();
   f.points = n;
@@ -60,17 +59,6 @@ LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, con
   double var = S / D;  // slope variance for known sigmas
   if (sigma.empty()) var *= red;
   else if (red > 1) var *= red;
-  if (correlated) {
-    // correlated residuals: inflate by the ratio of the blocked to the naive standard error
-    // of the (weighted) residuals
-    if (!sigma.empty())
-      for (std::size_t k = 0; k < n; ++k) res[k] /= sigma[k];
-    const MeanError blocked = block_average(res);
-    double v = 0;
-    for (double r : res) v += r * r;
-    const double naive = std::sqrt(v / (n - 1) / n);
-    if (naive > 0 && blocked.stderr_ > naive) var *= (blocked.stderr_ / naive) * (blocked.stderr_ / naive);
-  }
   f.slope_stderr = std::sqrt(var);
   return f;
 }
@@ -534,7 +522,7 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
           ly.push_back(std::log(nmean[k]));
           ls.push_back(nerr[k] / nmean[k]);
         }
-      const LineFit lf = fit_line(lx, ly, ls, false);
+      const LineFit lf = fit_line(lx, ly, ls);
       if (!std::isfinite(lf.slope))
         std::fprintf(stderr, "warning: no density-profile exponent: %zu cell(s) with a density and its error, at "
                              "least 3 needed\n", lx.size());
