@@ -48,12 +48,11 @@ LineFit fit_line(const std::vector<double>& x, const std::vector<double>& y, con
   const double D = S * Sxx - Sx * Sx;
   f.slope = (S * Sxy - Sx * Sy) / D;
   f.intercept = (Sxx * Sy - Sx * Sxy) / D;
-  std::vector<double> res(n);
   double chi2 = 0;
   for (std::size_t k = 0; k < n; ++k) {
-    res[k] = y[k] - f.intercept - f.slope * x[k];
+    const double res = y[k] - f.intercept - f.slope * x[k];
     const double w = sigma.empty() ? 1.0 : 1.0 / (sigma[k] * sigma[k]);
-    chi2 += w * res[k] * res[k];
+    chi2 += w * res * res;
   }
   const double red = chi2 / static_cast<double>(n - 2);
   double var = S / D;  // slope variance for known sigmas
