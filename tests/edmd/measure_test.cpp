@@ -18,6 +18,7 @@
 
 #include "edmd/measure.hpp"
 #include "edmd/profile.hpp"
+#include "tests/edmd/gr_support.hpp"
 
 using namespace grainbath;
 using namespace grainbath::edmd;
@@ -174,23 +175,8 @@ TEST(EdmdPairStatistics, ContactFitReadsTheBinsOfItsWindowOnly) {
   };
   for (int dims : {2, 3})
     for (double bin : {0.02, 0.025, 0.035, 0.05}) {
-      PairStatistics p;
-      p.init(dims, {20.0, 20.0, 20.0}, {false, false, false}, 2.0, bin, 0.1);
-      p.n = 1000;
-      p.snapshots = 3;
-      const double volume = dims == 2 ? 400.0 : 8000.0;
-      for (std::size_t b = 0; b < p.gr_counts.size(); ++b) {
-        const double r0 = b * bin, r1 = r0 + bin, lo = std::max(r0, 1.0), h = (r1 - lo) / 2000;
-        // the kink at 1.1 is on a bin edge for these widths, or in a bin outside the window
-        double num = 0.0;
-        for (int q = 0; r1 > lo && q <= 2000; ++q) {
-          const double r = lo + q * h, wq = q == 0 || q == 2000 ? 1.0 : q % 2 ? 4.0 : 2.0;
-          num += wq * g(r) * std::pow(r, dims - 1);
-        }
-        num *= h / 3.0;
-        const double unit = dims == 2 ? 2.0 * std::numbers::pi : 4.0 * std::numbers::pi;
-        p.gr_counts[b] = 0.5 * p.n * (p.n - 1.0) / volume * unit * num * p.snapshots;
-      }
+      // the kink at 1.1 is on a bin edge for these widths, or in a bin outside the window
+      const PairStatistics p = grainbath::edmd::testing::pair_statistics_of(g, dims, bin);
       if (bin == 0.05) EXPECT_TRUE(std::isnan(p.contact_value())) << dims;
       else EXPECT_NEAR(p.contact_value(), 5.7, 1e-9) << dims << " " << bin;
     }

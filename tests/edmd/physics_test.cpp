@@ -18,6 +18,7 @@
 #include "edmd/background2d.hpp"
 #include "edmd/edmd.hpp"
 #include "tests/edmd/config_support.hpp"
+#include "tests/edmd/gr_support.hpp"
 #include "edmd/measure.hpp"
 #include "edmd/theory.hpp"
 #include "operators/random.hpp"
@@ -64,25 +65,9 @@ TEST(EdmdContactFit, RecoversAQuadraticFromItsBinAverages) {
   auto g = [](double r) { return r < 1.0 ? 0.0 : 5.7 - 40.0 * (r - 1.0) + 150.0 * (r - 1.0) * (r - 1.0); };
   for (int dims : {2, 3})
     for (double bin : {0.02, 0.03}) {
-      PairStatistics p;
-      p.init(dims, {20.0, 20.0, 20.0}, {false, false, false}, 2.0, bin, 0.1);
-      p.n = 1000;
-      p.snapshots = 3;
-      const double volume = dims == 2 ? 400.0 : 8000.0;
-      for (std::size_t b = 0; b < p.gr_counts.size(); ++b) {
-        // shell integral of g r^(D-1) over the bin's part outside the core, by Simpson's rule
-        // on 2000 intervals (independent of the fit's closed form; exact to round-off for these
-        // polynomials of degree <= 4)
-        const double r0 = b * bin, r1 = r0 + bin, lo = std::max(r0, 1.0), h = (r1 - lo) / 2000;
-        double num = 0.0;
-        for (int q = 0; r1 > lo && q <= 2000; ++q) {
-          const double r = lo + q * h, wq = q == 0 || q == 2000 ? 1.0 : q % 2 ? 4.0 : 2.0;
-          num += wq * g(r) * std::pow(r, dims - 1);
-        }
-        num *= h / 3.0;
-        const double unit = dims == 2 ? 2.0 * std::numbers::pi : 4.0 * std::numbers::pi;  // shell = unit * int r^(D-1) dr
-        p.gr_counts[b] = 0.5 * p.n * (p.n - 1.0) / volume * unit * num * p.snapshots;
-      }
+      // exact bin averages (tests/edmd/gr_support.hpp: Simpson's rule, independent of the
+      // fit's closed form)
+      const PairStatistics p = grainbath::edmd::testing::pair_statistics_of(g, dims, bin);
       EXPECT_NEAR(p.contact_value(), 5.7, 1e-9) << dims << " " << bin;
     }
 }
