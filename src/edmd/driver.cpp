@@ -434,7 +434,8 @@ decltype(auto) visit_law(const Config& c, F&& f) {
 // 0.2 beside the 1.33 of an air-table run, "+321.8 sigma"): the medium's steady temperature
 // (theory::steady_temperature_medium balances the medium's heating against the grain-grain
 // losses alone) and Enskog's pressure with the equilibrium contact value. Driving changes the
-// contact value itself (Bizon Fig. 6: G_s 0.37-0.75 of Carnahan-Starling's at nu = 0.5).
+// contact value itself (docs/edmd.md, the contact table: at nu = 0.5 the collisions' g(sigma+)
+// is 4.66-6.34 under the three heat baths against 3.11 for elastic grains).
 bool homogeneous_and_undriven(const Config& c) {
   return c.heating.kind == HeatingKind::none && !c.walls[0] && !c.walls[1] && !c.walls[2] && !c.rough;
 }
