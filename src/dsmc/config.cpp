@@ -352,6 +352,13 @@ Config read_config(CaseReader& r) {
     r.problem("dsmc", "dt", "expected dt <= t_end, found " + value("dsmc", "dt", c.dt) + " > " +
                                 value("dsmc", "t_end", c.t_end), "dsmc", "t_end");
   c.steps = static_cast<std::int64_t>(std::ceil(c.t_end / c.dt - 1e-9));
+  // the run takes whole steps: a t_end that is no multiple of dt is reached by the next whole
+  // step, and said (docs/CASE_FILE.md: a value not used as written gets a note)
+  if (c.dt <= c.t_end && std::abs(static_cast<double>(c.steps) * c.dt - c.t_end) > 1e-9 * c.t_end)
+    r.note("dsmc", "t_end",
+           "t_end = " + format_real(c.t_end) + " is not a whole number of steps of dt = " + format_real(c.dt) +
+               ": the run takes " + std::to_string(c.steps) + " steps, to t = " +
+               format_real(static_cast<double>(c.steps) * c.dt));
   c.sample_every_steps = std::max<std::int64_t>(1, std::llround(c.sample_every / c.dt));
   // samples are taken at whole steps: a value that is no multiple of dt is rounded, and said
   // (review 4: every = 0.001 at dt = 0.01 ran at 0.01 without a word)

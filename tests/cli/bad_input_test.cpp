@@ -14,6 +14,7 @@
 #include <random>
 #include <sstream>
 
+#include "core/h5.hpp"
 #include "tests/cli/cli_harness.hpp"
 
 using namespace grainbath::testing;
@@ -278,17 +279,27 @@ TEST_F(BadInput, DsmcOutOfRangeEveryParameter) {
       {"restitution", "e", "0.0", "(0.0, 1.0]", {{"restitution.law", "\"bizon\""}}},
       {"restitution", "e", "1.01", "(0.0, 1.0]", {{"restitution.law", "\"bizon\""}}},
       {"restitution", "crossover", "0.0", "> 0.0", {{"restitution.law", "\"bizon\""}}},
+      // rough grains of the homogeneous DSMC (law "walton", [grains] rotational_temperature)
+      {"restitution", "e", "1.1", "expected a value in [0.0, 1.0]", {{"restitution.law", "\"walton\""}, {"restitution.beta0", "0.5"}}},
+      {"restitution", "beta0", "1.5", "expected a value in [-1.0, 1.0]", {{"restitution.law", "\"walton\""}}},
+      {"restitution", "beta0", "-1.5", "[-1.0, 1.0]", {{"restitution.law", "\"walton\""}}},
+      {"restitution", "q", "0.0", "expected a value > 0.0", {{"restitution.law", "\"walton\""}, {"restitution.beta0", "0.5"}}},
+      {"grains", "rotational_temperature", "-1.0", "expected a value >= 0.0", {{"restitution.law", "\"walton\""}, {"restitution.beta0", "0.5"}}},
       {"dsmc", "particles", "1", "expected an integer in [2, 2000000000], found 1"},  // particles < 2
       {"dsmc", "particles", "0", "found 0"},
       {"dsmc", "particles", "-5", "found -5"},
       {"dsmc", "particles", "3000000000", "found 3000000000"},
       {"dsmc", "particles", "9223372036854775807", "found 9223372036854775807"},
+      {"dsmc", "particles", "1000.5", "expected an integer in [2, 2000000000], found"},  // not truncated to 1000
       {"dsmc", "dt", "0.0", "expected a value > 0.0 (time)"},               // dt <= 0
       {"dsmc", "dt", "-0.01", "> 0.0"},
       {"dsmc", "dt", "-0.0", "> 0.0"},
       {"dsmc", "dt", "nan", "found nan"},
       {"dsmc", "dt", "0.5", "expected dt <= t_end"},
       {"dsmc", "dt", "1e-12", "more than 2e9 steps"},
+      // the edges (mutation audit of the case readers): just above t_end, just above 2e9 steps
+      {"dsmc", "dt", "0.21", "expected dt <= t_end, found dt = 0.21"},
+      {"dsmc", "dt", "9e-11", "more than 2e9 steps"},
       {"dsmc", "t_end", "0.0", "> 0.0"},
       {"dsmc", "t_end", "-1.0", "> 0.0"},
       {"dsmc", "collision_group", "10", "expected 0 (all grains in one collision cell) or at least 1024 grains (16 tiles of 64), found 10"},
@@ -359,6 +370,15 @@ TEST_F(BadInput, DsmcSpatialOutOfRangeEveryParameter) {
   Case h = dsmc_case();
   h.set("background", "profile", sine);
   expect_rejected(h.text(), {{h.line_of("background", "profile"), "background.profile", "needs a spatial run"}});
+  Case g = dsmc_case();
+  g.set("grains", "profile", mode);
+  expect_rejected(g.text(), {{g.line_of("grains", "profile"), "grains.profile",
+                              "profile \"mode\" needs a spatial run: add a [domain] section"}});
+  // rough grains (law "walton") in a spatial run
+  Case w = spatial_case();
+  w.set("restitution", "law", "\"walton\"").set("restitution", "beta0", "0.5");
+  expect_rejected(w.text(), {{w.line_of("restitution", "law"), "restitution.law",
+                              "law \"walton\" (rough grains) is implemented for homogeneous runs only"}});
 }
 
 TEST_F(BadInput, BackgroundFileThatIsNotHdf5) {
@@ -387,6 +407,63 @@ TEST_F(BadInput, BackgroundFileThatIsNotHdf5) {
   Case c = spatial_case();
   c.set("background", "profile", "\"file\"");
   expect_rejected(c.text(), {{0, "background.file", "missing: profile = \"file\" needs file"}});
+}
+
+// One name per axis, or lo and hi per axis (docs/CASE_FILE.md [domain]): how each list lands on
+// the faces shows without a run, since wall_temperature is accepted only with a "diffuse" face
+// (mutation audit of the case readers).
+TEST_F(BadInput, BoundaryListsPerAxisAndPerFaceAreRead) {
+  auto in_2d = [](const std::string& faces) {
+    Case c = dsmc_case();
+    c.set("domain", "dimensions", "2").set("domain", "length", "[4.0, 4.0]").set("domain", "cells", "[4, 4]");
+    return c.set("domain", "boundaries", faces).set("domain", "wall_temperature", "2.0");
+  };
+  for (const char* faces : {"[\"periodic\", \"diffuse\"]",                           // y faces diffuse
+                            "[\"periodic\", \"periodic\", \"diffuse\", \"specular\"]",  // y low diffuse
+                            "[\"periodic\", \"periodic\", \"specular\", \"diffuse\"]"}) {  // y high diffuse
+    SCOPED_TRACE(faces);
+    write_text(case_file(), in_2d(faces).text());
+    const auto r = grainbath({"check", case_dir().string()});
+    EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  }
+  const Case c = in_2d("[\"periodic\", \"periodic\", \"specular\", \"open\"]");
+  expect_rejected(c.text(), {{c.line_of("domain", "wall_temperature"), "domain.wall_temperature",
+                              "not used: no face is \"diffuse\""}}, {}, "check");
+}
+
+// A [background] grid that is an HDF5 file but not a usable one: every dataset must have one
+// value per cell (three for the velocity), densities >= 0 and temperatures > 0.
+TEST_F(BadInput, BackgroundGridWithWrongSizesOrValuesIsRefused) {
+  write_text(case_file(), spatial_case().text());
+  auto probe = grainbath({"check", case_dir().string()});
+  if (!(probe.exited && probe.code == 0)) GTEST_SKIP() << "this build has no spatial DSMC";
+  const std::size_t cells = 10;  // spatial_case(): 10 cells in 1D
+  struct Grid { std::string name; std::size_t n_velocity; double density0, temperature0; std::string what; };
+  for (const Grid& g : {Grid{"good.h5", 3 * cells, 1.0, 1.0, ""},
+                        Grid{"velocity.h5", 3 * cells - 3, 1.0, 1.0, "velocity with 30 (the [domain] cells), found 10, 10 and 27"},
+                        Grid{"density.h5", 3 * cells, -0.5, 1.0, "cell 0: expected density >= 0 and temperature > 0, found density -0.5"},
+                        Grid{"temperature.h5", 3 * cells, 0.0, 0.0, "cell 0: expected density >= 0 and temperature > 0, found density 0.0, temperature 0.0"}}) {
+    SCOPED_TRACE(g.name);
+    {
+      std::vector<double> density(cells, 1.0), temperature(cells, 1.0), velocity(g.n_velocity, 0.0);
+      density[0] = g.density0;
+      temperature[0] = g.temperature0;
+      grainbath::H5File h((case_dir() / g.name).string(), grainbath::H5File::Mode::create);
+      h.write("density", density);
+      h.write("temperature", temperature);
+      h.write("velocity", velocity);
+      h.close();
+    }
+    Case c = spatial_case();
+    c.set("background", "profile", "\"file\"").set("background", "file", "\"" + g.name + "\"");
+    if (g.what.empty()) {
+      write_text(case_file(), c.text());
+      const auto r = grainbath({"check", case_dir().string()});
+      EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+    } else {
+      expect_rejected(c.text(), {{c.line_of("background", "file"), "background.file", g.what}});
+    }
+  }
 }
 
 TEST_F(BadInput, CheckRejectsToo) {
@@ -644,8 +721,10 @@ TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
   // run without them: whose keys they are, not "unknown key; valid keys in [sampling]: ..."
   // (until 2026-12-06)
   Case c = dsmc_case();
-  c.set("sampling", "fields", "false").set("sampling", "mode_fit_to", "0.2");
+  c.set("sampling", "fields", "false").set("sampling", "mode_fit_to", "0.2").set("sampling", "field_batches", "8");
   expect_rejected(c.text(), {{c.line_of("sampling", "fields"), "sampling.fields",
+                              "not used by a homogeneous run (a key of spatial runs, with a [domain] section"},
+                             {c.line_of("sampling", "field_batches"), "sampling.field_batches",
                               "not used by a homogeneous run (a key of spatial runs, with a [domain] section"},
                              {c.line_of("sampling", "mode_fit_to"), "sampling.mode_fit_to",
                               "not used without [grains] profile = \"mode\" in a spatial run"}},
@@ -663,6 +742,15 @@ TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
   r = grainbath({"check", case_dir().string()});
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
   EXPECT_NE(r.err.find("sampling.relaxation_theory: no effect in a spatial run"), std::string::npos) << r.err;
+  // and for rough grains in a medium (models A-E have none): accepted with a note
+  Case u = dsmc_case();
+  u.set("restitution", "law", "\"walton\"").set("restitution", "beta0", "0.5").set("sampling", "relaxation_theory", "true");
+  write_text(case_file(), u.text());
+  r = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("sampling.relaxation_theory: no effect: the rough-grain models A-E have no background medium"),
+            std::string::npos)
+      << r.err;
 }
 
 TEST_F(BadInput, SetSwitchesTheLawAndIgnoresOnlyTheReplacedLawsKeys) {
@@ -747,6 +835,9 @@ TEST_F(BadInput, KeyOrSectionOfAnotherTableOrSolver) {
   expect_rejected(std::nullopt,
                   {{0, "sampling.interval", "not used by solver = \"dsmc\" (a [sampling] key of solver = \"edmd\")"}},
                   {"--set", "sampling.interval=1"}, "check", "--set");
+  expect_rejected(std::nullopt,
+                  {{0, "sampling.free_cooling", "not used by solver = \"dsmc\" (a [sampling] key of solver = \"edmd\")"}},
+                  {"--set", "sampling.free_cooling=true"}, "check", "--set");
   write_text(case_file(), edmd_case().text());
   expect_rejected(std::nullopt,
                   {{0, "[dsmc]",
@@ -1297,6 +1388,21 @@ TEST_F(BadInput, ValuesNotUsedAsWrittenAreSaidInNotes) {
   EXPECT_NE(r.err.find("no periodic checkpoint is written in this run"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("note: --set run.seed=4 follows --set run.seed=3: the later value is used"), std::string::npos)
       << r.err;
+  // the edges (mutation audit of the case readers): 1.05 steps is rounded and said; an interval
+  // of exactly t_end writes no periodic checkpoint either; a t_end between two steps is reached
+  // by the next whole step
+  r = grainbath({"check", case_dir().string(), "--set", "sampling.every=0.0105", "--set", "dsmc.t_end=0.205"});
+  EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_NE(r.err.find("sampling.every: every = 0.0105 is not a whole number of steps of dt = 0.01: "
+                       "samples are taken every 1 step, every 0.01"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("dsmc.t_end: t_end = 0.205 is not a whole number of steps of dt = 0.01: the run takes 21 "
+                       "steps, to t = 0.21"),
+            std::string::npos)
+      << r.err;
+  r = grainbath({"check", case_dir().string(), "--set", "checkpoint.every=0.2"});
+  EXPECT_NE(r.err.find("checkpoint.every: every = 0.2 >= t_end = 0.2"), std::string::npos) << r.err;
   r = grainbath({"check", case_dir().string(), "--set", "dsmc.dt=0.01", "--set", "sampling.every=0.03", "--set",
                  "run.seed=3", "--set", "run.seed=3"});
   EXPECT_TRUE(r.exited && r.code == 0) << r.describe();
