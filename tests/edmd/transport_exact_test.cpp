@@ -395,10 +395,10 @@ double sinc(double x) { return std::sin(x) / x; }
 TEST(TransportExact, FieldsOfAGivenBlockFollowTheirDefinitions) {
   for (int D : {2, 3}) {
     const int S = 6, ax = D == 2 ? 1 : 2, c = 0;
-    const Vec3 box = D == 2 ? Vec3{2.0, 6.0, 1.0} : Vec3{2.0, 1.5, 6.0};
+    const Vec3 box = D == 2 ? Vec3{2.0, 9.0, 1.0} : Vec3{2.0, 1.5, 9.0};  // slabs of width 1.5: V != A
     SlabTransport t;
     t.init({D, box, ax, c, S}, 1);
-    const double w = 1.0, A = D == 2 ? 2.0 : 3.0, V = A * w, time = 2.5;
+    const double w = 1.5, A = D == 2 ? 2.0 : 3.0, V = A * w, time = 2.5;
     ASSERT_DOUBLE_EQ(t.slab_width(), w);
     ASSERT_DOUBLE_EQ(t.cross_section(), A);
     std::vector<SlabState> st(S);
