@@ -278,7 +278,9 @@ void SlabTransport::add_collision(const CollisionRecord& rec) {
     deposit(ki, 1.0);
     return;
   }
-  const double a = zi - std::floor(zi / width_) * width_;  // z_i above the lower face of its slab
+  // z_i above the lower face of slab ki (floor(z_i / w) differs from ki only by round-off at
+  // a plane: then the segment starts at the top of slab ki, not at the bottom of the next)
+  const double a = zi - reconcile(static_cast<long>(std::floor(zi / width_)), ki, S) * width_;
   const double len = std::abs(rz);
   const long n = d > 0 ? d : -d;
   for (long l = 0; l <= n; ++l) {
