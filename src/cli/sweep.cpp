@@ -724,8 +724,9 @@ int command_sweep(const SweepArgs& a) {
     std::ostringstream em;
     em << "| quantity | mean over " << read << " replicas | standard error | per-run stderr combined |\n|---|---|---|---|\n";
     Summary merged;
-    // a quantity's own error: `key.stderr` for a `key.mean` (temperature.stderr), else
-    // `key_stderr` (mode.decay_rate_stderr, profile.exponent_stderr, rotation.R_stderr)
+    // a quantity's own error: `key.stderr` for a `key.mean` (temperature.stderr), `key_stderr`
+    // for a `key_mean` (rotation.Ttr_stderr; until 2026-12-06 looked for as Ttr_mean_stderr, so
+    // its column was blank), else `key_stderr` (mode.decay_rate_stderr, rotation.R_stderr)
     auto ends_with = [](const std::string& c, const char* tail) {
       const std::size_t n = std::strlen(tail);
       return c.size() > n && c.compare(c.size() - n, n, tail) == 0;
@@ -758,7 +759,9 @@ int command_sweep(const SweepArgs& a) {
       // runs, sqrt(sum s_i^2)/R, for comparison with the scatter (before 2026-12-05: the mean
       // of the s_i over sqrt(R), low by Jensen's inequality, and blank for the `_stderr` keys)
       std::string own;
-      const std::string err_key = ends_with(c, ".mean") ? c.substr(0, c.size() - 5) + ".stderr" : c + "_stderr";
+      const std::string err_key = ends_with(c, ".mean")   ? c.substr(0, c.size() - 5) + ".stderr"
+                                  : ends_with(c, "_mean") ? c.substr(0, c.size() - 5) + "_stderr"
+                                                          : c + "_stderr";
       if (columns.count(err_key)) {
         double s2 = 0;
         int cnt = 0;

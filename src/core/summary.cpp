@@ -108,6 +108,9 @@ std::string Summary::to_json() const {
       const std::size_t dot = key.find('.', start);
       n = n->child(key.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
       if (dot == std::string::npos) break;
+      // a shorter key set earlier ("a" before "a.b"): emit would write its value and drop this
+      // key without a word (until 2026-12-06 only the other order was caught)
+      if (n->leaf) throw std::logic_error("summary key '" + key + "' collides with another key");
       start = dot + 1;
     }
     if (!n->children.empty() || n->leaf)
