@@ -50,6 +50,10 @@ std::string set_aside_checkpoints(const std::filesystem::path& dir);
 // prefixed by its length. Exposed so that processes that each hold a part of an array (MPI
 // ranks, src/dsmc/checkpoint.cpp) can continue it in turn: the bytes of a part go in
 // right after those of the part before it, which gives the sum of the whole array.
+// It starts from 1469598103934665603, not from FNV's published offset basis
+// 14695981039346656037 (a digit short): every checkpoint and every background.file_checksum
+// written so far is sealed from this start, so it stays (tests/core/test_checkpoint_file.cpp
+// pins it; a tool that recomputes a sum must start here).
 struct Fnv1a {
   std::uint64_t h = 1469598103934665603ull;
   void add(const void* data, std::size_t bytes);

@@ -316,6 +316,15 @@ bool may_change(const std::string& key) {
 
 }  // namespace
 
+std::vector<std::string> checkpoint_array_names(bool transport) {
+  Staging g;
+  RunState r;
+  r.transport_on = transport;
+  std::vector<std::string> names;
+  arrays_of(g, r).for_each([&](const std::string& n, const auto&) { names.push_back(n); });
+  return names;
+}
+
 void write_checkpoint(const fs::path& dir, const Engine& engine, const RunState& run, const RunContext& ctx) {
   const EngineState e = engine.state();
   Staging g = stage(e, run);

@@ -71,4 +71,9 @@ void write_checkpoint(const std::filesystem::path& dir, const Engine& engine, co
 bool read_newest_checkpoint(const std::filesystem::path& dir, const RunContext& ctx, Engine& engine, RunState& run,
                             std::string& warning, std::string* saved_collisions = nullptr);
 
+// The names of a checkpoint's arrays in list order (with the [transport] arrays or without):
+// the order of the file's checksum (core/checkpoint.hpp, Fnv1a), for tests that rewrite a
+// checkpoint and reseal it (tests/edmd/restart_test.cpp, tests/checkpoint_tamper.hpp).
+std::vector<std::string> checkpoint_array_names(bool transport);
+
 }  // namespace grainbath::edmd

@@ -522,6 +522,69 @@ TEST_F(OutputDir, KeptCheckpointsIncludeTheEndAndAnExtensionIsTheStraightRun) {
   EXPECT_EQ(read_text(out / "results.h5"), read_text(tmp / "straight" / "results.h5"));
 }
 
+// run.threads may change on --resume (a run continued on another machine or with other cores
+// free): a DSMC run's results do not depend on it (ResultsFileIsTheSameBytesAtOneAndTwoThreads),
+// so a run checkpointed at 1 thread and extended at 2 is the straight 2-thread run byte for
+// byte; an EDMD run resumes at another thread count too.
+TEST_F(OutputDir, ResumeAtAnotherThreadCountContinuesTheRun) {
+  const fs::path out = tmp / "out";
+  RunResult r = grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "run.threads=1",
+                           "--set", "checkpoint.keep=true"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  const std::vector<std::string> longer = {"--quiet", "--set", "run.threads=2", "--set", "checkpoint.keep=true", "--set",
+                                           "dsmc.t_end=0.3"};
+  std::vector<std::string> resume = {"run", case_dir().string(), "--out", out.string(), "--resume"};
+  resume.insert(resume.end(), longer.begin(), longer.end());
+  r = grainbath(resume);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming from step 20"), std::string::npos) << r.err;
+  std::vector<std::string> straight = {"run", case_dir().string(), "--out", (tmp / "straight").string()};
+  straight.insert(straight.end(), longer.begin(), longer.end());
+  r = grainbath(straight);
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_EQ(read_text(out / "results.h5"), read_text(tmp / "straight" / "results.h5"));
+
+  write_text(tmp / "edmd" / "case.toml", R"([run]
+solver = "edmd"
+[edmd]
+dimensions = 2
+particles = 400
+packing_fraction = 0.1
+equilibrate = 1
+collisions = 20
+[restitution]
+law = "constant"
+e = 0.9
+[checkpoint]
+keep = true
+)");
+  const fs::path edmd_out = tmp / "edmd-out";
+  r = grainbath({"run", (tmp / "edmd").string(), "--out", edmd_out.string(), "--quiet", "--set", "run.threads=1"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  r = grainbath({"run", (tmp / "edmd").string(), "--out", edmd_out.string(), "--quiet", "--set", "run.threads=2",
+                 "--set", "edmd.collisions=25", "--resume"});
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("resuming at 20 collisions per particle"), std::string::npos) << r.err;
+}
+
+// A checkpoint that cannot be written stops a one-process run with the reason (here the test
+// hook GRAINBATH_FAULT_CHECKPOINT_RANK=0 of src/dsmc/checkpoint.cpp), instead of a run that
+// goes on as if it had one; nothing is left in OUT.checkpoints, no output is written.
+TEST_F(OutputDir, ACheckpointThatCannotBeWrittenStopsTheRun) {
+  RunOptions opt;
+  opt.cwd = work();
+  opt.env = {{"GRAINBATH_FAULT_CHECKPOINT_RANK", "0"}};
+  const fs::path out = tmp / "out";
+  const RunResult r = run_binary(
+      {kBinary, "run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "checkpoint.every=0.1"}, opt);
+  EXPECT_TRUE(r.exited && r.code != 0 && r.code != 2) << r.describe();
+  EXPECT_NE(r.err.find("checkpoint-000000000010.h5.partial: write failed (GRAINBATH_FAULT_CHECKPOINT_RANK test hook)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_TRUE(!fs::exists(tmp / "out.checkpoints") || fs::is_empty(tmp / "out.checkpoints"));
+}
+
 // A run writing OUT holds a lock on its temporary's marker: a second run into the same OUT
 // meanwhile is refused before it touches anything (it set the first one's checkpoints aside
 // and pruned them; review 3), and the lock, not a process id, decides that the temporary is

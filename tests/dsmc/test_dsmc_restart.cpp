@@ -13,6 +13,7 @@
 #include "core/checkpoint.hpp"
 #include "dsmc/checkpoint.hpp"
 #include "support.hpp"
+#include "tests/checkpoint_tamper.hpp"
 
 using grainbath::testing::run_dsmc;
 namespace fs = std::filesystem;
@@ -504,4 +505,120 @@ TEST(DsmcRestart, CheckpointWithoutTheA3SeriesResumesWithA3FromLaterSamples) {
   EXPECT_NEAR(full.summary.number("a3.mean"), sum_full / n_full, 1e-12);
   EXPECT_NEAR(resumed.summary.number("a3.mean"), sum / n, 1e-12);
   fs::remove_all(ck);
+}
+
+// Checkpoints of the earlier scalar layouts (src/dsmc/checkpoint.cpp, unpack) resume bitwise:
+// 12 integers (before the bath halves were joined; such files were written with both halves
+// applied) and 13 (before the field batch segments: one segment, the whole window). Made
+// here from a checkpoint at a sample point (no half step owed, one segment) by cutting its
+// scalar integers to the earlier length and resealing it (tests/checkpoint_tamper.hpp).
+TEST(DsmcRestart, CheckpointsOfTheEarlierScalarLayoutsResumeBitwise) {
+  struct Layout {
+    std::string toml;
+    std::size_t integers;
+    std::string tag;
+  };
+  for (const Layout& l : {Layout{kHomogeneous, 12, "u12"}, Layout{std::string(kSpatialHead) + kSpatialRun, 13, "u13"}}) {
+    const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-" + l.tag + "-" + std::to_string(::getpid()));
+    fs::remove_all(ck);
+    const auto full = run_dsmc(l.toml, 21, 0, l.tag + "-full", ck);
+    auto files = checkpoint_files(ck);
+    ASSERT_EQ(files.size(), 2u);
+    fs::remove(files.back());
+    auto u = grainbath::testing::checkpoint_integers(files.front(), "scalars/integer");
+    ASSERT_GE(u.size(), 13u);
+    ASSERT_EQ(u[12], 0u) << l.tag << ": a half step owed, which no file of the earlier layout had";
+    if (l.integers == 13) {
+      ASSERT_EQ(u.size(), 17u) << "one field batch segment";
+    }
+    u.resize(l.integers);
+    grainbath::testing::rewrite_checkpoint_array(files.front(), grainbath::dsmc::checkpoint_array_names(),
+                                                 "scalars/integer", u);
+    const auto resumed = run_dsmc(l.toml, 21, 0, l.tag + "-resumed", ck, true);
+    EXPECT_EQ(file_bytes(full.dir / "results.h5"), file_bytes(resumed.dir / "results.h5")) << l.tag;
+    expect_same_physics(full.summary, resumed.summary);
+    fs::remove_all(ck);
+  }
+}
+
+// Field batch segments that do not tile the averaging window (their sample ranges must follow
+// each other from 0 to the window's end, their batches likewise: batch_of relies on it) are
+// refused, in a file that verifies (resealed): a partial segment, an empty one, one that
+// ends before the window does. --resume warns with the reason and finds no valid checkpoint.
+TEST(DsmcRestart, FieldBatchSegmentsThatDoNotTileTheWindowAreRefused) {
+  const std::string toml = std::string(kSpatialHead) + kSpatialRun;
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-ck-tiles-" + std::to_string(::getpid()));
+  const fs::path one = ck.string() + ".one";
+  fs::remove_all(ck);
+  run_dsmc(toml, 21, 0, "tiles-full", ck);
+  const fs::path good = checkpoint_files(ck).back();
+  const auto u = grainbath::testing::checkpoint_integers(good, "scalars/integer");
+  ASSERT_EQ(u.size(), 17u);  // 13 and one segment: [0, window) in all the batches
+  const std::uint64_t window = u[10], batches = u[8];
+  ASSERT_GT(window, 1u);
+  ASSERT_GT(batches, 1u);
+  ASSERT_EQ(std::vector<std::uint64_t>(u.begin() + 13, u.end()), (std::vector<std::uint64_t>{0, window, 0, batches}));
+  struct Damage {
+    const char* what;
+    const char* reason;
+    std::vector<std::uint64_t> integers;
+  };
+  auto with = [&](std::vector<std::uint64_t> tail) {
+    std::vector<std::uint64_t> v(u.begin(), u.begin() + 13);
+    v.insert(v.end(), tail.begin(), tail.end());
+    return v;
+  };
+  const std::vector<Damage> damages = {
+      {"half a segment more", "checkpoint: wrong scalar layout", with({0, window, 0, batches, 0, 0})},
+      {"an empty segment first", "checkpoint: field batch segments do not tile the window",
+       with({0, 0, 0, 1, 0, window, 1, batches - 1})},
+      {"a segment ending before the window", "checkpoint: field batch segments do not tile the window",
+       with({0, window - 1, 0, batches})}};
+  for (const Damage& d : damages) {
+    fs::remove_all(one);
+    fs::create_directories(one);
+    const fs::path copy = one / good.filename();
+    fs::copy_file(good, copy);
+    grainbath::testing::rewrite_checkpoint_array(copy, grainbath::dsmc::checkpoint_array_names(), "scalars/integer",
+                                                 d.integers);
+    std::string err;
+    testing::internal::CaptureStderr();
+    try {
+      run_dsmc(toml, 21, 0, "tiles-resumed", one, true);
+      ADD_FAILURE() << d.what << " was accepted";
+    } catch (const std::runtime_error& e) {
+      err = e.what();
+    }
+    err += testing::internal::GetCapturedStderr();
+    EXPECT_NE(err.find(std::string("is unreadable or corrupt (") + d.reason), std::string::npos) << d.what << ": " << err;
+    EXPECT_NE(err.find("--resume: no valid checkpoint"), std::string::npos) << d.what << ": " << err;
+  }
+  fs::remove_all(ck);
+  fs::remove_all(one);
+}
+
+// Open faces: grains leave the box, and the count of those removed and the energy they took
+// (RunCounters::removed, removed_energy: the energy balance of summary.json) are in the
+// checkpoint's scalars. The spatial case with its two x faces open continues bitwise.
+TEST(DsmcRestart, OpenFacesContinueBitwise) {
+  std::string toml = std::string(kSpatialHead) + kSpatialRun;
+  const std::string faces = R"(boundaries = ["periodic", "periodic", "diffuse", "specular"])";
+  toml.replace(toml.find(faces), faces.size(), R"(boundaries = ["open", "open", "diffuse", "specular"])");
+  check_exact_continuation(toml, "open");
+}
+
+// The power law clamped to e = 0 (1 - 0.5 v_n < 0 for v_n > 2: often, at T = 1.4 with a
+// drift): the count of clamped collisions (counters.restitution_clamped) is in the
+// checkpoint's scalars and continues bitwise.
+TEST(DsmcRestart, ClampedRestitutionCountContinuesBitwise) {
+  std::string toml = kHomogeneous;
+  const std::string law = "beta = 0.15\ndelta = 0.2\n";
+  toml.replace(toml.find(law), law.size(), "beta = 0.5\ndelta = 1.0\n");
+  testing::internal::CaptureStderr();  // the run warns of the clamping
+  const double clamped = run_dsmc(toml, 21, 0, "clamp-probe").summary.number("counters.restitution_clamped");
+  testing::internal::GetCapturedStderr();
+  ASSERT_GT(clamped, 0.0);
+  testing::internal::CaptureStderr();
+  check_exact_continuation(toml, "clamp");
+  testing::internal::GetCapturedStderr();
 }

@@ -15,6 +15,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <atomic>
+#include <functional>
+#include <type_traits>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -24,7 +26,9 @@
 #include "core/case_file.hpp"
 #include "core/run_context.hpp"
 #include "core/summary.hpp"
+#include "edmd/checkpoint.hpp"
 #include "edmd/edmd.hpp"
+#include "tests/checkpoint_tamper.hpp"
 
 namespace fs = std::filesystem;
 using namespace grainbath;
@@ -482,7 +486,7 @@ TEST(EdmdRestart, OldCounterLayoutWithLossyWallsIsRefused) {
   }
   const auto files = checkpoints(ck);
   ASSERT_EQ(files.size(), 2u);
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   std::string message;
   try {
     run_edmd(kWallsAndMedium, "oldwalls-resumed", ck, true);
@@ -490,7 +494,7 @@ TEST(EdmdRestart, OldCounterLayoutWithLossyWallsIsRefused) {
   } catch (const std::invalid_argument& e) {  // bad input: the CLI keeps the checkpoints
     message = e.what();
   }
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   // the newest file, named, refused for what it is: not reported as corrupt, no fall-back
   EXPECT_EQ(message.rfind(files.back().string(), 0), 0u) << message;
   EXPECT_NE(message.find("static-wall losses had their own counter"), std::string::npos) << message;
@@ -507,9 +511,9 @@ TEST(EdmdRestart, CorruptNewestCheckpointFallsBackToPrevious) {
   auto files = checkpoints(ck);
   ASSERT_EQ(files.size(), 2u);
   fs::resize_file(files.back(), fs::file_size(files.back()) / 2);  // truncated half-way
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   const EdmdRun resumed = run_edmd(kHeatedSpheres, "corrupt-resumed", ck, true);
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("corrupt"), std::string::npos) << err;
   EXPECT_NE(err.find(files.back().filename().string()), std::string::npos) << err;
   expect_same(full, resumed);
@@ -543,9 +547,9 @@ TEST(EdmdRestart, FlippedBitIsCaughtByTheChecksum) {
     io.seekp(static_cast<std::streamoff>(offset + 8 * 1000 + 3));
     io.write(&b, 1);
   }
-  testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStderr();
   const EdmdRun resumed = run_edmd(kWallsAndMedium, "flip-resumed", ck, true);
-  const std::string err = testing::internal::GetCapturedStderr();
+  const std::string err = ::testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("checksum mismatch"), std::string::npos) << err;
   expect_same(full, resumed);
   fs::remove_all(ck);
@@ -578,6 +582,18 @@ TEST(EdmdRestart, ChangedCaseIsRefused) {
     FAIL() << "a changed case was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("heating.acceleration"), std::string::npos) << e.what();
+  }
+  // the equilibration's length may not change: the measuring collisions count from its end
+  // (a run resumed in its measurements would have measured from another point)
+  other = kAirTable;
+  other.replace(other.find("equilibrate = 20"), 16, "equilibrate = 30");
+  try {
+    run_edmd(other, "changed-equilibrate", ck, true);
+    FAIL() << "a changed edmd.equilibrate was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("the case changed since the checkpoint: edmd.equilibrate was "),
+              std::string::npos)
+        << e.what();
   }
   // a section added or removed is a changed case too (the transport arrays exist only with
   // [transport]): named as such, not reported as corrupt checkpoints
@@ -696,4 +712,131 @@ TEST(EdmdRestart, KeepAloneKeepsTheLastRebuildPointAndTheExtensionIsExact) {
   expect_same_summary_but_momentum_rounding(straight, extended);
   fs::remove_all(ck);
   for (const auto* r : {&shorter, &extended, &straight}) fs::remove_all(r->dir);
+}
+
+// A checkpoint whose arrays verify (the checksum made to match) but do not fit the case or
+// each other: a file of another build, or of a faulty writer. The load checks of
+// src/edmd/checkpoint.cpp, SlabTransport::load and Engine::restore refuse it: --resume warns
+// with the reason and, this being the only checkpoint, finds none valid
+// (docs/reviews/mutation-audit-checkpoints.md). Each damage is one array changed in a copy of
+// a good checkpoint (which resumes, checked first).
+namespace {
+struct Damage {
+  const char* what;    // the array changed and how
+  const char* reason;  // what the warning must say
+  std::function<void(const fs::path& file, const std::vector<std::string>& names)> apply;
+};
+
+template <class T>
+std::function<void(const fs::path&, const std::vector<std::string>&)> edit(
+    const std::string& name, std::function<void(std::vector<T>&)> change) {
+  return [name, change](const fs::path& file, const std::vector<std::string>& names) {
+    std::vector<T> v;
+    if constexpr (std::is_same_v<T, double>)
+      v = grainbath::testing::checkpoint_doubles(file, name);
+    else
+      v = grainbath::testing::checkpoint_integers(file, name);
+    change(v);
+    grainbath::testing::rewrite_checkpoint_array(file, names, name, v);
+  };
+}
+
+// Runs `toml` with checkpoints, then for each damage resumes from a damaged copy of one of
+// the two checkpoints kept (`newest`, else the older).
+void expect_damage_refused(const char* toml, const std::string& tag, bool transport, bool newest,
+                           const std::vector<Damage>& damages) {
+  const fs::path ck = fs::temp_directory_path() / ("grainbath-edmd-ck-damage-" + tag + "-" + std::to_string(::getpid()));
+  const fs::path one = ck.string() + ".one";
+  fs::remove_all(ck);
+  const EdmdRun full = run_edmd(toml, "damage-" + tag + "-full", ck, false);
+  const auto files = checkpoints(ck);
+  ASSERT_EQ(files.size(), 2u);
+  const fs::path good = newest ? files.back() : files.front();
+  const auto names = edmd::checkpoint_array_names(transport);
+  double engine_seconds = 0.0;  // performance.engine_seconds of the last run resumed
+  auto resume_from = [&](const std::function<void(const fs::path&)>& damage, std::string& err) {
+    fs::remove_all(one);
+    fs::create_directories(one);
+    const fs::path copy = one / good.filename();
+    fs::copy_file(good, copy);
+    damage(copy);
+    ::testing::internal::CaptureStderr();
+    bool resumed = false;
+    try {
+      engine_seconds =
+          run_edmd(toml, "damage-" + tag + "-resumed", one, true).summary.number("performance.engine_seconds");
+      resumed = true;
+    } catch (const std::runtime_error& e) {
+      err = e.what();
+    }
+    err += ::testing::internal::GetCapturedStderr();
+    return resumed;
+  };
+  std::string err;
+  // resealed, with the event loop's wall time so far (performance only, but carried over) set
+  // to 10^6 s: resumes, and goes on from there (the damage below is all that differs)
+  const auto slow = edit<double>("run/scalars_real", [](auto& v) { v.at(9) = 1e6; });
+  EXPECT_TRUE(resume_from([&](const fs::path& f) { slow(f, names); }, err)) << err;
+  EXPECT_GE(engine_seconds, 1e6) << "performance.engine_seconds did not go on from the checkpoint's";
+  for (const Damage& d : damages) {
+    err.clear();
+    EXPECT_FALSE(resume_from([&](const fs::path& f) { d.apply(f, names); }, err)) << d.what << " was accepted";
+    EXPECT_NE(err.find(std::string("is unreadable or corrupt (") + d.reason), std::string::npos)
+        << d.what << ": " << err;
+    EXPECT_NE(err.find("--resume: no valid checkpoint"), std::string::npos) << d.what << ": " << err;
+  }
+  fs::remove_all(ck);
+  fs::remove_all(one);
+  fs::remove_all(full.dir);
+}
+}  // namespace
+
+TEST(EdmdRestart, ArraysThatDoNotFitTheCaseAreRefusedThoughTheChecksumMatches) {
+  using U = std::uint64_t;
+  expect_damage_refused(
+      kDrivingWallsProfiles, "profiles", false, true,
+      {{"11 integer counters -> 10", "wrong counter layout", edit<U>("counters/engine/integer", [](auto& v) { v.pop_back(); })},
+       {"14 real counters -> 15", "wrong counter layout", edit<double>("counters/engine/real", [](auto& v) { v.push_back(0.0); })},
+       {"3N positions -> 3N + 1", "vector array of odd length",
+        edit<double>("engine/positions", [](auto& v) { v.push_back(0.5); })},
+       {"phase 7", "unknown phase", edit<U>("run/scalars_integer", [](auto& v) { v[0] = 7; })},
+       {"one value too many in the profile blocks", "profile arrays do not match the case's slabs",
+        edit<double>("profiles/blocks", [](auto& v) { v.push_back(0.0); })},
+       {"one slab velocity histogram bin too many", "velocity histograms do not match the case's slabs",
+        edit<double>("profiles/tails/counts", [](auto& v) { v.push_back(0.0); })},
+       {"one pair-correlation count too many", "pair-statistics bins differ from the case",
+        edit<double>("pairs/corr_counts", [](auto& v) { v.push_back(0.0); })}});
+}
+
+TEST(EdmdRestart, AirTablePairIdsBeyondThirtyTwoBitsAreRefused) {
+  expect_damage_refused(kAirTable, "air", false, true,
+                        {{"pair id 2^32", "air-table pair id out of range",
+                          edit<std::uint64_t>("engine/air_table_pairs", [](auto& v) { v[0] = 1ull << 32; })}});
+}
+
+TEST(EdmdRestart, TransportArraysThatDoNotFitTheCaseAreRefused) {
+  using U = std::uint64_t;
+  // 12 slabs: a block row is 1 + 12 * (23 + 7) values
+  const std::size_t row = 1 + 12 * (edmd::SlabTransport::kSlab + edmd::SlabTransport::kPlane);
+  expect_damage_refused(
+      kTransportTent, "transport", true, true,
+      {{"block intervals 0", "transport checkpoint: block interval counts out of range",
+        edit<U>("transport/counts", [](auto& v) { v[0] = 0, v[1] = 0; })},
+       {"a tracked slab = 12 of 12", "transport checkpoint: a tracked slab is out of range",
+        edit<U>("transport/slab_of_particle", [](auto& v) { v[5] = 12; })},
+       {"one tracked slab too many", "transport checkpoint: tracked slabs do not have one entry per particle",
+        edit<U>("transport/slab_of_particle", [](auto& v) { v.push_back(0); })},
+       {"64 closed blocks", "transport checkpoint: block arrays do not match",
+        [row](const fs::path& f, const std::vector<std::string>& names) {
+          auto counts = grainbath::testing::checkpoint_integers(f, "transport/counts");
+          counts[2] = 2 * edmd::SlabTransport::kMaxBlocks;
+          grainbath::testing::rewrite_checkpoint_array(f, names, "transport/counts", counts);
+          grainbath::testing::rewrite_checkpoint_array(f, names, "transport/blocks",
+                                                       std::vector<double>(counts[2] * row, 0.0));
+        }}});
+  // from the equilibration (40 of 50 collisions per particle): no stored slab contents yet
+  expect_damage_refused(kTransportFromEquilibration, "transport-eq", true, false,
+                        {{"stored contents in the equilibration",
+                          "transport checkpoint: stored slab contents before the measurements began",
+                          edit<double>("transport/stored", [](auto& v) { v.assign(36, 0.0); })}});
 }
