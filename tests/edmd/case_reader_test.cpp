@@ -68,7 +68,10 @@ TEST(EdmdCaseReader, ChecksBetweenKeysNameTheKeyTheyConcern) {
       {"[walls]\ndirections = [\"x\", \"x\"]\n", "walls.directions", "direction x given twice"},
       {"[walls]\ndirections = [\"x\"]\ndriving_speed = 1.0\ndriving_speed_high = 2.0\n", "walls.driving_speed",
        "give either driving_speed (both walls) or driving_speed_low/_high, not both"},
-      {"[walls]\ndriving_speed_low = 1.0\n", "walls.driving_speed", "need exactly one wall direction"},
+      // the key the case gives, with its line (until 2026-12-06: walls.driving_speed, no line)
+      {"[walls]\ndriving_speed_low = 1.0\n", "walls.driving_speed_low", "need exactly one wall direction"},
+      {"[walls]\ndirections = [\"x\", \"y\"]\nrestitution_high = 0.9\n", "walls.restitution_high",
+       "driving walls (or per-wall restitution) need exactly one wall direction in [walls] directions, found 2"},
       // equal to restitution: no per-wall driving, so no wall to apply it to
       {"[walls]\nrestitution_low = 1.0\n", "walls.restitution_low", "there are no walls to apply it to"},
       {"aspect = [2.0]\n", "edmd.aspect", "expected an array of 2"},
@@ -99,6 +102,9 @@ TEST(EdmdCaseReader, ChecksBetweenKeysNameTheKeyTheyConcern) {
     EXPECT_NE(all.find(": " + t.key + ": "), std::string::npos) << all;
     EXPECT_NE(all.find(t.what), std::string::npos) << all;
   }
+  // (the line of the key given: [walls] is line 5 after kBase's four)
+  const std::string high = problems(kBase + "[walls]\ndirections = [\"x\", \"y\"]\nrestitution_high = 0.9\n");
+  EXPECT_NE(high.find("t.toml:7: walls.restitution_high: driving walls"), std::string::npos) << high;
 }
 
 TEST(EdmdCaseReader, ABoxEdgeBelowThreeDiametersBlamesTheKeyThatMadeIt) {
