@@ -66,6 +66,8 @@ TEST(CaseText, LiteralStringsKeepBackslashesAndQuotes) {
 
 TEST(CaseText, MultiLineBasicStringsKeepInnerQuotesAndLineEndingBackslashes) {
   EXPECT_EQ(string_of("[s]\nv = \"\"\"a\"\"b\"\"\"\n"), "a\"\"b");
+  // (two quotes do not close it: UTF-8 after them is still inside the string)
+  EXPECT_EQ(string_of("[s]\nv = \"\"\"a\"\"\xC3\xA9\"\"\"\n"), "a\"\"\xC3\xA9");
   // a backslash at a line end joins the lines (TOML), and the line count stays right after it
   EXPECT_EQ(string_of("[s]\nv = \"\"\"a \\\n    b\"\"\"\n"), "a b");
   const auto after = problems_of("[s]\nv = \"\"\"a \\\n    b\"\"\"\nw = 1 2\n");
