@@ -176,10 +176,20 @@ Config read_config(CaseReader& r) {
       r.problem("walls", "driving_speed", "give either driving_speed (both walls) or driving_speed_low/_high, not both");
   }
   const int n_wall_dirs = static_cast<int>(c.walls[0]) + c.walls[1] + c.walls[2];
-  if (c.driving_walls() && n_wall_dirs != 1)
-    r.problem("walls", "driving_speed",
+  if (c.driving_walls() && n_wall_dirs != 1) {
+    // named by a key the case gives, with its line: a per-wall restitution alone also makes
+    // driving walls (until 2026-12-06 the error named walls.driving_speed, without a line,
+    // whichever key it was; mutation audit of the EDMD reader)
+    const char* key = "driving_speed";
+    for (const char* k : {"driving_speed", "driving_speed_low", "driving_speed_high", "restitution_low", "restitution_high"})
+      if (r.has("walls", k)) {
+        key = k;
+        break;
+      }
+    r.problem("walls", key,
               "driving walls (or per-wall restitution) need exactly one wall direction in [walls] directions, found " +
                   std::to_string(n_wall_dirs));
+  }
   if (n_wall_dirs == 0 && !c.driving_walls())  // (driving walls without a direction: the error above)
     for (const char* key : {"restitution", "restitution_low", "restitution_high", "driving_speed", "driving_speed_low",
                             "driving_speed_high"})

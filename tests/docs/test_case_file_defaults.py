@@ -146,6 +146,18 @@ RUNS = [
     ("edmd-shear", "edmd", 2, '[run]\nsolver = "edmd"\n[edmd]\ndimensions = 2\nparticles = 400\n'
      'packing_fraction = 0.2\nequilibrate = 1\ncollisions = 2\n[restitution]\nlaw = "constant"\ne = 0.9\n'
      '[heating]\nmodel = "air_table"\nacceleration = 1.0\nprofile = "shear"\n[transport]\n'),
+    # the defaults that are rules of other keys, each where it gives another value than the
+    # plain default (mutation audit of the EDMD reader): the power law's contact time, the
+    # per-wall keys after the both-walls keys, the slab axis after a wall in y, the biased
+    # component after axis = "x"
+    ("edmd-power", "edmd", 2, '[run]\nsolver = "edmd"\n[edmd]\ndimensions = 2\nparticles = 100\n'
+     'packing_fraction = 0.2\nequilibrate = 1\ncollisions = 2\n[restitution]\nlaw = "power"\nbeta = 0.05\n'),
+    ("edmd-driven-walls", "edmd", 2, '[run]\nsolver = "edmd"\n[edmd]\ndimensions = 2\nparticles = 100\n'
+     'packing_fraction = 0.2\nequilibrate = 1\ncollisions = 2\n[restitution]\nlaw = "constant"\ne = 0.9\n'
+     '[walls]\ndirections = ["y"]\nrestitution = 0.9\ndriving_speed = 0.5\n[profiles]\n'),
+    ("edmd-shear-x", "edmd", 2, '[run]\nsolver = "edmd"\n[edmd]\ndimensions = 2\nparticles = 400\n'
+     'packing_fraction = 0.2\nequilibrate = 1\ncollisions = 2\n[restitution]\nlaw = "constant"\ne = 0.9\n'
+     '[heating]\nmodel = "air_table"\nacceleration = 1.0\nprofile = "shear"\naxis = "x"\n'),
     ("edmd-walton", "edmd", 2, '[run]\nsolver = "edmd"\n[edmd]\ndimensions = 2\nparticles = 100\n'
      'packing_fraction = 0.2\nequilibrate = 1\ncollisions = 2\n[restitution]\nlaw = "walton"\ne = 0.9\nbeta0 = 0.5\n'),
 ]
