@@ -438,13 +438,16 @@ PlateauVerdict judge_plateau(const std::vector<BlockLevel>& levels, double n, do
 MeanError block_average(const std::vector<double>& series) {
   MeanError r;
   r.samples = series.size();
-  if (series.empty()) return {NAN, NAN, 0};
+  // fewer than 2 samples: no error, and so nothing to judge (no `*_plateau` flag is written:
+  // a flag true beside a null error said a plateau was reached, 2026-12-07)
+  if (series.empty()) return {NAN, NAN, 0, false, false};
   std::vector<double> x = series;
   double sum = 0;
   for (double v : x) sum += v;
   r.mean = sum / x.size();
   if (x.size() < 2) {
     r.stderr_ = NAN;
+    r.plateau = r.plateau_judged = false;
     return r;
   }
   double best = 0.0, first = -1.0;

@@ -264,7 +264,14 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
   const double span = clock_w.empty() ? 0.0 : clock_w.back() - clock_w.front();
   std::string unchecked;  // the errors too short to judge: one note for all, after the last
   std::size_t unchecked_samples = 0;
+  std::string no_error;  // fewer than 2 samples in the window: no error at all (null)
+  std::size_t no_error_samples = 0;
   auto warn_no_plateau = [&](const char* key, const MeanError& e) {
+    if (e.samples < 2) {
+      no_error += (no_error.empty() ? "" : ", ") + std::string(key);
+      no_error_samples = e.samples;
+      return;
+    }
     if (e.plateau || !std::isfinite(e.stderr_)) return;
     if (!e.plateau_judged) {  // too few samples to tell: a note, and no flag in summary.json
       unchecked += (unchecked.empty() ? "" : ", ") + std::string(key);
@@ -281,6 +288,13 @@ void write_results(const Config& c, const RunContext& ctx, const State& s, const
                  key, e.stderr_, e.samples, span, key);
   };
   auto note_unchecked = [&] {
+    if (!no_error.empty())
+      std::fprintf(stderr,
+                   "note: %s: the window holds %zu sample%s: no error bar (sampling.every = %.6g, the window "
+                   "t_end - steady_from = %.6g); a sampling.every of at most a sixteenth of the window gives a "
+                   "blocked error, replicas give one without: grainbath sweep CASE --set run.seed=1,2,...,8\n",
+                   no_error.c_str(), no_error_samples, no_error_samples == 1 ? "" : "s",
+                   c.sample_every, c.t_end - c.steady_from);
     if (unchecked.empty()) return;
     std::fprintf(stderr,
                  "note: %s: the window holds %zu samples, too few to check the blocking for a plateau (about 91 "

@@ -912,7 +912,16 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // the run's table marks them "(few samples: unchecked)", as the DSMC's
   std::string unchecked;
   std::size_t unchecked_samples = 0;
+  // errors that cannot be given at all (fewer than 2 samples in the window: a measurement no
+  // longer than one sampling interval, e.g. the default interval of 1 collision per grain in
+  // a shorter run): said in one note, as summary.json holds null for them
+  std::string no_error;
+  std::size_t no_error_samples = 0;
   auto flag_plateau = [&](const std::string& key, const MeanError& e) {
+    if (e.samples < 2) {
+      no_error += (no_error.empty() ? "" : ", ") + key;
+      no_error_samples = e.samples;
+    }
     if (!e.plateau_judged && std::isfinite(e.stderr_) && e.samples > 1) {
       unchecked += (unchecked.empty() ? "" : ", ") + key;
       unchecked_samples = e.samples;
@@ -1260,6 +1269,15 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
                  "sampling.interval or more edmd.collisions give more samples; replicas give an error that "
                  "assumes nothing: grainbath sweep CASE --set run.seed=1,2,...,8\n",
                  unchecked.c_str(), unchecked_samples);
+
+  if (!no_error.empty())
+    std::fprintf(stderr,
+                 "note: %s: the window holds %zu sample%s: no error bar (sampling.interval = %s, the measurement "
+                 "edmd.collisions = %s, both collisions per particle); a sampling.interval of at most collisions/16 "
+                 "gives a blocked error, replicas give one without: grainbath sweep CASE --set "
+                 "run.seed=1,2,...,8\n",
+                 no_error.c_str(), no_error_samples, no_error_samples == 1 ? "" : "s",
+                 format_real(c.sample_interval).c_str(), format_real(c.collisions).c_str());
 
   // ---- results.h5 ----------------------------------------------------------------------
   H5File h5((ctx.out_dir / "results.h5").string(), H5File::Mode::create);

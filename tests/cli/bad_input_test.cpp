@@ -1623,3 +1623,58 @@ TEST_F(BadInput, EdmdRunTableComparesOnlyWithTheTheoriesOfThisRun) {
     EXPECT_GT(summary_number(json, "loss", "gamma"), 0.0) << json;
   }
 }
+
+// A measurement no longer than one sampling interval holds one sample: its means are written,
+// their errors are null in summary.json, and a note says why (the default interval of 1
+// collision per grain in a shorter run was silent before 2026-12-07; an interval set
+// explicitly longer than the measurement is refused, BadInput.EdmdOutOfRange*). With two
+// intervals in the window there are errors and no such note.
+TEST_F(BadInput, EdmdWindowOfOneSampleSaysItHasNoErrorBar) {
+  auto run = [&](const std::string& name, Case c) {
+    write_text(case_file(), c.text());
+    const fs::path out = tmp / name;
+    auto r = grainbath({"run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"});
+    EXPECT_EQ(r.code, 0) << r.describe();
+    return std::pair{r.err, read_text(out / "summary.json")};
+  };
+  Case one = edmd_case();
+  one.set("edmd", "collisions", "0.5");  // sampling.interval: its default, 1
+  {
+    const auto [err, json] = run("one-sample", one);
+    EXPECT_NE(err.find("note: pressure.Z_stderr, pressure.P_stderr, temperature.stderr: the window holds 1 sample: "
+                       "no error bar (sampling.interval = 1.0, the measurement edmd.collisions = 0.5, both "
+                       "collisions per particle)"),
+              std::string::npos)
+        << err;
+    EXPECT_TRUE(std::isfinite(summary_number(json, "temperature", "mean"))) << json;
+    EXPECT_NE(json.find("\"stderr\": null"), std::string::npos) << json;
+  }
+  Case two = one;
+  two.set("sampling", "interval", "0.25");
+  {
+    const auto [err, json] = run("two-samples", two);
+    EXPECT_EQ(err.find("no error bar"), std::string::npos) << err;
+    EXPECT_GT(summary_number(json, "temperature", "stderr"), 0.0) << json;
+  }
+}
+
+// The same for the DSMC: the default sampling.every (10 dt = 0.1) in a window of 0.05 leaves
+// one sample (t = 0.2); summary.json holds null errors and no plateau flag beside them (it
+// said `stderr_plateau: true` before 2026-12-07).
+TEST_F(BadInput, DsmcWindowOfOneSampleSaysItHasNoErrorBar) {
+  Case c = dsmc_case();
+  c.erase("sampling", "every");
+  c.set("sampling", "steady_from", "0.15");
+  write_text(case_file(), c.text());
+  const fs::path out = tmp / "one-sample";
+  auto r = grainbath({"run", case_dir().string(), "--out", out.string(), "--set", "run.threads=1"});
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("note: temperature.stderr, a2.stderr, a3.stderr: the window holds 1 sample: no error bar "
+                       "(sampling.every = 0.1, the window t_end - steady_from = 0.05)"),
+            std::string::npos)
+      << r.err;
+  const std::string json = read_text(out / "summary.json");
+  EXPECT_TRUE(std::isfinite(summary_number(json, "temperature", "mean"))) << json;
+  EXPECT_NE(json.find("\"stderr\": null"), std::string::npos) << json;
+  EXPECT_EQ(json.find("stderr_plateau"), std::string::npos) << json;
+}

@@ -47,6 +47,10 @@ print("     %s: at most %d of %d grains on one rank; %d migrations, at most %d r
       % (sys.argv[2], p["rank_peak_particles"], n, p["migrants"], p["migration_max_hops"]))
 if not p["rank_peak_particles"] < n:
     print("FAIL %s: a rank held the whole population (the start is not distributed)" % sys.argv[2]); sys.exit(1)
+# the load imbalance is the heaviest rank's share over the mean share (docs/OUTPUT.md): never
+# below 1 (it read 0.5 with 2 ranks when the factor of the rank count was dropped)
+if not p["rank_load_imbalance"] >= 1.0:
+    print("FAIL %s: rank_load_imbalance = %g < 1" % (sys.argv[2], p["rank_load_imbalance"])); sys.exit(1)
 PY
 }
 
