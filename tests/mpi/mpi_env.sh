@@ -41,3 +41,15 @@ mpi() {
 }
 # fresh_work_dir DIR: an empty work directory for the test (what a previous run left is removed)
 fresh_work_dir() { rm -rf "$1"; mkdir -p "$1"; }
+# same_results REF OTHER LABEL: the two runs' results.h5 identical (h5diff, exact; /parameters
+# left out: run.threads may differ) and their summary.json numbers identical (same_summary.py,
+# performance.* left out). A difference is printed and sets fail=1; $work holds the log.
+same_results() {
+  if ! h5diff --exclude-path /parameters "$1/results.h5" "$2/results.h5" > "$work/h5diff.log" 2>&1; then
+    echo "FAIL $3: results.h5 differs from the plain run:"; head -20 "$work/h5diff.log"; fail=1; return 0
+  fi
+  if ! python3 "$(dirname "${BASH_SOURCE[0]}")/../same_summary.py" "$1/summary.json" "$2/summary.json"; then
+    echo "FAIL $3: summary.json numbers differ"; fail=1; return 0
+  fi
+  echo "ok   $3: bitwise identical to the plain run"
+}

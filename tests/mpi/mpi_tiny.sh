@@ -60,10 +60,17 @@ PY
 refills() {  # refills OUT LABEL: some rank held grains again after holding none
   python3 - "$work/$1/summary.json" "$2" <<'PY' || fail=1
 import json, sys
-r = json.load(open(sys.argv[1]))["performance"]["rank_refills"]
-print("     %s: a rank received grains again %d time(s) after holding none" % (sys.argv[2], r))
+p = json.load(open(sys.argv[1]))["performance"]
+r, e = p["rank_refills"], p["rank_empty_steps"]
+print("     %s: a rank received grains again %d time(s) after holding none (%d steps without)" % (sys.argv[2], r, e))
 if r < 1:
     print("FAIL %s: expected a rank to hold grains again after holding none: the test does not test it" % sys.argv[2])
+    sys.exit(1)
+# every refill follows a step without grains on that rank, so no rank refills more often than
+# the most steps any rank spent empty (a refill counted at every step with grains passed
+# every test: mutation audit of the decomposition, D39)
+if r > e:
+    print("FAIL %s: %d refills but at most %d steps without grains on a rank" % (sys.argv[2], r, e))
     sys.exit(1)
 PY
 }
