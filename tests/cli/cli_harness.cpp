@@ -68,6 +68,10 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       if (::setrlimit(RLIMIT_AS, &rl) != 0) ::_exit(122);
     }
     for (const auto& [name, value] : opt.env) ::setenv(name.c_str(), value.c_str(), 1);
+    // the stop signals at their defaults whatever the test was started with (a background job
+    // of a non-interactive shell ignores SIGINT, and grainbath keeps an ignored signal ignored),
+    // then those the test wants ignored
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) ::signal(sig, SIG_DFL);
     for (const int sig : opt.ignored_signals) ::signal(sig, SIG_IGN);  // inherited across exec
     ::execv(argv[0], argv.data());
     ::_exit(127);
