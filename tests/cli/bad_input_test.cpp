@@ -825,6 +825,11 @@ TEST_F(BadInput, OutOfMemoryIsSaidInWords) {
   EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
   EXPECT_NE(r.err.find("error: out of memory (std::bad_alloc): the case needs more memory"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("dsmc.particles"), std::string::npos) << r.err;
+  // and where to read what a grain costs (the figures of docs/PERFORMANCE.md)
+  EXPECT_NE(r.err.find("docs/PERFORMANCE.md gives the memory per particle (DSMC about 56 bytes, EDMD about 400 bytes "
+                       "per disk)"),
+            std::string::npos)
+      << r.err;
   EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 

@@ -68,6 +68,11 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       if (::setrlimit(RLIMIT_AS, &rl) != 0) ::_exit(122);
     }
     for (const auto& [name, value] : opt.env) ::setenv(name.c_str(), value.c_str(), 1);
+    // the stop signals at their defaults whatever the test was started with (a background job
+    // of a non-interactive shell ignores SIGINT, and grainbath keeps an ignored signal ignored),
+    // then those the test wants ignored
+    for (const int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1, SIGXCPU}) ::signal(sig, SIG_DFL);
+    for (const int sig : opt.ignored_signals) ::signal(sig, SIG_IGN);  // inherited across exec
     ::execv(argv[0], argv.data());
     ::_exit(127);
   }
@@ -77,6 +82,11 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
   pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
   std::string* sinks[2] = {&r.out, &r.err};
   int open_fds = 2;
+  if (opt.close_stdout) {  // the child's writes to stdout then fail (EPIPE, or SIGPIPE unless ignored)
+    ::close(out_pipe[0]);
+    fds[0].fd = -1;
+    --open_fds;
+  }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(opt.timeout_s);
   bool sent = false, sent_again = false;
   std::optional<std::chrono::steady_clock::time_point> send_at;

@@ -47,6 +47,8 @@ struct RunOptions {
   fs::path send_when_exists;              // if set too: and once this path exists (a quiet process)
   std::string send_again_when;            // if set: the same signal once more when stderr contains it
   std::vector<std::pair<std::string, std::string>> env;  // extra environment variables
+  std::vector<int> ignored_signals;       // ignored in the child from the start, as nohup ignores SIGHUP
+  bool close_stdout = false;              // the child's stdout a pipe nobody reads (`| head` after its lines)
 };
 
 RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt);

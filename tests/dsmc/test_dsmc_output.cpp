@@ -11,9 +11,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <memory>
 #include <numbers>
 #include <random>
+#include <regex>
+#include <sstream>
 #include <string>
 #include <variant>
 #include <vector>
@@ -675,4 +679,175 @@ mode_fit_to = 1.5
   EXPECT_TRUE(near_rel(x.summary.number("mode.decay_rate_stderr"), f.rate_stderr, 1e-12));
   EXPECT_EQ(std::get<std::int64_t>(*x.summary.get("mode.fit_points")), 31);
   EXPECT_DOUBLE_EQ(x.summary.number("mode.initial_amplitude"), ts.mode_amplitude.front());
+}
+
+// ---- fields.xdmf (docs/OUTPUT.md "Cell fields"; the h5/XDMF/commands mutation audit,
+// docs/reviews/mutation-audit-h5-xdmf-commands.md): read back as XML by the test, each number
+// checked against the case and each data item against the dataset of results.h5 it names.
+namespace {
+
+// name -> value of the XML attributes in a tag's text (`a="x" b="y"`)
+std::map<std::string, std::string> xml_attributes(const std::string& tag) {
+  std::map<std::string, std::string> out;
+  static const std::regex attr(R"re(([A-Za-z_]+)="([^"]*)")re");
+  for (auto it = std::sregex_iterator(tag.begin(), tag.end(), attr); it != std::sregex_iterator(); ++it)
+    out[(*it)[1]] = (*it)[2];
+  return out;
+}
+
+std::string whole_file(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+std::vector<double> numbers(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<double> v;
+  for (double x; in >> x;) v.push_back(x);
+  return v;
+}
+
+// The elements of an XML text balance (every opened element closed in order); "" or what is wrong.
+std::string unbalanced(const std::string& xml) {
+  static const std::regex tag(R"(<(/?)([A-Za-z_][A-Za-z0-9_]*)[^>]*?(/?)>)");
+  std::vector<std::string> open;
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), tag); it != std::sregex_iterator(); ++it) {
+    const std::string name = (*it)[2];
+    if ((*it)[3] == "/") continue;  // <X/>
+    if ((*it)[1] == "/") {
+      if (open.empty() || open.back() != name) return "</" + name + "> closes " + (open.empty() ? "nothing" : open.back());
+      open.pop_back();
+    } else {
+      open.push_back(name);
+    }
+  }
+  return open.empty() ? "" : "<" + open.back() + "> never closed";
+}
+
+// A spatial run's fields written from a field accumulator with one grain visit per cell and
+// sample (the XDMF does not depend on the values).
+struct XdmfRun : Synthetic {
+  explicit XdmfRun(const std::string& toml, const std::string& tag) : Synthetic(toml, tag) {
+    dsmc::FieldAccumulator& fa = s.fields;
+    constexpr int K = dsmc::FieldAccumulator::kSums;
+    fa.batches = 2;
+    fa.cells = static_cast<int>(c.domain.cell_count());
+    fa.sums.assign(static_cast<std::size_t>(fa.batches) * fa.cells * K, 0.0);
+    for (std::size_t k = 0; k < fa.sums.size(); k += K) fa.sums[k] = 2.0;
+    fa.batch_samples.assign(fa.batches, 2);
+    fa.taken = 4;
+    fa.window_samples = 4;
+    series(21, 20.0);
+  }
+};
+
+// Checks OUT/fields.xdmf of a run of `c` against docs/OUTPUT.md and results.h5.
+void check_xdmf(const XdmfRun& x) {
+  const dsmc::Domain& d = x.c.domain;
+  const std::string xml = whole_file(x.dir / "fields.xdmf");
+  EXPECT_EQ(unbalanced(xml), "") << xml;
+  std::smatch m;
+  // 3D CoRectMesh: node counts z y x, one more than the cells along each axis
+  ASSERT_TRUE(std::regex_search(xml, m, std::regex(R"(<Topology ([^>]*)/>)"))) << xml;
+  auto topo = xml_attributes(m[1]);
+  EXPECT_EQ(topo["TopologyType"], "3DCoRectMesh");
+  EXPECT_EQ(numbers(topo["Dimensions"]),
+            (std::vector<double>{d.cells[2] + 1.0, d.cells[1] + 1.0, d.cells[0] + 1.0}));
+  // origin 0 and spacing L/cells, z y x (1 along an unused axis: length 1, one cell)
+  ASSERT_TRUE(std::regex_search(
+      xml, m, std::regex(R"(<Geometry ([^>]*)>\s*<DataItem ([^>]*)>([^<]*)</DataItem>\s*<DataItem ([^>]*)>([^<]*)</DataItem>\s*</Geometry>)")))
+      << xml;
+  EXPECT_EQ(xml_attributes(m[1])["GeometryType"], "ORIGIN_DXDYDZ");
+  EXPECT_EQ(xml_attributes(m[2])["Format"], "XML");
+  EXPECT_EQ(numbers(m[3]), (std::vector<double>{0, 0, 0}));
+  const std::vector<double> spacing = numbers(m[5]);
+  ASSERT_EQ(spacing.size(), 3u) << m[5];
+  for (int axis = 0; axis < 3; ++axis)
+    EXPECT_NEAR(spacing[2 - axis], d.length[axis] / d.cells[axis], 1e-12 * d.length[axis]) << "axis " << axis;
+  // the attributes: the six scalars and two vectors of docs/OUTPUT.md, each cell data naming a
+  // dataset of results.h5 with its shape and 8-byte floats
+  std::map<std::string, std::string> listed;
+  static const std::regex att(R"(<Attribute ([^>]*)>\s*<DataItem ([^>]*)>([^<]*)</DataItem>\s*</Attribute>)");
+  grainbath::H5File f((x.dir / "results.h5").string(), grainbath::H5File::Mode::read);
+  for (auto it = std::sregex_iterator(xml.begin(), xml.end(), att); it != std::sregex_iterator(); ++it) {
+    auto a = xml_attributes((*it)[1]);
+    auto item = xml_attributes((*it)[2]);
+    const std::string name = a["Name"], text = (*it)[3];
+    SCOPED_TRACE(name);
+    EXPECT_TRUE(listed.emplace(name, a["AttributeType"]).second) << "listed twice";
+    EXPECT_EQ(a["Center"], "Cell");
+    EXPECT_EQ(item["Format"], "HDF");
+    EXPECT_EQ(item["NumberType"], "Float");
+    EXPECT_EQ(item["Precision"], "8");
+    // a path relative to the XDMF file: results.h5 beside it
+    EXPECT_EQ(text, "results.h5:/fields/" + name);
+    std::vector<double> cells = {static_cast<double>(d.cells[2]), static_cast<double>(d.cells[1]),
+                                 static_cast<double>(d.cells[0])};
+    if (a["AttributeType"] == "Vector") cells.push_back(3);
+    EXPECT_EQ(numbers(item["Dimensions"]), cells);
+    if (!f.exists("/fields/" + name)) {
+      ADD_FAILURE() << "/fields/" << name << " is not in results.h5";
+      continue;
+    }
+    std::vector<hsize_t> dims;
+    f.read_doubles("/fields/" + name, &dims);
+    EXPECT_EQ(std::vector<double>(dims.begin(), dims.end()), cells);
+  }
+  EXPECT_EQ(listed, (std::map<std::string, std::string>{{"density", "Scalar"},
+                                                        {"density_stderr", "Scalar"},
+                                                        {"temperature", "Scalar"},
+                                                        {"temperature_stderr", "Scalar"},
+                                                        {"background_temperature", "Scalar"},
+                                                        {"background_density", "Scalar"},
+                                                        {"velocity", "Vector"},
+                                                        {"heat_flux", "Vector"}}));
+}
+
+const char* kBoxCase = R"(
+[domain]
+dimensions = 3
+length = [2.0, 1.5, 0.75]
+cells = [4, 3, 5]
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.1
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 600
+dt = 0.01
+t_end = 1.0
+[sampling]
+every = 0.05
+steady_from = 0.5
+field_batches = 2
+)";
+
+}  // namespace
+
+// fields.xdmf of a 3D box with a different cell count and length along each axis (so that an
+// axis order or a count off by one shows), and of the 1D box of kProfileCase (unused axes:
+// one cell of length 1, spacing 1).
+TEST(DsmcOutput, FieldsXdmfDescribesTheFieldsOfResultsH5OnTheirCells) {
+  for (const char* toml : {kBoxCase, kProfileCase}) {
+    XdmfRun x(toml, "xdmf");
+    x.write();
+    SCOPED_TRACE(x.c.domain.dimensions);
+    check_xdmf(x);
+  }
+}
+
+// A fields.xdmf that cannot be written (here a directory in its place) fails the output
+// stage with the file named, rather than leaving a run without it and saying nothing.
+TEST(DsmcOutput, AnXdmfThatCannotBeWrittenIsAnError) {
+  XdmfRun x(kBoxCase, "xdmf-fail");
+  std::filesystem::create_directories(x.dir / "fields.xdmf");
+  try {
+    x.write();
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("fields.xdmf: cannot write the XDMF file"), std::string::npos) << e.what();
+  }
 }
