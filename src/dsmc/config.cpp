@@ -233,6 +233,39 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
                       " values and velocity with " + std::to_string(3 * cells) + " (the [domain] cells), found " +
                       std::to_string(f.grid_density.size()) + ", " + std::to_string(f.grid_temperature.size()) +
                       " and " + std::to_string(f.grid_velocity.size()));
+      // the layouts a grid may have (docs/CASE_FILE.md): flat, or the cells' array with x
+      // fastest ([nz, ny, nx] in 3D), velocity with the 3 components of a cell together (a
+      // last axis of 3). The right count in another order ([3, cells] for the velocity, x
+      // slowest) would be read scrambled, so it is refused with the shape found.
+      if (usable) {
+        std::vector<hsize_t> grid;  // the domain's cells, slowest axis first
+        for (int a = c.domain.dimensions - 1; a >= 0; --a) grid.push_back(static_cast<hsize_t>(c.domain.cells[a]));
+        const auto text = [](const std::vector<hsize_t>& d) {
+          std::string t = "[";
+          for (std::size_t k = 0; k < d.size(); ++k) t += (k ? ", " : "") + std::to_string(d[k]);
+          return t + "]";
+        };
+        const auto n = static_cast<hsize_t>(cells);
+        std::vector<hsize_t> grid3 = grid;
+        grid3.push_back(3);
+        const std::vector<std::pair<const char*, const std::vector<hsize_t>*>> scalars{{"density", &dn},
+                                                                                        {"temperature", &dt}};
+        for (const auto& [name, d] : scalars)
+          if (*d != std::vector<hsize_t>{n} && *d != grid) {
+            r.problem("background", "file", path + ": " + name + " has the shape " + text(*d) + ": expected " +
+                                                text({n}) + (grid.size() > 1 ? " or " + text(grid) : "") +
+                                                " (the [domain] cells, x fastest)");
+            usable = false;
+          }
+        if (dv != std::vector<hsize_t>{3 * n} && dv != std::vector<hsize_t>{n, 3} && dv != grid3) {
+          r.problem("background", "file", path + ": velocity has the shape " + text(dv) + ": expected " +
+                                              text({3 * n}) + ", " + text({n, 3}) +
+                                              (grid.size() > 1 ? " or " + text(grid3) : "") +
+                                              " (the 3 components of a cell together, cells x fastest)" +
+                                              (dv == std::vector<hsize_t>{3, n} ? ": write its transpose" : ""));
+          usable = false;
+        }
+      }
       for (std::size_t i = 0; i < f.grid_density.size() && i < f.grid_temperature.size(); ++i)
         if (!(f.grid_density[i] >= 0) || !(f.grid_temperature[i] > 0)) {
           r.problem("background", "file", path + ": cell " + std::to_string(i) +

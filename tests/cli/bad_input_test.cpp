@@ -438,20 +438,35 @@ TEST_F(BadInput, BackgroundGridWithWrongSizesOrValuesIsRefused) {
   auto probe = grainbath({"check", case_dir().string()});
   if (!(probe.exited && probe.code == 0)) GTEST_SKIP() << "this build has no spatial DSMC";
   const std::size_t cells = 10;  // spatial_case(): 10 cells in 1D
-  struct Grid { std::string name; std::size_t n_velocity; double density0, temperature0; std::string what; };
-  for (const Grid& g : {Grid{"good.h5", 3 * cells, 1.0, 1.0, ""},
-                        Grid{"velocity.h5", 3 * cells - 3, 1.0, 1.0, "velocity with 30 (the [domain] cells), found 10, 10 and 27"},
-                        Grid{"density.h5", 3 * cells, -0.5, 1.0, "cell 0: expected density >= 0 and temperature > 0, found density -0.5"},
-                        Grid{"temperature.h5", 3 * cells, 0.0, 0.0, "cell 0: expected density >= 0 and temperature > 0, found density 0.0, temperature 0.0"}}) {
+  struct Grid {
+    std::string name;
+    std::size_t n_velocity;
+    double density0, temperature0;
+    std::string what;
+    std::vector<hsize_t> velocity_shape{}, density_shape{};  // {}: flat
+  };
+  for (const Grid& g :
+       {Grid{"good.h5", 3 * cells, 1.0, 1.0, ""},
+        Grid{"velocity.h5", 3 * cells - 3, 1.0, 1.0, "velocity with 30 (the [domain] cells), found 10, 10 and 27"},
+        Grid{"density.h5", 3 * cells, -0.5, 1.0, "cell 0: expected density >= 0 and temperature > 0, found density -0.5"},
+        Grid{"temperature.h5", 3 * cells, 0.0, 0.0, "cell 0: expected density >= 0 and temperature > 0, found density 0.0, temperature 0.0"},
+        // the count right, the order not: a cell's 3 components must lie together
+        Grid{"cells-by-3.h5", 3 * cells, 1.0, 1.0, "", {cells, 3}},
+        Grid{"3-by-cells.h5", 3 * cells, 1.0, 1.0,
+             "velocity has the shape [3, 10]: expected [30], [10, 3] (the 3 components of a cell together, cells x "
+             "fastest): write its transpose",
+             {3, cells}},
+        Grid{"density-2d.h5", 3 * cells, 1.0, 1.0,
+             "density has the shape [2, 5]: expected [10] (the [domain] cells, x fastest)", {}, {2, 5}}}) {
     SCOPED_TRACE(g.name);
     {
       std::vector<double> density(cells, 1.0), temperature(cells, 1.0), velocity(g.n_velocity, 0.0);
       density[0] = g.density0;
       temperature[0] = g.temperature0;
       grainbath::H5File h((case_dir() / g.name).string(), grainbath::H5File::Mode::create);
-      h.write("density", density);
+      h.write("density", density, g.density_shape);
       h.write("temperature", temperature);
-      h.write("velocity", velocity);
+      h.write("velocity", velocity, g.velocity_shape);
       h.close();
     }
     Case c = spatial_case();
