@@ -310,12 +310,6 @@ std::vector<std::string> case_file_checksums(const RunArgs& a) {
   return sums;
 }
 
-int command_check_quiet(const RunArgs& a) {
-  const auto problems = case_problems(a);
-  for (const auto& p : problems) std::fprintf(stderr, "error: %s\n", p.c_str());
-  return problems.empty() ? 0 : 2;
-}
-
 int command_theory(const RunArgs& a) {
   try {
     LoadedCase lc = load_case(a);

@@ -31,7 +31,6 @@ const std::vector<int>& stop_signals();  // SIGINT, SIGTERM, SIGHUP, SIGUSR1, SI
 // Exit codes: 0 success, 1 run failure, 2 bad input (case file, overrides, paths).
 int command_run(const RunArgs&);
 int command_check(const RunArgs&);
-int command_check_quiet(const RunArgs&);  // like check, messages only on problems
 // The case-file problems of a case with its overrides, one message each (none: valid).
 std::vector<std::string> case_problems(const RunArgs&);
 // "key=value" for every checksum of a file the case names (CaseReader::record_file_checksum),

@@ -84,10 +84,6 @@ void H5File::close() {
   if (f < 0 || c < 0) fail("write failed (disk full?)");
 }
 
-void H5File::flush() {
-  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) fail("flush failed (disk full?)");
-}
-
 bool H5File::exists(const std::string& name) const {
   // Walk the path so a missing intermediate group is not an error.
   std::string sofar;

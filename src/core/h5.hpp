@@ -76,7 +76,6 @@ class H5File {
   // Names of the attributes of `object`, in creation-index or name order.
   std::vector<std::string> attribute_names(const std::string& object) const;
 
-  void flush();
   // Flushes and closes the file, throwing if any write failed (disk full, quota, file-size
   // limit): HDF5 reports such failures only when data are flushed or objects closed.
   void close();
