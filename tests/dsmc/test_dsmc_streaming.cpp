@@ -34,11 +34,13 @@ gb::Config read_case(const std::string& toml) {
   return c;
 }
 
-// A box without a medium, dt = 0.25, grains of mass m (the grain count is the case's; the
-// states below are made by hand).
-std::string box_case(const std::string& domain, const std::string& mass = "2.0") {
+// A box without a medium, dt = 0.25, grains of mass m (the grain count and density are the
+// case's, for the grain weight; the states below are made by hand).
+std::string box_case(const std::string& domain, const std::string& mass = "2.0", const std::string& particles = "1000",
+                     const std::string& density = "1.0") {
   return domain + R"(
 [grains]
+density = )" + density + R"(
 mass = )" + mass + R"(
 temperature = 1.0
 [background]
@@ -46,7 +48,7 @@ density = 0.0
 [restitution]
 law = "elastic"
 [dsmc]
-particles = 1000
+particles = )" + particles + R"(
 dt = 0.25
 t_end = 1.0
 [sampling]
@@ -223,7 +225,9 @@ boundaries = ["specular"]
 // sigma^2, the normal one flux-weighted, |v_n| = sigma sqrt(-2 ln U), pointing into the box,
 // with <v_n> = sigma sqrt(pi/2) and <v_n^2> = 2 sigma^2. 20000 grains of m = 4 at x = 1/16
 // fly at vx = -1 into the diffuse face at x = 0 of a 2-D box (Tw = 2: sigma^2 = 1/2), meet it
-// at t = 1/16 and fly on from x = 0 for 3/16. Each mean is within 5 of its standard errors
+// at t = 1/16 and fly on from x = 0 for 3/16, by the separate passes and by the fused step
+// (at a grain density of 1e-9: no collision in the fused step): the same numbers bitwise.
+// Each mean is within 5 of its standard errors
 // (independent draws: sigma/sqrt(N) for the tangential means, sigma^2 sqrt(2/N) for their
 // squares, sigma sqrt(2 - pi/2)/sqrt(N) and 2 sigma^2/sqrt(N) for the normal component's),
 // and the wall's energy is the sum of 0.5 m (|v'|^2 - |v|^2). sqrt(Tw) in place of sqrt(Tw/m)
@@ -237,7 +241,7 @@ cells = [2, 2]
 boundaries = ["diffuse", "diffuse", "periodic", "periodic"]
 wall_temperature = 2.0
 )",
-                                          "4.0"));
+                                          "4.0", "1000", "1e-9"));
   constexpr std::size_t N = 20000;
   const double sigma2 = 2.0 / 4.0, sigma = std::sqrt(sigma2), rootN = std::sqrt(static_cast<double>(N));
   std::vector<Grain> grains(N);
@@ -246,6 +250,20 @@ wall_temperature = 2.0
   const gb::StreamCounters walls = separate_step(s, c, 17);
   const gb::Particles& p = s.particles;
   ASSERT_EQ(p.size(), N);
+  {
+    gb::State f = hand_placed(grains, 2, c.domain.cell_count());
+    const gb::StreamCounters fused_walls = fused_step(f, c, 17);
+    ASSERT_EQ(f.particles.size(), N);
+    for (std::size_t j = 0; j < N; ++j) {
+      ASSERT_EQ(f.particles.id[j], p.id[j]);
+      ASSERT_EQ(f.particles.vx[j], p.vx[j]) << "slot " << j;
+      ASSERT_EQ(f.particles.vy[j], p.vy[j]) << "slot " << j;
+      ASSERT_EQ(f.particles.vz[j], p.vz[j]) << "slot " << j;
+      ASSERT_EQ(f.particles.x[j], p.x[j]) << "slot " << j;
+      ASSERT_EQ(f.particles.y[j], p.y[j]) << "slot " << j;
+    }
+    EXPECT_EQ(fused_walls.wall_energy, walls.wall_energy);  // one reduction block: the same sum
+  }
   double mean[3] = {}, square[3] = {}, energy = 0.0;
   for (std::size_t j = 0; j < N; ++j) {
     ASSERT_GT(p.vx[j], 0.0) << "slot " << j;  // into the box
@@ -291,4 +309,55 @@ boundaries = ["specular"]
   EXPECT_EQ(gb::wrap_periodic(1.25, 1.0), 0.25);
   EXPECT_EQ(gb::wrap_periodic(-std::numeric_limits<double>::denorm_min(), 1.0), 0.0);
   EXPECT_EQ(gb::wrap_periodic(-1e-17, 1.0), 0.0);
+}
+
+// The fused step's own streaming (src/dsmc/fused.cpp: the SIMD cell index, the AVX2 gather,
+// the next step's predicted cells) at the edges of a periodic box, two steps of hand-placed
+// grains, one per cell (no collision), against the separate passes and by hand. A 3-D box of
+// 1.8 x 2 x 2 in 4 x 4 x 8 cells, dt = 0.25, no medium (the second step runs on the cells
+// the first predicted). Group A sits still at x = 1.8 - 1 ulp, where x (4 / 1.8) rounds to 4:
+// the last cell, 3, not 4, and flies along y from 1.5 to 1.75 and then exactly onto y = 2 = L,
+// which is y = 0. Group B flies from y = 1.75 exactly onto L in the first step and on to 0.25.
+// Eight of each (a vector of the AVX-512 prediction, two of the AVX2 gather's), and three
+// still grains (the groups' tails).
+TEST(DsmcStreaming, FusedStepWrapsFlightsEndingOnTheUpperFaceAndKeepsTheLastCell) {
+  const gb::Config c = read_case(box_case(R"(
+[domain]
+dimensions = 3
+length = [1.8, 2.0, 2.0]
+cells = [4, 4, 8]
+)"));
+  const double x_top = std::nextafter(1.8, 0.0);
+  ASSERT_GE(x_top * (4.0 / 1.8), 4.0);  // the case this test is about
+  std::vector<Grain> grains;
+  for (int iz = 0; iz < 8; ++iz) grains.push_back({x_top, 1.5, 0.125 + 0.25 * iz, 0.0, 1.0, 0.0});  // A
+  for (int iz = 0; iz < 8; ++iz) grains.push_back({0.225, 1.75, 0.125 + 0.25 * iz, 0.0, 1.0, 0.0});  // B
+  for (int iz = 0; iz < 3; ++iz) grains.push_back({0.9, 1.0, 0.125 + 0.25 * iz, 0.0, 0.0, 0.0});
+  gb::State fused = hand_placed(grains, 3, c.domain.cell_count());
+  gb::State separate = hand_placed(grains, 3, c.domain.cell_count());
+  std::vector<std::uint8_t> removed;
+  gb::sort_by_cell(fused, c, removed);
+  gb::Decomposition dec(c, false);
+  std::vector<gb::GrainCounters> per_block;
+  std::vector<std::size_t> bounds;
+  std::vector<gb::StreamCounters> walls;
+  for (int step = 0; step < 2; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    gb::fused_spatial_step(fused, c, 5, per_block, dec, bounds, walls);
+    ++fused.step;
+    separate_step(separate, c, 5);
+    ++separate.step;
+    expect_cells_hold_their_grains(fused, c);
+    ASSERT_EQ(fused.particles.size(), grains.size());
+    for (std::uint64_t id = 0; id < grains.size(); ++id) {
+      const std::size_t j = slot_of(fused, id), k = slot_of(separate, id);
+      EXPECT_EQ(fused.particles.x[j], separate.particles.x[k]) << "grain " << id;
+      EXPECT_EQ(fused.particles.y[j], separate.particles.y[k]) << "grain " << id;
+      EXPECT_EQ(fused.particles.z[j], separate.particles.z[k]) << "grain " << id;
+      EXPECT_EQ(fused.particles.x[j], grains[id].x) << "grain " << id;
+      const double y = id < 8 ? (step == 0 ? 1.75 : 0.0) : id < 16 ? (step == 0 ? 0.0 : 0.25) : 1.0;
+      EXPECT_EQ(fused.particles.y[j], y) << "grain " << id;
+    }
+  }
+  EXPECT_EQ(fused.sort.next_cell_step, 2);  // the second step ran on the first one's prediction
 }
