@@ -204,6 +204,18 @@ void read_background_field(CaseReader& r, Config& c, const std::string& case_dir
     reject_other_profile_keys(r, "background", "background profile", profile);
   if (f.profile != BackgroundProfile::uniform && !c.spatial())
     r.problem("background", "profile", "profile \"" + profile + "\" needs a spatial run: add a [domain] section");
+  // uB is a constant of the uniform medium only; the other profiles set it themselves
+  // (src/dsmc/spatial.cpp, local_background), and a given velocity would be dropped without
+  // a word while velocity.final and the density mode's phase still used it (mutation audit of
+  // the fused step and the spatial code, S14)
+  if (f.profile != BackgroundProfile::uniform && r.has("background", "velocity"))
+    r.problem("background", "velocity",
+              "not used by profile = \"" + profile + "\", which sets the medium's velocity itself (" +
+                  (f.profile == BackgroundProfile::isobaric_sine ? std::string("uB = 0: at rest, at uniform pressure")
+                   : f.profile == BackgroundProfile::shear
+                       ? std::string("uB = (U0 sin(2 pi n y / Ly), 0, 0): give U0 as background.amplitude")
+                       : std::string("the file's velocity in each cell")) +
+                  "): remove it, or use profile = \"uniform\" for a drifting medium");
   if (f.profile == BackgroundProfile::isobaric_sine) {
     f.amplitude = r.real("background", "amplitude", 0.0, Bounds::open(-1.0, 1.0));
     f.wavenumber_index = static_cast<int>(r.integer("background", "wavenumber_index", 1, 1, 1 << 20));

@@ -731,6 +731,34 @@ TEST_F(BadInput, KeyOfAnotherProfileIsNamedAsSuch) {
   EXPECT_TRUE(ok.exited && ok.code == 0) << ok.describe();
 }
 
+// background.velocity is uB of the uniform medium; the other profiles set uB themselves, and
+// a velocity given with them was dropped without a word (mutation audit of the fused step and
+// the spatial code, S14)
+TEST_F(BadInput, BackgroundVelocityWithAProfileThatSetsItIsRefused) {
+  Case s = spatial_case();
+  s.set("domain", "dimensions", "2").set("domain", "length", "[10.0, 10.0]").set("domain", "cells", "[10, 10]");
+  s.set("domain", "boundaries", "[\"periodic\", \"periodic\"]");
+  s.set("background", "velocity", "[0.5, 0.25, 0.0]");
+  write_text(case_file(), s.text());
+  auto uniform = grainbath({"check", case_dir().string()});
+  EXPECT_TRUE(uniform.exited && uniform.code == 0) << uniform.describe();  // the uniform medium drifts
+  const struct {
+    const char* profile;
+    const char* extra;
+    const char* what;
+  } cases[] = {{"isobaric_sine", "0.3", "uB = 0: at rest, at uniform pressure"},
+               {"shear", "0.5", "give U0 as background.amplitude"}};
+  for (const auto& k : cases) {
+    SCOPED_TRACE(k.profile);
+    Case t = s;
+    t.set("background", "profile", std::string("\"") + k.profile + "\"").set("background", "amplitude", k.extra);
+    const auto r = expect_rejected(t.text(), {{t.line_of("background", "velocity"), "background.velocity",
+                                               std::string("not used by profile = \"") + k.profile + "\""}},
+                                   {}, "check");
+    EXPECT_NE(r.err.find(k.what), std::string::npos) << r.err;
+  }
+}
+
 TEST_F(BadInput, KeysOfSpatialRunsAndOfTheModeFitAreNamedAsSuch) {
   // [sampling] fields, field_batches (spatial runs) and mode_fit_from/_to (a density mode) in a
   // run without them: whose keys they are, not "unknown key; valid keys in [sampling]: ..."
