@@ -1488,6 +1488,32 @@ TEST_F(BadInput, UnknownSubcommandIsNamedAndVersionNamesTheCommit) {
   EXPECT_EQ(r.out.find("(git )"), std::string::npos) << r.out;
 }
 
+// GRAINBATH_SIMD chooses the DSMC kernels' SIMD paths; a misspelt value was a silent "auto"
+// before the check in src/cli/main.cpp. Refused before anything is read or written; the three
+// accepted values run.
+TEST_F(BadInput, MisspeltSimdEnvironmentVariableIsRefused) {
+  write_text(case_file(), dsmc_case().text());
+  const auto before = listing(tmp.path());
+  for (const char* value : {"avx512", "SSE2", "", "auto "}) {
+    RunOptions opt;
+    opt.env = {{"GRAINBATH_SIMD", value}};
+    const auto r = run_binary({kBinary, "check", case_dir().string()}, opt);
+    EXPECT_TRUE(r.exited && r.code == 2) << "'" << value << "': " << r.describe();
+    EXPECT_NE(r.err.find(std::string("error: environment variable GRAINBATH_SIMD: expected \"auto\", \"avx2\" or "
+                                     "\"sse2\", found \"") +
+                             value + "\""),
+              std::string::npos)
+        << r.err;
+    EXPECT_EQ(listing(tmp.path()), before);
+  }
+  for (const char* value : {"auto", "avx2", "sse2"}) {
+    RunOptions opt;
+    opt.env = {{"GRAINBATH_SIMD", value}};
+    const auto r = run_binary({kBinary, "check", case_dir().string()}, opt);
+    EXPECT_TRUE(r.exited && r.code == 0) << value << ": " << r.describe();
+  }
+}
+
 // list-models names the medium's keys for the DSMC too (review 4: knudsen and mass_ratio were
 // listed only under "EDMD backgrounds")
 TEST_F(BadInput, ListModelsNamesTheMediumKeysForTheDsmc) {

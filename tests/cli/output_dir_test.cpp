@@ -424,6 +424,23 @@ TEST_F(OutputDir, ABuildWithoutMpiRefusesToRunAsOneOfSeveralMpiProcesses) {
   EXPECT_NE(r.err.find("this grainbath was built without MPI, but runs as one of 2 MPI processes"), std::string::npos)
       << r.err;
   EXPECT_EQ(listing(tmp.path()), before);
+  // the other ranks refuse too, without repeating the message (one error per mpirun, not N)
+  opt.env = {{"OMPI_COMM_WORLD_SIZE", "2"}, {"OMPI_COMM_WORLD_RANK", "1"}};
+  r = run_binary({kBinary, "run", case_dir().string(), "--out", (tmp / "out").string()}, opt);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_EQ(r.err, "") << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+  // MPICH's and Slurm's launchers say it with PMI_SIZE / PMI_RANK; a sweep is refused as well
+  opt.env = {{"PMI_SIZE", "3"}, {"PMI_RANK", "0"}};
+  r = run_binary({kBinary, "sweep", case_dir().string(), "--set", "run.seed=1,2", "--out", (tmp / "sw").string()}, opt);
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find("runs as one of 3 MPI processes"), std::string::npos) << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+  // one process under a launcher is a plain run
+  opt.env = {{"OMPI_COMM_WORLD_SIZE", "1"}, {"OMPI_COMM_WORLD_RANK", "0"}};
+  r = run_binary({kBinary, "run", case_dir().string(), "--out", (tmp / "out").string(), "--quiet"}, opt);
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_TRUE(fs::exists(tmp / "out" / "summary.json"));
 }
 
 // results.h5 is a function of case and seed alone: `cmp` of 1- and 2-thread runs (the file
