@@ -1,0 +1,131 @@
+#!/usr/bin/env bash
+# The MPI sweep's own paths (src/cli/sweep.cpp, `mpi::active()`), beyond the ensemble merge
+# of mpi_ensemble.sh: the ranks share the variants (rank r runs r, r + size, ...) and learn
+# from each other, in collectives, what became of them.
+#  1. A stop request that reaches one rank only, during one of its variants: that variant
+#     stops with a checkpoint and the rank starts no more; the other rank finishes its own.
+#     Rank 0 then says, once, exactly what became of each variant and the `mpirun -np 2 ...
+#     --resume` that continues; every rank exits 130. The resumed sweep ends with the
+#     ensemble of the process-parallel sweep of the same seeds, number for number.
+#  2. A variant that fails on rank 1 (the fault hook GRAINBATH_FAULT_NONFINITE_SAMPLE, set in
+#     rank 1's environment only): reported by rank 1 with its log, the sweep exits 1, and
+#     rank 0's table and ensemble hold the replicas that finished.
+#  3. A second sweep into the same --out moves the first aside once (rank 0 alone moves and
+#     says so); a --resume where no sweep was is refused on every rank (exit 2), said once,
+#     and nothing is written.
+#
+# usage: mpi_sweep.sh GRAINBATH CASE_DIR WORK_DIR
+set -euo pipefail
+exe=$1
+case_dir=$2
+work=$3
+source "$(dirname "$0")/mpi_env.sh"
+fresh_work_dir "$work"
+fail=0
+seeds=1,2,3,4
+# ≈ 2 s a variant on one core; a checkpoint every 2 time units (the stop must find one)
+long=(--set run.seed=$seeds --set dsmc.t_end=60 --set dsmc.particles=20000 --set checkpoint.every=2)
+
+"$exe" sweep "$case_dir" "${long[@]}" --out "$work/fork" -j 2 > /dev/null 2>&1
+
+# ---- 1. a stop request to rank 1 only, once its variant (variant 1) has written a checkpoint
+mpi 2 sweep "$case_dir" "${long[@]}" --out "$work/mpi" > "$work/stopped.out" 2> "$work/stopped.err" &
+launcher=$!
+rank_of() { tr '\0' '\n' < "/proc/$1/environ" 2>/dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p'; }
+target=""
+for _ in $(seq 1 6000); do  # up to a minute
+  if ls "$work"/mpi/variant-1_*.checkpoints/*.h5 > /dev/null 2>&1; then
+    for pid in $(pgrep -f "^$exe sweep " || true); do
+      [ "$(rank_of "$pid")" = 1 ] && target=$pid
+    done
+  fi
+  [ -n "$target" ] && break
+  kill -0 "$launcher" 2> /dev/null || break
+  sleep 0.01
+done
+if [ -z "$target" ]; then
+  echo "FAIL: variant 1 wrote no checkpoint on rank 1 before the sweep ended"; wait "$launcher" || true
+  cat "$work/stopped.err"; exit 1
+fi
+kill -TERM "$target"
+rc=0
+wait "$launcher" || rc=$?
+if [ "$rc" != 130 ]; then echo "FAIL: the stopped sweep exited with $rc, not 130"; cat "$work/stopped.err"; fail=1; fi
+said=$(grep -c "sweep: interrupted: " "$work/stopped.err" || true)
+expected="sweep: interrupted: 2 of 4 variants finished, 1 stopped with a checkpoint, 1 not started; no table was made."
+if [ "$said" != 1 ] || ! grep -qF "$expected" "$work/stopped.err"; then
+  echo "FAIL: expected once: '$expected'; the sweep said:"; cat "$work/stopped.err"; fail=1
+fi
+if ! grep -qE "^  mpirun -np 2 .* sweep .* --resume" "$work/stopped.err"; then
+  echo "FAIL: no 'mpirun -np 2 ... --resume' to continue with:"; cat "$work/stopped.err"; fail=1
+fi
+grep -q "rank 1: stopped     variant-1_.*, with a checkpoint" "$work/stopped.err" ||
+  { echo "FAIL: rank 1 did not say that variant 1 stopped with a checkpoint:"; cat "$work/stopped.err"; fail=1; }
+if [ -e "$work/mpi/sweep.tsv" ]; then echo "FAIL: an interrupted sweep wrote a table"; fail=1; fi
+[ "$fail" = 0 ] && echo "ok   SIGTERM to rank 1 during variant 1: 2 finished, 1 stopped with a checkpoint, 1 not started, exit 130"
+
+# the variants that finished are kept as they are (not run again)
+kept() { for k in 0 2; do stat -c "%i %Y %s" "$work"/mpi/variant-${k}_*/summary.json "$work"/mpi/variant-${k}_*/results.h5; done; }
+before=$(kept)
+mpi 2 sweep "$case_dir" "${long[@]}" --out "$work/mpi" --resume > "$work/resumed.out" 2> "$work/resumed.err" ||
+  { echo "FAIL: the resumed sweep failed:"; cat "$work/resumed.err"; exit 1; }
+if [ "$(kept)" != "$before" ]; then echo "FAIL: the resume ran the finished variants again"; fail=1; fi
+if [ "$(grep -c "^table: " "$work/resumed.out" || true)" != 1 ]; then
+  echo "FAIL: the table should be made once, by rank 0:"; cat "$work/resumed.out"; fail=1
+fi
+grep -q "sweep: resuming: 2 of 4 variants finished earlier" "$work/resumed.err" ||
+  { echo "FAIL: the resume did not count the 2 finished variants:"; cat "$work/resumed.err"; fail=1; }
+python3 - "$work/fork/ensemble.json" "$work/mpi/ensemble.json" <<'PY' || fail=1
+import json, sys
+def flat(d, p=""):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict): out.update(flat(v, p + k + "."))
+        else: out[p + k] = v
+    return out
+a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
+if not a or a != b:
+    print("FAIL: the resumed MPI sweep's ensemble.json differs from the process-parallel sweep's:",
+          [k for k in set(a) | set(b) if a.get(k) != b.get(k)][:10])
+    sys.exit(1)
+if a["temperature.mean.replicas"] != 4:
+    print("FAIL: %s replicas merged, not 4" % a["temperature.mean.replicas"]); sys.exit(1)
+print("ok   resumed on 2 ranks: ensemble.json identical to the process-parallel sweep's (4 replicas)")
+PY
+
+# ---- 2. the variants of rank 1 fail (a non-finite sample at its third sample); rank 0's finish
+short=(--set run.seed=$seeds --set dsmc.t_end=1 --set sampling.steady_from=0.5)
+rc=0
+within "${MPI_RUN_LIMIT:-240}" mpirun --oversubscribe --bind-to none \
+  -np 1 "$exe" sweep "$case_dir" "${short[@]}" --out "$work/failing" : \
+  -np 1 env GRAINBATH_FAULT_NONFINITE_SAMPLE=3 "$exe" sweep "$case_dir" "${short[@]}" --out "$work/failing" \
+  > "$work/failing.out" 2> "$work/failing.err" || rc=$?
+if [ "$rc" != 1 ]; then echo "FAIL: a sweep with failed variants exited with $rc, not 1"; cat "$work/failing.err"; fail=1; fi
+for k in 1 3; do
+  grep -q "rank 1: FAILED      variant-${k}_.*exit code 1: see $work/failing/variant-${k}_.*\.log" "$work/failing.err" ||
+    { echo "FAIL: rank 1 did not report variant $k as failed with its log:"; cat "$work/failing.err"; fail=1; }
+done
+grep -q "ensemble of 2 replicas" "$work/failing.out" ||
+  { echo "FAIL: the table should merge the 2 replicas that finished:"; cat "$work/failing.out"; fail=1; }
+if [ "$(grep -c "^variant-[0-3]_seed_[1-4]	[1-4]	" "$work/failing/sweep.tsv" || true)" != 4 ]; then
+  echo "FAIL: sweep.tsv should list all 4 variants:"; cat "$work/failing/sweep.tsv"; fail=1
+fi
+[ "$fail" = 0 ] && echo "ok   variants failing on rank 1: reported with their logs, exit 1, the 2 finished replicas merged"
+
+# ---- 3. the earlier sweep moved aside by rank 0 alone; a --resume without a sweep refused
+mpi 2 sweep "$case_dir" "${short[@]}" --out "$work/failing" > /dev/null 2> "$work/again.err" ||
+  { echo "FAIL: the second sweep into the same --out failed:"; cat "$work/again.err"; fail=1; }
+moved=$(grep -c "sweep: the previous sweep in $work/failing was moved to $work/failing.previous" "$work/again.err" || true)
+if [ "$moved" != 1 ] || [ ! -f "$work/failing.previous/sweep.tsv" ] || [ ! -f "$work/failing/sweep.tsv" ]; then
+  echo "FAIL: the earlier sweep should be moved aside once (said $moved times):"; cat "$work/again.err"; fail=1
+fi
+mkdir "$work/empty"
+rc=0
+mpi 2 sweep "$case_dir" "${short[@]}" --out "$work/empty" --resume > /dev/null 2> "$work/noresume.err" || rc=$?
+said=$(grep -c "no sweep to resume here" "$work/noresume.err" || true)
+if [ "$rc" != 2 ] || [ "$said" != 1 ] || [ -n "$(ls -A "$work/empty")" ]; then
+  echo "FAIL: --resume without a sweep: exit $rc (want 2), said $said times (want 1), wrote: $(ls -A "$work/empty")"
+  cat "$work/noresume.err"; fail=1
+fi
+[ "$fail" = 0 ] && echo "ok   a second sweep moves the first aside once; --resume without a sweep refused on both ranks"
+exit $fail
