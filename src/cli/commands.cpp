@@ -499,9 +499,11 @@ int command_run(const RunArgs& a) {
     dir.reset();
     std::fflush(nullptr);
     // every rank stopped at the same step, after the checkpoint's collectives: all leave
-    // normally (MPI_Finalize in main), so mpirun exits with 130 and prints no abort banner;
-    // a sweep's variant run in this process (alone) returns its code to the sweep, which goes
-    // on with the other variants
+    // normally (MPI_Finalize in main). Rank 0 alone carries the code 130, which mpirun exits
+    // with: a non-zero exit of another rank makes mpirun abort the job, rank 0 included,
+    // while it may still be printing. A sweep's variant run in this process (alone) returns
+    // its code to the sweep, which goes on with the other variants.
+    if (interrupted && split && !writer) return 0;
     if (interrupted || a.alone) return code;
     if (split) mpi::abort(code);  // the other ranks wait in a collective call
     std::_Exit(code);

@@ -500,7 +500,10 @@ int command_sweep(const SweepArgs& a) {
     // rank 0 learns what became of the others' variants (each variant is one rank's)
     for (std::size_t k = 0; k < variants.size(); ++k) state[k] = static_cast<int>(mpi::sum(state[k]));
     stopped = mpi::sum(stop_requested() ? 1 : 0) > 0;
-    if (rank != 0) return stopped ? 130 : failed ? 1 : 0;
+    // Rank 0 carries the sweep's exit code (it knows the sums): mpirun exits with it. Another
+    // rank that left with a non-zero code made mpirun abort the job while rank 0 still wrote
+    // the table or the interruption's summary (seen: rank 0 sent SIGTERM, its stdout lost).
+    if (rank != 0) return 0;
     done = variants.size();  // rank 0 gathers below
   } else {
     // Ctrl-C reaches the sweep alone (the variants run in process groups of their own); it

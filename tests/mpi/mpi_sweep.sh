@@ -10,9 +10,15 @@
 #  2. A variant that fails on rank 1 (the fault hook GRAINBATH_FAULT_NONFINITE_SAMPLE, set in
 #     rank 1's environment only): reported by rank 1 with its log, the sweep exits 1, and
 #     rank 0's table and ensemble hold the replicas that finished.
+#     2b: then a stop request to rank 1 while it waits in the collective for rank 0: it
+#     survives it, rank 0 finishes, says that 2 failed (not "not started"), exits 130, and
+#     --resume runs the failed ones again to the process-parallel sweep's ensemble.
 #  3. A second sweep into the same --out moves the first aside once (rank 0 alone moves and
 #     says so); a --resume where no sweep was is refused on every rank (exit 2), said once,
 #     and nothing is written.
+#  4. A stop request to a rank that has no variant (3 ranks, 2 variants), waiting for the
+#     others in a collective: the sweep's own handler takes it (the rank is not killed); the
+#     others finish, and the sweep stops with 130 and no table.
 #
 # usage: mpi_sweep.sh GRAINBATH CASE_DIR WORK_DIR
 set -euo pipefail
@@ -110,7 +116,56 @@ grep -q "ensemble of 2 replicas" "$work/failing.out" ||
 if [ "$(grep -c "^variant-[0-3]_seed_[1-4]	[1-4]	" "$work/failing/sweep.tsv" || true)" != 4 ]; then
   echo "FAIL: sweep.tsv should list all 4 variants:"; cat "$work/failing/sweep.tsv"; fail=1
 fi
+if grep -q "stop requested" "$work/failing.err"; then
+  echo "FAIL: rank 0 got a stop request nobody sent (mpirun aborting the job?):"; cat "$work/failing.err"; fail=1
+fi
+grep -q "non-finite" "$work"/failing/variant-1_*.log ||
+  { echo "FAIL: variant 1's log does not say why it failed:"; cat "$work"/failing/variant-1_*.log; fail=1; }
 [ "$fail" = 0 ] && echo "ok   variants failing on rank 1: reported with their logs, exit 1, the 2 finished replicas merged"
+
+# ---- 2b. the same failures on rank 1, then a stop request to rank 1 while it waits for rank 0
+# (its loop done, in the collective): it must not die of it (the sweep's own handlers hold
+# between and after variants), rank 0 finishes its own variants, and rank 0 says what became
+# of rank 1's: failed, not "not started". --resume then runs the failed ones again.
+within "${MPI_RUN_LIMIT:-240}" mpirun --oversubscribe --bind-to none \
+  -np 1 "$exe" sweep "$case_dir" "${long[@]}" --out "$work/failstop" : \
+  -np 1 env GRAINBATH_FAULT_NONFINITE_SAMPLE=3 "$exe" sweep "$case_dir" "${long[@]}" --out "$work/failstop" \
+  > "$work/failstop.out" 2> "$work/failstop.err" &
+launcher=$!
+target=""
+for _ in $(seq 1 6000); do
+  if grep -q "rank 1: FAILED      variant-3_" "$work/failstop.err" 2> /dev/null; then
+    for pid in $(pgrep -f "^$exe sweep .* --out $work/failstop\$" || true); do
+      [ "$(rank_of "$pid")" = 1 ] && target=$pid
+    done
+  fi
+  [ -n "$target" ] && break
+  kill -0 "$launcher" 2> /dev/null || break
+  sleep 0.01
+done
+if [ -z "$target" ]; then
+  echo "FAIL: rank 1 did not report variant 3 as failed before the sweep ended"; wait "$launcher" || true
+  cat "$work/failstop.err"; exit 1
+fi
+kill -TERM "$target"
+rc=0
+wait "$launcher" || rc=$?
+expected="sweep: interrupted: 2 of 4 variants finished, 0 stopped with a checkpoint, 0 not started, 2 failed (their .log says why; --resume runs them again); no table was made."
+if [ "$rc" != 130 ] || ! grep -qF "$expected" "$work/failstop.err"; then
+  echo "FAIL: exit $rc (want 130); expected '$expected'; the sweep said:"; cat "$work/failstop.err"; fail=1
+fi
+# (the failed variants' checkpoints, written at the failure, hold the hook's non-finite sample
+# in their series; a real non-finite state would fail again: they start afresh here)
+for k in 1 3; do
+  [ -d "$(ls -d "$work"/failstop/variant-${k}_*.checkpoints)" ] ||
+    { echo "FAIL: variant $k left no checkpoint at its failure"; fail=1; }
+  rm -rf "$work"/failstop/variant-${k}_*.checkpoints
+done
+mpi 2 sweep "$case_dir" "${long[@]}" --out "$work/failstop" --resume > /dev/null 2> "$work/failstop-resumed.err" ||
+  { echo "FAIL: the resume of the failed variants failed:"; cat "$work/failstop-resumed.err"; exit 1; }
+python3 "$(dirname "$0")/../same_summary.py" "$work/fork/ensemble.json" "$work/failstop/ensemble.json" ||
+  { echo "FAIL: the failed variants run again do not give the process-parallel sweep's ensemble"; fail=1; }
+[ "$fail" = 0 ] && echo "ok   failures on rank 1, then a stop to rank 1 in the collective: 2 failed said, exit 130; --resume completes the ensemble"
 
 # ---- 3. the earlier sweep moved aside by rank 0 alone; a --resume without a sweep refused
 mpi 2 sweep "$case_dir" "${short[@]}" --out "$work/failing" > /dev/null 2> "$work/again.err" ||
@@ -128,4 +183,38 @@ if [ "$rc" != 2 ] || [ "$said" != 1 ] || [ -n "$(ls -A "$work/empty")" ]; then
   cat "$work/noresume.err"; fail=1
 fi
 [ "$fail" = 0 ] && echo "ok   a second sweep moves the first aside once; --resume without a sweep refused on both ranks"
+
+# ---- 4. a rank with no variant (3 ranks, 2 variants) waits for the others in a collective; a
+# stop request to it there is the sweep's to handle (no run's handler was ever installed in
+# that process): it stops the sweep once the others finish, instead of killing the rank
+catches_sigterm() {
+  local mask
+  mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$1/status" 2>/dev/null || true)
+  [ -n "$mask" ] && (( (16#$mask >> 14) & 1 ))
+}
+mpi 3 sweep "$case_dir" --set run.seed=1,2 --set dsmc.t_end=60 --set dsmc.particles=20000 --out "$work/idle" \
+  > /dev/null 2> "$work/idle.err" &
+launcher=$!
+target=""
+for _ in $(seq 1 6000); do
+  for pid in $(pgrep -f "^$exe sweep .* --out $work/idle\$" || true); do
+    if [ "$(rank_of "$pid")" = 2 ] && catches_sigterm "$pid"; then target=$pid; fi
+  done
+  [ -n "$target" ] && break
+  kill -0 "$launcher" 2> /dev/null || break
+  sleep 0.01
+done
+if [ -z "$target" ]; then
+  echo "FAIL: rank 2 was not seen catching SIGTERM before the sweep ended"; wait "$launcher" || true
+  cat "$work/idle.err"; exit 1
+fi
+kill -TERM "$target"
+rc=0
+wait "$launcher" || rc=$?
+expected="sweep: interrupted: 2 of 2 variants finished, 0 stopped with a checkpoint, 0 not started; no table was made."
+if [ "$rc" != 130 ] || ! grep -qF "$expected" "$work/idle.err"; then
+  echo "FAIL: exit $rc (want 130); expected '$expected'; the sweep said:"; cat "$work/idle.err"; fail=1
+else
+  echo "ok   a stop to the idle rank 2 (3 ranks, 2 variants): the others finish, the sweep stops with 130"
+fi
 exit $fail
