@@ -647,6 +647,9 @@ int command_sweep(const SweepArgs& a) {
       std::fprintf(stderr, "warning: %s (see %s.log)\n", e.what(), dirs[k].string().c_str());
     }
   }
+  // a swept key that a summary also holds (run.seed) is its axis column alone: sweep.tsv had it
+  // twice, and csv readers keep the later, the summary's, blank for a failed variant
+  for (const auto& [key, values] : axes) columns.erase(key);
   std::ostringstream tsv, md;
   tsv << "variant";
   for (const auto& [key, values] : axes) tsv << "\t" << key;

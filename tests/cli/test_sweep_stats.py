@@ -230,6 +230,7 @@ with open(os.path.join(out, "sweep.tsv")) as f:
     tsv = [line.rstrip("\n").split("\t") for line in f]
 head = tsv[0]
 check(head[:2] == ["variant", "run.seed"], f"sweep.tsv's first columns: {head[:2]}")
+check(len(set(head)) == len(head), f"sweep.tsv names a column twice: {sorted(c for c in set(head) if head.count(c) > 1)}")
 for i, row in enumerate(tsv[1:4]):
     for k, v in rows[i].items():
         cell = row[head.index(k)] if k in head else None
