@@ -1254,6 +1254,21 @@ TEST_F(FullDisk, WriteFailureFailsCleanlyAndKeepsPreviousOutput) {
   expect_previous_output_intact();
 }
 
+// The first checkpoint cannot be written (the disk fills while it is written): the run fails
+// with the checkpoint's path, and the checkpoint directory it had made for it is removed, not
+// left empty beside the output (audit of the CLI commands, C34: the removal had no test).
+TEST_F(FullDisk, AFailedFirstCheckpointLeavesNoCheckpointDirectory) {
+  RunOptions opt;
+  opt.file_size_limit = 8 * 1024;  // a checkpoint of this case is tens of KB
+  auto r = grainbath({"run", case_dir().string(), "--out", out().string(), "--quiet", "--set", "checkpoint.every=0.05"},
+                     opt);
+  if (hdf5_close_bug(r)) GTEST_SKIP() << "known bug (src/core/h5.cpp): failed HDF5 write not detected: " << r.describe();
+  EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
+  EXPECT_NE(r.err.find("error: " + (tmp / "out.checkpoints").string() + "/checkpoint-"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("the checkpoints in"), std::string::npos) << r.err;  // there are none to continue from
+  expect_previous_output_intact();
+}
+
 TEST_F(FullDisk, FileSizeLimitSignalDoesNotKillTheRun) {
   // Without SIGXFSZ ignored by the parent (a shell's `ulimit -f`), the default action of
   // SIGXFSZ kills the process and leaves OUT.tmp-PID behind; grainbath should ignore it.

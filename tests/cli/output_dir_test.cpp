@@ -599,7 +599,9 @@ TEST_F(OutputDir, ACheckpointThatCannotBeWrittenStopsTheRun) {
             std::string::npos)
       << r.err;
   EXPECT_FALSE(fs::exists(out));
-  EXPECT_TRUE(!fs::exists(tmp / "out.checkpoints") || fs::is_empty(tmp / "out.checkpoints"));
+  // (the hook fails before the directory is made: none is left; the removal of one made for
+  // a failed write is FullDisk.AFailedFirstCheckpointLeavesNoCheckpointDirectory's)
+  EXPECT_FALSE(fs::exists(tmp / "out.checkpoints"));
 }
 
 // A run writing OUT holds a lock on its temporary's marker: a second run into the same OUT
