@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <thread>
 #include <optional>
 #include <cstdlib>
 #include <cstring>
@@ -102,7 +103,14 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
       }
     } else if (opt.send_signal && !opt.send_again_when.empty() && !sent_again &&
                r.err.find(opt.send_again_when) != std::string::npos) {
-      ::kill(pid, opt.send_signal);
+      if (opt.pause_before_again_s > 0) {
+        ::kill(pid, SIGSTOP);
+        std::this_thread::sleep_for(std::chrono::duration<double>(opt.pause_before_again_s));
+        ::kill(pid, opt.send_signal);  // pending until the child continues
+        ::kill(pid, SIGCONT);
+      } else {
+        ::kill(pid, opt.send_signal);
+      }
       sent_again = true;
     }
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());

@@ -46,6 +46,9 @@ struct RunOptions {
   std::string send_when;
   fs::path send_when_exists;              // if set too: and once this path exists (a quiet process)
   std::string send_again_when;            // if set: the same signal once more when stderr contains it
+  double pause_before_again_s = 0;        // if > 0: the child is stopped (SIGSTOP) this long before that
+                                          // repeat, then continued: a repeat that much later, with the
+                                          // run held where it was meanwhile
   std::vector<std::pair<std::string, std::string>> env;  // extra environment variables
   std::vector<int> ignored_signals;       // ignored in the child from the start, as nohup ignores SIGHUP
   bool close_stdout = false;              // the child's stdout a pipe nobody reads (`| head` after its lines)

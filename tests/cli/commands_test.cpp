@@ -81,6 +81,46 @@ TEST_F(Commands, EachStopSignalStopsTheRunWithACheckpoint) {
   }
 }
 
+// A stop request repeated within 2 s is the same request (delivered twice): the run still
+// stops with a checkpoint; one repeated 2 s or more later stops it at once, without one
+// (commands.cpp, on_signal). A DSMC run reaches its next step milliseconds after the first
+// request, before any repeat arrives, so this needs an EDMD run, which honours the request
+// at its next scheduled rebuild (10 collisions per particle): a dilute gas of disks (many
+// cell crossings per collision) takes seconds to get there from its start. The later repeat
+// is made 2.2 s later by holding the run (SIGSTOP) meanwhile, so that no speed of the machine
+// lets the run reach its rebuild first; the repeat within 2 s comes 0.3 s after the first the
+// same way. (Audit of the CLI commands, C01 and C02.)
+TEST_F(Commands, ARepeatedStopRequestIsOneWithinTwoSecondsAndStopsAtOnceLater) {
+  write_text(case_dir() / "case.toml", R"([run]
+solver = "edmd"
+seed = 5
+[edmd]
+dimensions = 2
+particles = 10000
+packing_fraction = 0.007
+equilibrate = 0
+collisions = 20.0
+[restitution]
+law = "elastic"
+)");
+  RunOptions opt;
+  opt.send_signal = SIGINT;
+  opt.send_when = "running";
+  opt.send_again_when = "stop requested";
+  opt.pause_before_again_s = 0.3;  // (sent at once, the repeat came within 2 ms, as a C01 window)
+  RunResult r = grainbath(run_args(), opt);
+  EXPECT_TRUE(r.exited && r.code == 130) << r.describe();
+  EXPECT_NE(r.err.find("interrupted at 10 collisions per particle"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_directory(tmp / "out.checkpoints") && !fs::is_empty(tmp / "out.checkpoints")) << r.err;
+  EXPECT_FALSE(fs::exists(out()));
+  fs::remove_all(tmp / "out.checkpoints");
+  opt.pause_before_again_s = 2.2;
+  r = grainbath(run_args(), opt);
+  EXPECT_TRUE(!r.exited && r.signal == SIGINT) << r.describe();  // the default action, at once
+  EXPECT_TRUE(!fs::exists(tmp / "out.checkpoints") || fs::is_empty(tmp / "out.checkpoints")) << r.err;
+  EXPECT_FALSE(fs::exists(out()));
+}
+
 // A run started with SIGHUP ignored (nohup) keeps it ignored: a closed terminal does not stop
 // it. The case runs for a few seconds; the hang-up arrives 0.3 s after it starts.
 TEST_F(Commands, ASignalIgnoredAtTheStartStaysIgnored) {
