@@ -162,39 +162,6 @@ class CounterRng {
   CounterRng(std::uint64_t seed, Stream stream, std::uint64_t entity, std::uint64_t step, std::uint64_t sequence)
       : key_{{seed, static_cast<std::uint64_t>(stream)}}, ctr_{{entity, step, 0, sequence}} {}
 
-  // Fast paths of the ziggurats on a given word w (the same bits as normal_ziggurat and
-  // exponential_ziggurat use): writes the variate and returns true on the fast path (~99%);
-  // returns false when the wedge or tail must be sampled (then use *_from on a generator).
-  static bool normal_ziggurat_fast(std::uint64_t w, double& out) {
-    const unsigned i = w & 0xffu;
-    const double u = static_cast<double>(static_cast<std::int64_t>(w >> 11)) * 0x1.0p-53;
-    out = std::bit_cast<double>(std::bit_cast<std::uint64_t>(u * kNormalZiggurat.x[i]) ^ ((w & 0x100u) << 55));
-    return u < kNormalZiggurat.ratio[i];
-  }
-  static bool exponential_ziggurat_fast(std::uint64_t w, double& out) {
-    const unsigned i = w & 0xffu;
-    const double u = static_cast<double>(static_cast<std::int64_t>(w >> 11)) * 0x1.0p-53;
-    out = u * kExponentialZiggurat.x[i];
-    return u < kExponentialZiggurat.ratio[i];
-  }
-  // The complete ziggurat draws whose first word is the given w: the fast path as above,
-  // otherwise the exact wedge/tail sampling with its further draws from this generator.
-  double normal_ziggurat_from(std::uint64_t w) {
-    const unsigned i = w & 0xffu;
-    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;
-    const double x = u * kNormalZiggurat.x[i];
-    if (u < kNormalZiggurat.ratio[i])
-      return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) ^ ((w & 0x100u) << 55));
-    return normal_ziggurat_edge(i, x, (w & 0x100u) ? -1.0 : 1.0);
-  }
-  double exponential_ziggurat_from(std::uint64_t w) {
-    const unsigned i = w & 0xffu;
-    const double u = static_cast<double>(w >> 11) * 0x1.0p-53;
-    const double x = u * kExponentialZiggurat.x[i];
-    if (u < kExponentialZiggurat.ratio[i]) return x;
-    return exponential_ziggurat_edge(i, x);
-  }
-
   // Uniform on the open interval (0, 1): never 0, so log(u) is always finite.
   double uniform() {
     if (used_ == 4) refill();
@@ -430,9 +397,6 @@ inline void store_words4(std::uint64_t* w, U first, U second) {
 }  // namespace detail
 
 struct Philox4x32Lanes {
-  static constexpr std::uint32_t kM0 = detail::kPhiloxM0, kM1 = detail::kPhiloxM1;
-  static constexpr std::uint32_t kW0 = detail::kPhiloxW0, kW1 = detail::kPhiloxW1;
-
   // Scalar reference by Random123 (also the per-grain path): the same eight words.
   // Blocks = 4 gives words8, Blocks = 2 words4 (block j's outputs in words j and Blocks + j).
   template <std::uint32_t Blocks>
