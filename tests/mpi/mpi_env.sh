@@ -53,3 +53,26 @@ same_results() {
   fi
   echo "ok   $3: bitwise identical to the plain run"
 }
+# rank_of PID: the Open MPI rank of a process (from its environment), empty if it has none
+rank_of() { tr '\0' '\n' < "/proc/$1/environ" 2>/dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p'; }
+# catches_sigterm PID: true once the process handles SIGTERM (bit 15 of SigCgt in /proc)
+catches_sigterm() {
+  local mask
+  mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$1/status" 2>/dev/null || true)
+  [ -n "$mask" ] && (( (16#$mask >> 14) & 1 ))
+}
+# rank_pid LAUNCHER PATTERN RANK READY...: the pid of rank RANK among the processes whose
+# command line matches PATTERN (pgrep -f), as soon as the command READY... succeeds with that
+# pid as its last argument; polled every 10 ms for up to a minute while LAUNCHER lives.
+# Prints nothing if the launcher ended (or the minute passed) first.
+rank_pid() {
+  local launcher=$1 pattern=$2 rank=$3 pid
+  shift 3
+  for _ in $(seq 1 6000); do
+    for pid in $(pgrep -f "$pattern" || true); do
+      if [ "$(rank_of "$pid")" = "$rank" ] && "$@" "$pid"; then echo "$pid"; return 0; fi
+    done
+    kill -0 "$launcher" 2> /dev/null || return 0
+    sleep 0.01
+  done
+}

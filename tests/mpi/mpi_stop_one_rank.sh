@@ -23,21 +23,7 @@ fail=0
 
 mpi 2 run "$case_dir" --out "$work/stopped" -q > "$work/stopped.log" 2>&1 &
 launcher=$!
-rank_of() { tr '\0' '\n' < "/proc/$1/environ" 2>/dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p'; }
-catches_sigterm() {
-  local mask
-  mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$1/status" 2>/dev/null || true)
-  [ -n "$mask" ] && (( (16#$mask >> 14) & 1 ))
-}
-target=""
-for _ in $(seq 1 6000); do  # up to a minute
-  for pid in $(pgrep -f "^$exe run " || true); do
-    if [ "$(rank_of "$pid")" = 1 ] && catches_sigterm "$pid"; then target=$pid; fi
-  done
-  [ -n "$target" ] && break
-  kill -0 "$launcher" 2> /dev/null || break
-  sleep 0.01
-done
+target=$(rank_pid "$launcher" "^$exe run " 1 catches_sigterm)
 if [ -z "$target" ]; then
   echo "FAIL: rank 1 was not seen catching SIGTERM before the run ended"; wait "$launcher" || true
   cat "$work/stopped.log"; exit 1

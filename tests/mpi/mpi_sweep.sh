@@ -37,18 +37,8 @@ long=(--set run.seed=$seeds --set dsmc.t_end=60 --set dsmc.particles=20000 --set
 # ---- 1. a stop request to rank 1 only, once its variant (variant 1) has written a checkpoint
 mpi 2 sweep "$case_dir" "${long[@]}" --out "$work/mpi" > "$work/stopped.out" 2> "$work/stopped.err" &
 launcher=$!
-rank_of() { tr '\0' '\n' < "/proc/$1/environ" 2>/dev/null | sed -n 's/^OMPI_COMM_WORLD_RANK=//p'; }
-target=""
-for _ in $(seq 1 6000); do  # up to a minute
-  if ls "$work"/mpi/variant-1_*.checkpoints/*.h5 > /dev/null 2>&1; then
-    for pid in $(pgrep -f "^$exe sweep " || true); do
-      [ "$(rank_of "$pid")" = 1 ] && target=$pid
-    done
-  fi
-  [ -n "$target" ] && break
-  kill -0 "$launcher" 2> /dev/null || break
-  sleep 0.01
-done
+variant1_checkpointed() { ls "$work"/mpi/variant-1_*.checkpoints/*.h5 > /dev/null 2>&1; }
+target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/mpi\$" 1 variant1_checkpointed)
 if [ -z "$target" ]; then
   echo "FAIL: variant 1 wrote no checkpoint on rank 1 before the sweep ended"; wait "$launcher" || true
   cat "$work/stopped.err"; exit 1
@@ -132,17 +122,8 @@ within "${MPI_RUN_LIMIT:-240}" mpirun --oversubscribe --bind-to none \
   -np 1 env GRAINBATH_FAULT_NONFINITE_SAMPLE=3 "$exe" sweep "$case_dir" "${long[@]}" --out "$work/failstop" \
   > "$work/failstop.out" 2> "$work/failstop.err" &
 launcher=$!
-target=""
-for _ in $(seq 1 6000); do
-  if grep -q "rank 1: FAILED      variant-3_" "$work/failstop.err" 2> /dev/null; then
-    for pid in $(pgrep -f "^$exe sweep .* --out $work/failstop\$" || true); do
-      [ "$(rank_of "$pid")" = 1 ] && target=$pid
-    done
-  fi
-  [ -n "$target" ] && break
-  kill -0 "$launcher" 2> /dev/null || break
-  sleep 0.01
-done
+both_failed() { grep -q "rank 1: FAILED      variant-3_" "$work/failstop.err" 2> /dev/null; }
+target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/failstop\$" 1 both_failed)
 if [ -z "$target" ]; then
   echo "FAIL: rank 1 did not report variant 3 as failed before the sweep ended"; wait "$launcher" || true
   cat "$work/failstop.err"; exit 1
@@ -187,23 +168,10 @@ fi
 # ---- 4. a rank with no variant (3 ranks, 2 variants) waits for the others in a collective; a
 # stop request to it there is the sweep's to handle (no run's handler was ever installed in
 # that process): it stops the sweep once the others finish, instead of killing the rank
-catches_sigterm() {
-  local mask
-  mask=$(awk '/^SigCgt:/ {print $2}' "/proc/$1/status" 2>/dev/null || true)
-  [ -n "$mask" ] && (( (16#$mask >> 14) & 1 ))
-}
 mpi 3 sweep "$case_dir" --set run.seed=1,2 --set dsmc.t_end=60 --set dsmc.particles=20000 --out "$work/idle" \
   > /dev/null 2> "$work/idle.err" &
 launcher=$!
-target=""
-for _ in $(seq 1 6000); do
-  for pid in $(pgrep -f "^$exe sweep .* --out $work/idle\$" || true); do
-    if [ "$(rank_of "$pid")" = 2 ] && catches_sigterm "$pid"; then target=$pid; fi
-  done
-  [ -n "$target" ] && break
-  kill -0 "$launcher" 2> /dev/null || break
-  sleep 0.01
-done
+target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/idle\$" 2 catches_sigterm)
 if [ -z "$target" ]; then
   echo "FAIL: rank 2 was not seen catching SIGTERM before the sweep ended"; wait "$launcher" || true
   cat "$work/idle.err"; exit 1
