@@ -211,6 +211,25 @@ fs::path check_output_path(const fs::path& out, const std::vector<fs::path>& kee
   const std::string shown = out.string();
   const fs::path full = normalised(out), target = resolved(out);
   std::error_code ec;
+  // OUT's siblings must fit the file system's limit on a name too: the longest is
+  // OUT.checkpoints.previous (OUT.tmp-PID-N and OUT.previous are shorter). A name that fits
+  // alone but not with them would fail only later: a second sweep could not move the first
+  // aside, a run's checkpoints could not be kept, after the work.
+  {
+    constexpr std::size_t kLongestSuffix = std::char_traits<char>::length(".checkpoints.previous");
+    fs::path dir = full.parent_path();
+    while (!dir.empty() && !fs::is_directory(dir, ec) && dir.has_parent_path() && dir != dir.parent_path())
+      dir = dir.parent_path();  // the nearest existing ancestor decides the file system
+    const long limit = ::pathconf(dir.empty() ? "." : dir.c_str(), _PC_NAME_MAX);
+    const std::size_t name_max = limit > 0 ? static_cast<std::size_t>(limit) : 255;
+    const std::size_t bytes = full.filename().native().size();
+    if (bytes + kLongestSuffix > name_max)
+      throw std::runtime_error(shown + ": its last name is " + std::to_string(bytes) +
+                               " bytes long; grainbath writes siblings beside it (NAME.previous, NAME.tmp-PID, "
+                               "NAME.checkpoints.previous) and this file system allows " + std::to_string(name_max) +
+                               " bytes per name, so NAME may have at most " + std::to_string(name_max - kLongestSuffix) +
+                               ": choose a shorter --out");
+  }
   const fs::path cwd = resolved(fs::current_path(ec));
   if (!ec && is_within(cwd, target))
     throw std::runtime_error(shown + ": is the current directory or contains it; the output directory is replaced as a "

@@ -75,6 +75,19 @@ class OutputDir : public ::testing::Test {
     opt.cwd = cwd.empty() ? work() : cwd;
     return run_binary(args, opt);
   }
+  // grainbath with every move to a path ending in `suffix` failing (EXDEV, as across file
+  // systems; tests/cli/fail_rename.cpp), the only way to make a move fail for root
+  RunResult grainbath_failing_moves_to(const std::string& suffix, std::vector<std::string> args) {
+    args.insert(args.begin(), kBinary);
+    RunOptions opt;
+    opt.cwd = work();
+    const char* asan = std::getenv("ASAN_OPTIONS");
+    opt.env = {{"LD_PRELOAD", GRAINBATH_FAIL_RENAME},
+               {"GRAINBATH_TEST_FAIL_RENAME_TO", suffix},
+               // the shim is loaded before the sanitizer runtime of the ASan build
+               {"ASAN_OPTIONS", std::string(asan ? asan : "") + (asan && *asan ? ":" : "") + "verify_asan_link_order=0"}};
+    return run_binary(args, opt);
+  }
   RunResult run(const fs::path& out, fs::path cwd = {}) {
     return grainbath({"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "run.threads=1"}, cwd);
   }
@@ -920,4 +933,119 @@ TEST_F(OutputDir, SweepWithoutJobsRunsOneVariantPerFreeCore) {
               std::string::npos)
         << r.err;
   }
+}
+
+// ------------------------------------------------------------ moves that fail, names too long
+// A move of the output can fail where permissions would not stop it (another file system, a
+// full directory); what was written must survive it: the earlier output where it was, the new
+// results in the temporary directory, said. The moves are made to fail by
+// tests/cli/fail_rename.cpp (EXDEV).
+
+TEST_F(OutputDir, AFailedMoveAsideKeepsTheEarlierOutputAndTheNewResults) {
+  const fs::path out = tmp / "out";
+  ASSERT_EQ(run(out).code, 0);
+  const std::string first = read_text(out / "summary.json");
+  const std::vector<std::string> args = {"run", case_dir().string(), "--out", out.string(), "--quiet",
+                                         "--set", "run.threads=1", "--set", "run.seed=2"};
+  RunResult r = grainbath_failing_moves_to("out.previous", args);
+  EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
+  std::smatch kept;
+  ASSERT_TRUE(std::regex_search(r.err, kept,
+                                std::regex("error: " + out.string() +
+                                           R"(: cannot move the previous output aside \(Invalid cross-device link\); )"
+                                           R"(the results of this run are kept in (\S+\.tmp-[0-9]+)\n)")))
+      << r.err;
+  const fs::path kept_dir = kept[1].str();
+  EXPECT_EQ(read_text(out / "summary.json"), first);  // the earlier output untouched
+  EXPECT_NE(read_text(kept_dir / "summary.json").find("\"seed\": 2"), std::string::npos);
+  EXPECT_TRUE(fs::exists(kept_dir / "results.h5"));
+  EXPECT_FALSE(fs::exists(tmp / "out.previous"));
+  // the next run says where those results are and leaves them
+  r = run(out);
+  EXPECT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("note: " + kept_dir.string() + " holds the results of an earlier run that were not moved "
+                       "into place"),
+            std::string::npos)
+      << r.err;
+  EXPECT_TRUE(fs::exists(kept_dir / "summary.json"));
+  EXPECT_EQ(read_text(tmp / "out.previous" / "summary.json"), first);
+}
+
+TEST_F(OutputDir, AFailedMoveIntoPlaceKeepsTheNewResults) {
+  const fs::path out = tmp / "out";
+  const RunResult r = grainbath_failing_moves_to(
+      "/out", {"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "run.threads=1"});
+  EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
+  std::smatch kept;
+  ASSERT_TRUE(std::regex_search(r.err, kept,
+                                std::regex("error: " + out.string() +
+                                           R"(: cannot move the new output into place \(Invalid cross-device link\); )"
+                                           R"(the results of this run are kept in (\S+\.tmp-[0-9]+)\n)")))
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_TRUE(fs::exists(fs::path(kept[1].str()) / "summary.json"));
+}
+
+TEST_F(OutputDir, AFailedMoveOfTheEarlierSweepRunsNothing) {
+  const fs::path out = tmp / "sweep";
+  const std::vector<std::string> args = {"sweep", case_dir().string(), "--out", out.string(), "-j", "1",
+                                         "--set", "run.seed=1,2", "--set", "run.threads=1"};
+  ASSERT_EQ(grainbath(args).code, 0);
+  const auto before = listing(tmp.path());
+  const RunResult r = grainbath_failing_moves_to("sweep.previous", args);
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find("error: " + out.string() + ": cannot move the previous sweep aside to " + out.string() +
+                       ".previous (Invalid cross-device link)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("done"), std::string::npos) << "a variant ran:\n" << r.err;
+  EXPECT_EQ(listing(tmp.path()), before);
+}
+
+TEST_F(OutputDir, AFailedMoveOfAnEarlierRunsCheckpointsRunsNothing) {
+  const fs::path out = tmp / "out";
+  write_text(tmp / "out.checkpoints" / "checkpoint-000000009000.h5", "an earlier run's");
+  const auto before = listing(tmp.path());
+  const RunResult r = grainbath_failing_moves_to(
+      "out.checkpoints.previous", {"run", case_dir().string(), "--out", out.string(), "--quiet", "--set",
+                                   "run.threads=1", "--set", "checkpoint.every=0.05"});
+  EXPECT_TRUE(r.exited && r.code == 2) << r.describe();
+  EXPECT_NE(r.err.find(": cannot move the earlier run's checkpoints aside (Invalid cross-device link)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_text(tmp / "out.checkpoints" / "checkpoint-000000009000.h5"), "an earlier run's");
+  EXPECT_EQ(listing(tmp.path()), before);
+}
+
+// A name that fits the file system alone but not with the siblings grainbath writes beside it
+// (NAME.checkpoints.previous, 21 bytes more) is refused at start-up: before, a sweep into it
+// ran, and the next one could not move it aside; a run's checkpoints could not be kept.
+TEST_F(OutputDir, ANameTooLongForItsSiblingsIsRefusedAtStartUp) {
+  const long name_max = ::pathconf(tmp.path().c_str(), _PC_NAME_MAX);
+  ASSERT_GT(name_max, 30);
+  const std::size_t longest = static_cast<std::size_t>(name_max) - 21;
+  const fs::path too_long = tmp / std::string(longest + 1, 'o');
+  const std::string said = "error: " + too_long.string() + ": its last name is " + std::to_string(longest + 1) +
+                           " bytes long; grainbath writes siblings beside it (NAME.previous, NAME.tmp-PID, "
+                           "NAME.checkpoints.previous) and this file system allows " + std::to_string(name_max) +
+                           " bytes per name, so NAME may have at most " + std::to_string(longest) +
+                           ": choose a shorter --out";
+  expect_refused(too_long, "its last name is");
+  const RunResult r = grainbath({"sweep", case_dir().string(), "--out", too_long.string(), "-j", "1", "--set",
+                                 "run.seed=1,2"});
+  EXPECT_EQ(r.code, 2) << r.describe();
+  EXPECT_NE(r.err.find(said), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(too_long));
+  // the longest name allowed: a run into it twice, with checkpoints kept, moves everything aside
+  const fs::path longest_out = tmp / std::string(longest, 'o');
+  for (int k = 0; k < 2; ++k) {
+    const RunResult ok = grainbath({"run", case_dir().string(), "--out", longest_out.string(), "--quiet", "--set",
+                                    "run.threads=1", "--set", "checkpoint.every=0.05", "--set", "checkpoint.keep=true"});
+    ASSERT_EQ(ok.code, 0) << ok.describe();
+  }
+  fs::path previous = longest_out, checkpoints_previous = longest_out;
+  previous += ".previous";
+  checkpoints_previous += ".checkpoints.previous";
+  EXPECT_TRUE(fs::exists(previous / "summary.json"));
+  EXPECT_TRUE(fs::is_directory(checkpoints_previous));
 }
