@@ -14,17 +14,19 @@
 #     survives it, rank 0 finishes, says that 2 failed (not "not started"), exits 130, and
 #     --resume runs the failed ones again to the process-parallel sweep's ensemble.
 #  3. A second sweep into the same --out moves the first aside once (rank 0 alone moves and
-#     says so); a --resume where no sweep was is refused on every rank (exit 2), said once,
+#     says so); a move aside that fails stops every rank with exit 2, said once, the earlier
+#     sweep kept; a --resume where no sweep was is refused on every rank (exit 2), said once,
 #     and nothing is written.
 #  4. A stop request to a rank that has no variant (3 ranks, 2 variants), waiting for the
 #     others in a collective: the sweep's own handler takes it (the rank is not killed); the
 #     others finish, and the sweep stops with 130 and no table.
 #
-# usage: mpi_sweep.sh GRAINBATH CASE_DIR WORK_DIR
+# usage: mpi_sweep.sh GRAINBATH CASE_DIR WORK_DIR FAIL_RENAME_SHIM
 set -euo pipefail
 exe=$1
 case_dir=$2
 work=$3
+shim=$4  # libgrainbath_test_fail_rename.so (tests/cli/fail_rename.cpp)
 source "$(dirname "$0")/mpi_env.sh"
 fresh_work_dir "$work"
 fail=0
@@ -163,7 +165,20 @@ if [ "$rc" != 2 ] || [ "$said" != 1 ] || [ -n "$(ls -A "$work/empty")" ]; then
   echo "FAIL: --resume without a sweep: exit $rc (want 2), said $said times (want 1), wrote: $(ls -A "$work/empty")"
   cat "$work/noresume.err"; fail=1
 fi
-[ "$fail" = 0 ] && echo "ok   a second sweep moves the first aside once; --resume without a sweep refused on both ranks"
+# ... and a move aside that fails (here as across file systems, by the preloaded shim of
+# tests/cli/fail_rename.cpp) stops every rank at once: rank 0 says it once and aborts the job,
+# whose other ranks would otherwise wait for it in the barrier after the move (audit S20)
+cp -r "$work/failing" "$work/failing.before"
+rc=0
+LD_PRELOAD=$shim GRAINBATH_TEST_FAIL_RENAME_TO=failing.previous MPI_RUN_LIMIT=60 \
+  mpi 2 sweep "$case_dir" "${short[@]}" --out "$work/failing" > /dev/null 2> "$work/nomove.err" || rc=$?
+said=$(grep -c "error: $work/failing: cannot move the previous sweep aside to $work/failing.previous (Invalid cross-device link)" \
+  "$work/nomove.err" || true)
+if [ "$rc" != 2 ] || [ "$said" != 1 ] || ! diff -r "$work/failing.before" "$work/failing" > /dev/null; then
+  echo "FAIL: a failed move aside: exit $rc (want 2), said $said times (want 1), the earlier sweep kept:"
+  diff -r "$work/failing.before" "$work/failing" | head; cat "$work/nomove.err"; fail=1
+fi
+[ "$fail" = 0 ] && echo "ok   a second sweep moves the first aside once; a failed move stops both ranks; --resume without a sweep refused on both ranks"
 
 # ---- 4. a rank with no variant (3 ranks, 2 variants) waits for the others in a collective; a
 # stop request to it there is the sweep's to handle (no run's handler was ever installed in
