@@ -2,9 +2,11 @@
 #include <CLI/CLI.hpp>
 
 #include <atomic>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <set>
@@ -45,6 +47,19 @@ const CLI::Validator kNotEmpty(
       return std::string();
     },
     "", "not empty");
+
+// theory, check and list-models: their standard output is what they make, so a write of it
+// that failed is a failure (exit 1, said on stderr): `grainbath theory CASE > theory.json` on a
+// full disk exited 0 with the file empty. A run's or a sweep's table is a copy of files they
+// write, and a run goes on when its stdout is gone (`| head`): not checked there.
+int written_to_stdout(int code, const char* command) {
+  errno = 0;
+  if (std::fflush(stdout) == 0 && !std::ferror(stdout)) return code;
+  const int err = errno;
+  std::fprintf(stderr, "error: %s: cannot write its output to standard output (%s)\n", command,
+               err != 0 ? std::strerror(err) : "a write failed");
+  return code == 0 ? 1 : code;
+}
 
 int cli_main(int argc, char** argv) {
   // A file-size limit (ulimit -f) must surface as a failed write with a clear message,
@@ -158,9 +173,9 @@ int cli_main(int argc, char** argv) {
   }
 #endif
   if (*run) return grainbath::cli::command_run(run_args);
-  if (*check) return grainbath::cli::command_check(check_args);
-  if (*theory) return grainbath::cli::command_theory(theory_args);
-  if (*list) return grainbath::cli::command_list_models();
+  if (*check) return written_to_stdout(grainbath::cli::command_check(check_args), "check");
+  if (*theory) return written_to_stdout(grainbath::cli::command_theory(theory_args), "theory");
+  if (*list) return written_to_stdout(grainbath::cli::command_list_models(), "list-models");
   if (*sweep) return grainbath::cli::command_sweep(sweep_args);
   if (*report) return grainbath::cli::command_report(report_args);
   return 1;

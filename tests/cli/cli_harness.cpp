@@ -56,6 +56,11 @@ RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt
   if (pid == 0) {
     ::dup2(out_pipe[1], 1);
     ::dup2(err_pipe[1], 2);
+    if (opt.stdout_to_dev_full) {
+      const int full = ::open("/dev/full", O_WRONLY);
+      if (full < 0) ::_exit(123);
+      ::dup2(full, 1);
+    }
     const int devnull = ::open("/dev/null", O_RDONLY);
     if (devnull >= 0) ::dup2(devnull, 0);
     if (!opt.cwd.empty() && ::chdir(opt.cwd.c_str()) != 0) ::_exit(120);

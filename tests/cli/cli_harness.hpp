@@ -52,6 +52,7 @@ struct RunOptions {
   std::vector<std::pair<std::string, std::string>> env;  // extra environment variables
   std::vector<int> ignored_signals;       // ignored in the child from the start, as nohup ignores SIGHUP
   bool close_stdout = false;              // the child's stdout a pipe nobody reads (`| head` after its lines)
+  bool stdout_to_dev_full = false;        // the child's stdout /dev/full (every write fails: ENOSPC)
 };
 
 RunResult run_binary(const std::vector<std::string>& args, const RunOptions& opt);

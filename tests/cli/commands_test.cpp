@@ -221,6 +221,27 @@ TEST_F(Commands, ListModelsGivesEachLawsKeys) {
   EXPECT_NE(r.out.find("             - beta0 (required"), std::string::npos) << r.out;
 }
 
+// theory, check and list-models make their standard output: when it cannot be written
+// (here /dev/full, as a full disk under `> theory.json`) they fail with exit 1 and say why;
+// they exited 0 with nothing written. A bad case stays exit 2.
+TEST_F(Commands, TheoryCheckAndListModelsFailWhenTheirOutputCannotBeWritten) {
+  write_text(case_dir() / "case.toml", dsmc_case(1000, 0.2));
+  RunOptions full;
+  full.stdout_to_dev_full = true;
+  const std::vector<std::pair<std::string, std::vector<std::string>>> commands = {
+      {"theory", {"theory", case_dir().string()}},
+      {"check", {"check", case_dir().string()}},
+      {"list-models", {"list-models"}}};
+  for (const auto& [name, args] : commands) {
+    SCOPED_TRACE(name);
+    const RunResult r = grainbath(args, full);
+    EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
+    EXPECT_EQ(r.err, "error: " + name + ": cannot write its output to standard output (No space left on device)\n");
+  }
+  const RunResult bad = grainbath({"theory", case_dir().string(), "--set", "restitution.e=2"}, full);
+  EXPECT_TRUE(bad.exited && bad.code == 2) << bad.describe();
+}
+
 // `report` runs $GRAINBATH_PYTHON_DIR/report.py and returns its exit status as it is (2 bad
 // input, 3 a module missing: python/README.md); a GRAINBATH_PYTHON_DIR without report.py is
 // refused (exit 1), never replaced by another copy.
