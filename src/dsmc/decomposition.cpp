@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "dsmc/global_blocks.hpp"
 #include "dsmc/spatial.hpp"
 
 #ifdef GRAINBATH_MPI
@@ -743,50 +744,15 @@ std::uint64_t Decomposition::sum_wrapping(std::uint64_t x) const {
 }
 
 namespace {
-// Sums of blocks of kGlobalBlock particles of the global order, when this rank holds the
-// particles [offset, offset + n) of it. The blocks that lie inside the rank are summed at
-// once (in parallel); a block split between ranks is summed by its ranks in turn, each
-// going on from the sums of the ones before (the carry), so that every block is added in
-// particle order as one process adds it. Returns the blocks that end on this rank, in
-// order (the last rank also ends the last block).
-constexpr std::size_t kGlobalBlock = 4096;  // measure_moments' block (src/dsmc/moments.cpp)
-template <class Sums>
-struct Carry {
-  int open = 0;  // a block begun on an earlier rank is not finished
-  Sums sums;
-};
+// Sums of the global blocks (src/dsmc/global_blocks.hpp): the local part, then the turns in
+// rank order with the carry passed from rank to rank.
 template <class Sums, class Blocks, class Range>
 std::vector<Sums> sums_in_global_blocks(const Decomposition& dec, std::size_t n, std::uint64_t offset,
                                         const Blocks& blocks, const Range& range) {
-  const auto to_boundary = static_cast<std::size_t>((kGlobalBlock - offset % kGlobalBlock) % kGlobalBlock);
-  const std::size_t head = std::min(n, to_boundary);  // [0, head): the end of a block begun before
-  const bool head_ends_block = head > 0 && to_boundary <= n;
-  std::vector<std::size_t> bounds;  // the whole blocks inside this rank
-  std::size_t lo = head;
-  for (; lo + kGlobalBlock <= n; lo += kGlobalBlock) bounds.push_back(lo);
-  if (!bounds.empty()) bounds.push_back(lo);
-  std::vector<Sums> inside;
-  blocks(bounds, inside);
-  // [lo, n) begins a block that goes on after this rank (not when the head already ran to n)
-  const bool tail_open = lo < n && (head_ends_block || head == 0);
-  Sums tail{};
-  if (tail_open) range(lo, n, tail);
+  const RankInGlobalBlocks<Sums> part = split_into_global_blocks<Sums>(n, offset, blocks, range);
   std::vector<Sums> done;
-  dec.in_rank_order<Carry<Sums>>(Carry<Sums>{}, [&](Carry<Sums>& carry) {
-    if (head > 0) {
-      range(0, head, carry.sums);  // goes on from the ranks before
-      carry.open = 1;
-    }
-    if (head_ends_block) {
-      done.push_back(carry.sums);
-      carry = Carry<Sums>{};
-    }
-    done.insert(done.end(), inside.begin(), inside.end());
-    if (tail_open) carry = Carry<Sums>{1, tail};
-    if (dec.rank() == dec.size() - 1 && carry.open) {  // the last, partial block of the population
-      done.push_back(carry.sums);
-      carry = Carry<Sums>{};
-    }
+  dec.in_rank_order<GlobalBlockCarry<Sums>>(GlobalBlockCarry<Sums>{}, [&](GlobalBlockCarry<Sums>& carry) {
+    continue_global_blocks(part, dec.rank() == dec.size() - 1, range, carry, done);
   });
   return done;
 }
