@@ -941,6 +941,20 @@ TEST_F(OutputDir, SweepWithoutJobsRunsOneVariantPerFreeCore) {
 // results in the temporary directory, said. The moves are made to fail by
 // tests/cli/fail_rename.cpp (EXDEV).
 
+namespace {
+// The directory a run that failed with "error: OUT: <failure> (Invalid cross-device link);
+// the results of this run are kept in DIR" names ("" if it said nothing of the kind).
+fs::path kept_results(const RunResult& r, const fs::path& out, const std::string& failure) {
+  std::smatch kept;
+  if (!std::regex_search(r.err, kept,
+                         std::regex("error: " + out.string() + ": " + failure +
+                                    R"( \(Invalid cross-device link\); the results of this run are kept in )"
+                                    R"((\S+\.tmp-[0-9]+)\n)")))
+    return {};
+  return kept[1].str();
+}
+}  // namespace
+
 TEST_F(OutputDir, AFailedMoveAsideKeepsTheEarlierOutputAndTheNewResults) {
   const fs::path out = tmp / "out";
   ASSERT_EQ(run(out).code, 0);
@@ -949,13 +963,8 @@ TEST_F(OutputDir, AFailedMoveAsideKeepsTheEarlierOutputAndTheNewResults) {
                                          "--set", "run.threads=1", "--set", "run.seed=2"};
   RunResult r = grainbath_failing_moves_to("out.previous", args);
   EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
-  std::smatch kept;
-  ASSERT_TRUE(std::regex_search(r.err, kept,
-                                std::regex("error: " + out.string() +
-                                           R"(: cannot move the previous output aside \(Invalid cross-device link\); )"
-                                           R"(the results of this run are kept in (\S+\.tmp-[0-9]+)\n)")))
-      << r.err;
-  const fs::path kept_dir = kept[1].str();
+  const fs::path kept_dir = kept_results(r, out, "cannot move the previous output aside");
+  ASSERT_FALSE(kept_dir.empty()) << r.err;
   EXPECT_EQ(read_text(out / "summary.json"), first);  // the earlier output untouched
   EXPECT_NE(read_text(kept_dir / "summary.json").find("\"seed\": 2"), std::string::npos);
   EXPECT_TRUE(fs::exists(kept_dir / "results.h5"));
@@ -976,14 +985,10 @@ TEST_F(OutputDir, AFailedMoveIntoPlaceKeepsTheNewResults) {
   const RunResult r = grainbath_failing_moves_to(
       "/out", {"run", case_dir().string(), "--out", out.string(), "--quiet", "--set", "run.threads=1"});
   EXPECT_TRUE(r.exited && r.code == 1) << r.describe();
-  std::smatch kept;
-  ASSERT_TRUE(std::regex_search(r.err, kept,
-                                std::regex("error: " + out.string() +
-                                           R"(: cannot move the new output into place \(Invalid cross-device link\); )"
-                                           R"(the results of this run are kept in (\S+\.tmp-[0-9]+)\n)")))
-      << r.err;
+  const fs::path kept_dir = kept_results(r, out, "cannot move the new output into place");
+  ASSERT_FALSE(kept_dir.empty()) << r.err;
   EXPECT_FALSE(fs::exists(out));
-  EXPECT_TRUE(fs::exists(fs::path(kept[1].str()) / "summary.json"));
+  EXPECT_TRUE(fs::exists(kept_dir / "summary.json"));
 }
 
 TEST_F(OutputDir, AFailedMoveOfTheEarlierSweepRunsNothing) {
