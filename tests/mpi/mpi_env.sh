@@ -76,3 +76,18 @@ rank_pid() {
     sleep 0.01
   done
 }
+# stop_rank LAUNCHER PATTERN RANK LOG WHAT READY...: SIGTERM to rank RANK's process (rank_pid)
+# once READY... holds, then waits for the job: its exit code in $stopped_rc. If the rank was
+# not seen ready before the job ended: "FAIL: WHAT before the job ended", LOG shown, exit 1.
+stop_rank() {
+  local launcher=$1 pattern=$2 rank=$3 log=$4 what=$5 target
+  shift 5
+  target=$(rank_pid "$launcher" "$pattern" "$rank" "$@")
+  if [ -z "$target" ]; then
+    echo "FAIL: $what before the job ended"; wait "$launcher" || true
+    cat "$log"; exit 1
+  fi
+  kill -TERM "$target"
+  stopped_rc=0
+  wait "$launcher" || stopped_rc=$?
+}

@@ -23,14 +23,8 @@ fail=0
 
 mpi 2 run "$case_dir" --out "$work/stopped" -q > "$work/stopped.log" 2>&1 &
 launcher=$!
-target=$(rank_pid "$launcher" "^$exe run " 1 catches_sigterm)
-if [ -z "$target" ]; then
-  echo "FAIL: rank 1 was not seen catching SIGTERM before the run ended"; wait "$launcher" || true
-  cat "$work/stopped.log"; exit 1
-fi
-kill -TERM "$target"
-rc=0
-wait "$launcher" || rc=$?
+stop_rank "$launcher" "^$exe run " 1 "$work/stopped.log" "rank 1 was not seen catching SIGTERM" catches_sigterm
+rc=$stopped_rc
 if [ "$rc" != 130 ]; then
   echo "FAIL: the stopped run exited with $rc, not 130 (stopped on request)"; cat "$work/stopped.log"; fail=1
 fi

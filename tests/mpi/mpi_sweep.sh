@@ -40,14 +40,8 @@ long=(--set run.seed=$seeds --set dsmc.t_end=60 --set dsmc.particles=20000 --set
 mpi 2 sweep "$case_dir" "${long[@]}" --out "$work/mpi" > "$work/stopped.out" 2> "$work/stopped.err" &
 launcher=$!
 variant1_checkpointed() { ls "$work"/mpi/variant-1_*.checkpoints/*.h5 > /dev/null 2>&1; }
-target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/mpi\$" 1 variant1_checkpointed)
-if [ -z "$target" ]; then
-  echo "FAIL: variant 1 wrote no checkpoint on rank 1 before the sweep ended"; wait "$launcher" || true
-  cat "$work/stopped.err"; exit 1
-fi
-kill -TERM "$target"
-rc=0
-wait "$launcher" || rc=$?
+stop_rank "$launcher" "^$exe sweep .* --out $work/mpi\$" 1 "$work/stopped.err" "variant 1 wrote no checkpoint on rank 1" variant1_checkpointed
+rc=$stopped_rc
 if [ "$rc" != 130 ]; then echo "FAIL: the stopped sweep exited with $rc, not 130"; cat "$work/stopped.err"; fail=1; fi
 said=$(grep -c "sweep: interrupted: " "$work/stopped.err" || true)
 expected="sweep: interrupted: 2 of 4 variants finished, 1 stopped with a checkpoint, 1 not started; no table was made."
@@ -125,14 +119,8 @@ within "${MPI_RUN_LIMIT:-240}" mpirun --oversubscribe --bind-to none \
   > "$work/failstop.out" 2> "$work/failstop.err" &
 launcher=$!
 both_failed() { grep -q "rank 1: FAILED      variant-3_" "$work/failstop.err" 2> /dev/null; }
-target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/failstop\$" 1 both_failed)
-if [ -z "$target" ]; then
-  echo "FAIL: rank 1 did not report variant 3 as failed before the sweep ended"; wait "$launcher" || true
-  cat "$work/failstop.err"; exit 1
-fi
-kill -TERM "$target"
-rc=0
-wait "$launcher" || rc=$?
+stop_rank "$launcher" "^$exe sweep .* --out $work/failstop\$" 1 "$work/failstop.err" "rank 1 did not report variant 3 as failed" both_failed
+rc=$stopped_rc
 expected="sweep: interrupted: 2 of 4 variants finished, 0 stopped with a checkpoint, 0 not started, 2 failed (their .log says why; --resume runs them again); no table was made."
 if [ "$rc" != 130 ] || ! grep -qF "$expected" "$work/failstop.err"; then
   echo "FAIL: exit $rc (want 130); expected '$expected'; the sweep said:"; cat "$work/failstop.err"; fail=1
@@ -186,14 +174,8 @@ fi
 mpi 3 sweep "$case_dir" --set run.seed=1,2 --set dsmc.t_end=60 --set dsmc.particles=20000 --out "$work/idle" \
   > /dev/null 2> "$work/idle.err" &
 launcher=$!
-target=$(rank_pid "$launcher" "^$exe sweep .* --out $work/idle\$" 2 catches_sigterm)
-if [ -z "$target" ]; then
-  echo "FAIL: rank 2 was not seen catching SIGTERM before the sweep ended"; wait "$launcher" || true
-  cat "$work/idle.err"; exit 1
-fi
-kill -TERM "$target"
-rc=0
-wait "$launcher" || rc=$?
+stop_rank "$launcher" "^$exe sweep .* --out $work/idle\$" 2 "$work/idle.err" "rank 2 was not seen catching SIGTERM" catches_sigterm
+rc=$stopped_rc
 expected="sweep: interrupted: 2 of 2 variants finished, 0 stopped with a checkpoint, 0 not started; no table was made."
 if [ "$rc" != 130 ] || ! grep -qF "$expected" "$work/idle.err"; then
   echo "FAIL: exit $rc (want 130); expected '$expected'; the sweep said:"; cat "$work/idle.err"; fail=1
