@@ -244,6 +244,7 @@ void print_table(const Summary& s) {
   row("loss rate / chaos, Bizon gamma_e", "loss.gamma_over_gamma_e", "");
   theory_row("theory: medium steady T", "theory.medium_steady_temperature", "temperature.mean", "temperature.stderr");
   row("theory: wall-balance T", "theory.wall_balance_temperature", "");
+  row("theory: bath balance T, mol. chaos", "theory.heating_balance_temperature", "");
   if (!homogeneous && !std::isnan(s.number("theory.equilibrium.maxwellian.T")))
     std::printf("  (walls or a background profile: the homogeneous theory below is a reference, not a prediction\n"
                 "   of the domain's means; the report shows the profiles, `grainbath theory` a bulk's own state)\n");

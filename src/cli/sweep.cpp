@@ -677,6 +677,7 @@ int command_sweep(const SweepArgs& a) {
       {"theory.Z", "pressure.Z"},
       {"theory.medium_steady_temperature", "temperature.mean"},
       {"theory.wall_balance_temperature", "temperature.mean"},
+      {"theory.heating_balance_temperature", "temperature.mean"},
       {"theory.equilibrium.maxwellian.T", "temperature.mean"},
       {"theory.equilibrium.grad.T", "temperature.mean"},
       {"theory.equilibrium.sonine.T", "temperature.mean"},

@@ -449,6 +449,23 @@ decltype(auto) visit_law(const Config& c, F&& f) {
 bool homogeneous_and_undriven(const Config& c) {
   return c.heating.kind == HeatingKind::none && !c.walls[0] && !c.walls[1] && !c.walls[2] && !c.rough;
 }
+// A homogeneous gas whose only energy source is a heat bath acting at the collisions (white
+// noise or the Boltzmann bath; no walls, no medium, smooth grains): its steady temperature
+// balances the bath against the collisional loss per collision (theory.hpp,
+// collision_heating_balance_temperature), NaN for other runs. Molecular chaos: in dense
+// driven gases velocity correlations lower the loss per collision (Bizon Fig. 8b), so there
+// it is a reference; dilute, it predicts T (tests/edmd/physics_test.cpp).
+double heating_balance_temperature(const Config& c) {
+  const bool bath = c.heating.kind == HeatingKind::white_noise || c.heating.kind == HeatingKind::boltzmann;
+  if (!bath || c.walls[0] || c.walls[1] || c.walls[2] || c.background.present() || c.rough) return std::nan("");
+  return std::visit(
+      [&](const auto& law) {
+        return c.heating.kind == HeatingKind::white_noise
+                   ? theory::white_noise_balance_temperature(law, c.heating.rate, c.heating.kick)
+                   : theory::boltzmann_bath_balance_temperature(law, c.dims, c.heating.rate, c.heating.temperature);
+      },
+      c.restitution);
+}
 // closures/rough parameters of the case (docs/rough.md R1, R15): Enskog collision prefactor
 // G (Henderson chi in 2D, Carnahan-Starling in 3D) in engine units, and the collision-keyed
 // white noise as H_per_collision: each collision adds rate * kick^2 to the kinetic energy on
@@ -533,6 +550,8 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
                        theory::wall_balance_temperature(law, D, nu, drive, false, true));
     });
   }
+  if (const double T_heat = heating_balance_temperature(c); std::isfinite(T_heat))
+    out.emplace_back("edmd.heating_balance_temperature", T_heat);
   if (c.rough)
     for (const auto& [k, v] : rough_steady_theory(c)) out.emplace_back("edmd.rough." + k, v);
   if (std::holds_alternative<ConstantRestitution>(c.restitution)) {
@@ -1118,6 +1137,10 @@ void run_with(const Law& law, const Config& c, const RunContext& ctx, Summary& s
   // (v_n^2)_c/(v_n)_c under molecular chaos: 4 T/sqrt(pi T) steady, 4 <T^3/2>_t/(sqrt(pi) <T>_t) cooling
   const double vr_scale = c.free_cooling ? std::sqrt(std::numbers::pi) * T1 / (4.0 * T32) : std::sqrt(std::numbers::pi) / (4.0 * std::sqrt(T_mean));
   summary.set("loss.velocity_ratio", vr_scale * vn2_mean / std::max(vn_mean, 1e-300));
+  if (const double T_heat = heating_balance_temperature(c); std::isfinite(T_heat)) {
+    summary.set("theory.heating_balance_temperature", T_heat);
+    summary.set("heating.temperature_over_balance", T_mean / T_heat);
+  }
   if (c.background.present()) {
     if (homogeneous_and_undriven(c)) {
       const double K = c.background.density / c.background.knudsen;

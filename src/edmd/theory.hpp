@@ -223,6 +223,49 @@ double wall_balance_temperature(const Law& law, int dims, double packing, const 
   return std::sqrt(lo * hi);
 }
 
+// ---- Heat baths that act at the grain-grain collisions (Bizon Sec. III) ----
+// A homogeneous gas heated at its collisions is steady when the energy the bath adds per
+// collision equals the mean loss per collision, (1/4) <(1 - e^2) v_n^2>_c (reduced mass 1/2;
+// <.>_c over the collision-weighted normal speeds P_c of molecular chaos, above). Both are per
+// collision, so the density and g(sigma) drop out. `input(T)` is the bath's energy per
+// collision at T. Bisection in log T on a bracket grown from T = 1; +inf when the input
+// outruns every loss (elastic grains under white noise).
+template <class Law, class Input>
+double collision_heating_balance_temperature(const Law& law, const Input& input) {
+  auto f = [&](double T) { return input(T) - 0.25 * mean_loss_factor(law, T); };
+  double lo = 1.0, hi = 1.0;
+  int grow = 0;
+  while (f(hi) > 0.0) {
+    lo = hi;
+    hi *= 4.0;
+    if (++grow > 200) return std::numeric_limits<double>::infinity();
+  }
+  while (f(lo) <= 0.0) {
+    hi = lo;
+    lo *= 0.25;
+    if (++grow > 400) return 0.0;  // no input at any T
+  }
+  for (int it = 0; it < 200; ++it) {
+    const double m = std::sqrt(lo * hi);
+    (f(m) > 0.0 ? lo : hi) = m;
+  }
+  return std::sqrt(lo * hi);
+}
+// White noise (Bizon eqs. 20-21): `rate` random pairs per collision get kicks +kick u and
+// -kick u along a random direction u; each adds kick^2 on average (the cross term
+// kick (v_p - v_q).u averages to 0 over u). Steady: rate kick^2 = (1/4) <(1 - e^2) v_n^2>_c;
+// constant e: <v_n^2>_c = 4T, T = rate kick^2 / (1 - e^2).
+template <class Law>
+double white_noise_balance_temperature(const Law& law, int rate, double kick) {
+  return collision_heating_balance_temperature(law, [&](double) { return rate * kick * kick; });
+}
+// Boltzmann bath (Bizon Sec. III C): `rate` random grains per collision get a fresh
+// Maxwellian velocity at T_bath, each adding (D/2)(T_bath - T) on average.
+template <class Law>
+double boltzmann_bath_balance_temperature(const Law& law, int dims, int rate, double T_bath) {
+  return collision_heating_balance_temperature(law, [&](double T) { return rate * 0.5 * dims * (T_bath - T); });
+}
+
 // ---- Enskog transport coefficients of elastic hard disks / spheres (Bizon eqs. 16-17) ----
 // Bizon: to the order kinetic theory is taken, the inelastic mu and kappa equal the elastic
 // Enskog values (Sec. II). First Sonine approximation in D dimensions (Garzo & Dufty 1999,

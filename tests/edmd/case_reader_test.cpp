@@ -178,6 +178,19 @@ TEST(EdmdCaseReader, TheoryValuesAreGivenOnlyWhereTheyPredictTheRun) {
             0u);
   const auto spheres = theory("[edmd]\ndimensions = 3\nparticles = 1000\npacking_fraction = 0.1\n" + medium);
   EXPECT_EQ(spheres.count("edmd.dsmc_equivalent_grain_density"), 1u);
+  // the heat-bath balance: white noise or the Boltzmann bath as the only source, smooth grains
+  const std::string wn = "[heating]\nmodel = \"white_noise\"\nkick = 0.1\n";
+  EXPECT_EQ(theory(inelastic + wn).count("edmd.heating_balance_temperature"), 1u);
+  EXPECT_EQ(theory(inelastic + "[heating]\nmodel = \"boltzmann\"\n").count("edmd.heating_balance_temperature"), 1u);
+  EXPECT_EQ(theory(inelastic + "[heating]\nmodel = \"air_table\"\nacceleration = 1.0\n")
+                .count("edmd.heating_balance_temperature"),
+            0u);
+  EXPECT_EQ(theory(inelastic + wn + medium).count("edmd.heating_balance_temperature"), 0u);
+  EXPECT_EQ(theory(inelastic + wn + "[walls]\ndirections = [\"y\"]\n").count("edmd.heating_balance_temperature"), 0u);
+  EXPECT_EQ(theory(kBase + "[restitution]\nlaw = \"walton\"\ne = 0.9\nbeta0 = 0.5\n" + wn)
+                .count("edmd.heating_balance_temperature"),
+            0u);
+  EXPECT_EQ(theory(inelastic).count("edmd.heating_balance_temperature"), 0u);
 }
 
 TEST(EdmdCaseReader, WallBalanceTheoryUsesTheEdgeBetweenTheWalls) {

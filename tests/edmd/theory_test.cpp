@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <functional>
 #include <numbers>
+#include <random>
 #include <vector>
 
 #include "edmd/theory.hpp"
@@ -214,4 +215,59 @@ TEST(EdmdTheory, HaffSonineFactorIsTheCoolingRatesLinearTermInA2) {
       const double a2 = theory::a2_van_noije_ernst(d, e);
       EXPECT_NEAR(ratio, 1.0 + m.A1 / m.A0 * a2, 1e-12) << d << " " << e;
     }
+}
+
+// The steady temperature of a bath acting at the collisions (theory.hpp,
+// collision_heating_balance_temperature): at the returned T the bath's energy per collision
+// must equal the mean loss per collision, (1/4) <(1 - e(w)^2) w^2> over the normal speeds w of
+// colliding pairs, drawn here by Monte Carlo from the collision-weighted law of molecular
+// chaos (w^2 exponential of mean 4T: P_c(w) = w/(2T) exp(-w^2/(4T)); independent of the
+// Simpson quadrature the solver uses), 4e5 draws, 5 standard errors. For a constant e the
+// closed form T = rate kick^2 / (1 - e^2) (white noise) and
+// T = T_bath / (1 + 2 (1 - e^2)/(rate D)) (Boltzmann bath) as well.
+TEST(EdmdTheory, HeatBathBalanceTemperatureEqualsInputAndMeanLossPerCollision) {
+  auto mc_loss = [](const auto& law, double T, double& se) {
+    std::mt19937_64 rng(20261207);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const int n = 400000;
+    double s = 0.0, s2 = 0.0;
+    for (int k = 0; k < n; ++k) {
+      const double w = std::sqrt(-4.0 * T * std::log(1.0 - u(rng)));
+      const double e = grainbath::restitution(law, w).e;
+      const double x = 0.25 * (1.0 - e * e) * w * w;
+      s += x;
+      s2 += x * x;
+    }
+    const double m = s / n;
+    se = std::sqrt((s2 / n - m * m) / (n - 1));
+    return m;
+  };
+  const grainbath::BizonRestitution bizon{0.7, 1.0};
+  const grainbath::PowerLawRestitution power{0.1, 0.2};
+  const grainbath::ConstantRestitution constant{0.8};
+  for (const double kick : {0.3, 0.62, 1.5}) {
+    for (const int rate : {1, 3}) {
+      const double Tb = theory::white_noise_balance_temperature(bizon, rate, kick);
+      double se = 0.0;
+      const double loss = mc_loss(bizon, Tb, se);
+      EXPECT_NEAR(loss, rate * kick * kick, 5.0 * se) << "bizon, kick " << kick << ", rate " << rate;
+      const double Tp = theory::white_noise_balance_temperature(power, rate, kick);
+      const double loss_p = mc_loss(power, Tp, se);
+      EXPECT_NEAR(loss_p, rate * kick * kick, 5.0 * se) << "power, kick " << kick << ", rate " << rate;
+      const double Tc = theory::white_noise_balance_temperature(constant, rate, kick);
+      EXPECT_NEAR(Tc, rate * kick * kick / (1.0 - 0.64), 1e-7 * Tc) << "constant, kick " << kick;
+    }
+  }
+  for (const int dims : {2, 3}) {
+    const double T_bath = 2.0;
+    const double Tb = theory::boltzmann_bath_balance_temperature(bizon, dims, 2, T_bath);
+    double se = 0.0;
+    const double loss = mc_loss(bizon, Tb, se);
+    EXPECT_LT(Tb, T_bath);
+    EXPECT_NEAR(loss, 2 * 0.5 * dims * (T_bath - Tb), 5.0 * se) << "Boltzmann bath, dims " << dims;
+    const double Tc = theory::boltzmann_bath_balance_temperature(constant, dims, 2, T_bath);
+    EXPECT_NEAR(Tc, T_bath / (1.0 + 2.0 * 0.36 / (2.0 * dims)), 1e-7 * Tc) << dims;
+  }
+  // elastic grains under white noise heat without bound
+  EXPECT_TRUE(std::isinf(theory::white_noise_balance_temperature(grainbath::ElasticRestitution{}, 1, 0.5)));
 }
