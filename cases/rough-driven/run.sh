@@ -4,7 +4,7 @@
 # started at model E's steady state (from `grainbath theory`) so that 100 collisions per
 # particle of equilibration suffice even at small mu (Trot relaxes at a rate ~ mu there).
 # Usage: [SEEDS="1 2 3 4"] bash cases/rough-driven/run.sh [path/to/grainbath [--set key=value ...]]
-#   (about 6 min on one core with one seed; the --set arguments go to every run, e.g.
+#   (about 2.4 min CPU on one core with one seed, 2026-12-07; the --set arguments go to every run, e.g.
 #   --set run.threads=1). SEEDS (default 1) repeats every sweep point with these seeds
 #   (output-sweep/mu-MU for seed 1, output-sweep/mu-MU-seedS for the others): the blocked
 #   single-run errors of Ttr (and of R at small mu) understate the scatter between runs (slow

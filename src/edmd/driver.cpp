@@ -502,7 +502,12 @@ std::vector<std::pair<std::string, double>> theory_values(const Config& c) {
   const double nu = c.packing_fraction;
   const double n = theory::number_density(D, nu);
   out.emplace_back("edmd.number_density", n);
-  out.emplace_back("edmd.box_length", c.box_length());
+  // the box's edges, aspect applied (review 5: a single "box_length", the edge of the square of
+  // the same area, read 32.36 for cases/static-lossy-walls, whose box is 16.18 x 64.72)
+  const Vec3 edges = c.box();
+  out.emplace_back("edmd.box.x", edges.x);
+  out.emplace_back("edmd.box.y", edges.y);
+  if (D == 3) out.emplace_back("edmd.box.z", edges.z);
   if (D == 2) {
     out.emplace_back("edmd.Z_henderson", theory::z_henderson(nu));
     out.emplace_back("edmd.Z_kolafa_rottner_fit", theory::z_disk_kr(nu));

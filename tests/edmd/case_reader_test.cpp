@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <string>
 
 #include "core/case_file.hpp"
@@ -191,6 +192,22 @@ TEST(EdmdCaseReader, TheoryValuesAreGivenOnlyWhereTheyPredictTheRun) {
                 .count("edmd.heating_balance_temperature"),
             0u);
   EXPECT_EQ(theory(inelastic).count("edmd.heating_balance_temperature"), 0u);
+}
+
+// `theory` gives the box's edges with the aspect applied, whose product is the volume the
+// packing fraction sets: N pi/4 / nu (disks), N pi/6 / phi (spheres).
+TEST(EdmdCaseReader, TheoryGivesTheBoxEdgesWithTheAspect) {
+  const auto disks = theory("[edmd]\ndimensions = 2\nparticles = 400\npacking_fraction = 0.3\naspect = [1.0, 4.0]\n");
+  ASSERT_EQ(disks.count("edmd.box.x"), 1u);
+  EXPECT_EQ(disks.count("edmd.box.z"), 0u);
+  EXPECT_NEAR(disks.at("edmd.box.y") / disks.at("edmd.box.x"), 4.0, 1e-12);
+  EXPECT_NEAR(disks.at("edmd.box.x") * disks.at("edmd.box.y"), 400 * std::numbers::pi / 4.0 / 0.3, 1e-9);
+  const auto spheres =
+      theory("[edmd]\ndimensions = 3\nparticles = 500\npacking_fraction = 0.2\naspect = [1.0, 2.0, 3.0]\n");
+  ASSERT_EQ(spheres.count("edmd.box.z"), 1u);
+  EXPECT_NEAR(spheres.at("edmd.box.z") / spheres.at("edmd.box.x"), 3.0, 1e-12);
+  EXPECT_NEAR(spheres.at("edmd.box.x") * spheres.at("edmd.box.y") * spheres.at("edmd.box.z"),
+              500 * std::numbers::pi / 6.0 / 0.2, 1e-9);
 }
 
 TEST(EdmdCaseReader, WallBalanceTheoryUsesTheEdgeBetweenTheWalls) {
