@@ -796,16 +796,37 @@ int command_sweep(const SweepArgs& a) {
   write_file_atomic(out / "sweep.md", md.str());
   std::fputs(md.str().c_str(), stdout);
   // one plot, if Python with matplotlib is available (the C++ side never needs it)
+  // A plot that cannot be made is said, with where its messages are (review 5: a failure, or
+  // no script beside the binary, left only a missing "plot:" line).
   const fs::path exe_dir = fs::path(self).parent_path();
+  bool plot_script = false;
   for (const fs::path& cand : {exe_dir / "../scripts/plot_sweep.py", exe_dir / "../../scripts/plot_sweep.py"})
     if (fs::exists(cand)) {
+      plot_script = true;
       const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+      const fs::path log = out / "plot.log";
       // quoted for the shell whatever the paths hold (a "'" in --out broke the command, and
       // could have run a command of its own)
-      const std::string cmd = python + " " + quote_arg(cand.string()) + " " + quote_arg(out.string()) + " >/dev/null 2>&1";
-      if (std::system(cmd.c_str()) == 0) std::printf("plot: %s/sweep.png\n", out.string().c_str());
+      const std::string cmd = python + " " + quote_arg(cand.string()) + " " + quote_arg(out.string()) + " >" +
+                              quote_arg(log.string()) + " 2>&1";
+      const int status = std::system(cmd.c_str());
+      std::error_code ec;
+      if (status == 0) {
+        std::printf("plot: %s/sweep.png\n", out.string().c_str());
+        fs::remove(log, ec);
+      } else {
+        std::fprintf(stderr,
+                     "note: no sweep.png: %s failed (exit %d; its messages are in %s). The tables do not need "
+                     "it: /usr/bin/python3 with numpy and matplotlib makes it (python/README.md)\n",
+                     cand.lexically_normal().string().c_str(), WIFEXITED(status) ? WEXITSTATUS(status) : -1,
+                     log.string().c_str());
+      }
       break;
     }
+  if (!plot_script)
+    std::fprintf(stderr, "note: no sweep.png: scripts/plot_sweep.py is not beside this binary (looked in %s); the "
+                         "tables do not need it\n",
+                 (exe_dir / "../scripts").lexically_normal().string().c_str());
   std::printf("table: %s/sweep.tsv, %s/sweep.md\n", out.string().c_str(), out.string().c_str());
   return failed ? 1 : 0;
 }

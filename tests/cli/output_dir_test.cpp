@@ -1054,3 +1054,44 @@ TEST_F(OutputDir, ANameTooLongForItsSiblingsIsRefusedAtStartUp) {
   EXPECT_TRUE(fs::exists(previous / "summary.json"));
   EXPECT_TRUE(fs::is_directory(checkpoints_previous));
 }
+
+// A sweep whose plot cannot be made says so, and why (review 5: only a missing "plot:" line
+// told): a plot script that fails (its messages kept in OUT/plot.log), and no script beside
+// the binary. The binary is copied into a tree of the test's own for both.
+TEST_F(OutputDir, ASweepSaysWhyItMadeNoPlot) {
+  fs::create_directories(tmp / "tree" / "bin");
+  fs::copy_file(kBinary, tmp / "tree" / "bin" / "grainbath");
+  fs::permissions(tmp / "tree" / "bin" / "grainbath", fs::perms::owner_all);
+  const std::vector<std::string> tail = {"--set", "run.seed=1,2", "--set", "run.threads=1", "-j", "1"};
+  auto sweep = [&](const fs::path& out) {
+    std::vector<std::string> args = {(tmp / "tree" / "bin" / "grainbath").string(), "sweep", case_dir().string(),
+                                     "--out", out.string()};
+    args.insert(args.end(), tail.begin(), tail.end());
+    RunOptions opt;
+    opt.cwd = work();
+    return run_binary(args, opt);
+  };
+  RunResult r = sweep(tmp / "s1");
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("note: no sweep.png: scripts/plot_sweep.py is not beside this binary (looked in " +
+                       (tmp / "tree" / "scripts").string() + ")"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.out.find("plot:"), std::string::npos) << r.out;
+  write_text(tmp / "tree" / "scripts" / "plot_sweep.py", "import sys\nprint('no matplotlib here', file=sys.stderr)\nsys.exit(3)\n");
+  r = sweep(tmp / "s2");
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.err.find("note: no sweep.png: " + (tmp / "tree" / "scripts" / "plot_sweep.py").string() +
+                       " failed (exit 3; its messages are in " + (tmp / "s2" / "plot.log").string() + ")"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(read_text(tmp / "s2" / "plot.log"), "no matplotlib here\n");
+  EXPECT_TRUE(fs::exists(tmp / "s2" / "sweep.tsv"));
+  // a script that works: the plot line, and no log left
+  write_text(tmp / "tree" / "scripts" / "plot_sweep.py", "import sys\nopen(sys.argv[1] + '/sweep.png', 'w').write('png')\n");
+  r = sweep(tmp / "s3");
+  ASSERT_EQ(r.code, 0) << r.describe();
+  EXPECT_NE(r.out.find("plot: " + (tmp / "s3").string() + "/sweep.png"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(tmp / "s3" / "plot.log"));
+  EXPECT_EQ(r.err.find("no sweep.png"), std::string::npos) << r.err;
+}
