@@ -11,7 +11,9 @@ cd "$(dirname "$0")/../.."
 values=("$@")
 [ ${#values[@]} -gt 0 ] || values=(0.2 0.1 0.05 0.02 0.01)
 for eps in "${values[@]}"; do
-  read -r t_end dt every fit_from < <(python3 -c "e=$eps; print(round(0.3/e,6), round(e/10,6), round(0.3/e/150,6), round(2*e,6))")
+  # every: about 150 samples over the run, a whole number of steps (at eps = 0.2, t_end/150 is
+  # half a step: one sample per step, 76, which the run says are too few to check the blocking)
+  read -r t_end dt every fit_from < <(python3 -c "e=$eps; dt=round(e/10,6); n=max(1, round(0.3/e/150/dt)); print(round(0.3/e,6), dt, round(n*dt,6), round(2*e,6))")
   "${GRAINBATH:-./build/grainbath}" run cases/diffusion-limit --set background.knudsen="$eps" --set dsmc.t_end="$t_end" \
     --set dsmc.dt="$dt" --set sampling.every="$every" --set sampling.mode_fit_from="$fit_from" \
     --out "cases/diffusion-limit/sweep/eps-$eps" -q
