@@ -107,7 +107,13 @@ TEST(CollisionGroups, EveryPairOfTilesSharesAGroupEquallyOften) {
 }
 
 // The bound of each group is at least the largest |v_i - v_j| over its pairs (by brute force),
-// and at most 10 % above it.
+// and close above it: within 10 % for the group with the planted head-on pair, whose |g| the
+// two largest deviations match. A Maxwellian group's bound is at most twice its largest |g|
+// (the reference point, the first tile's mean, lies in the group's convex hull, so every
+// |v - a| is at most the largest |g|) and measured 1.072 +- 0.035 times it (240 groups of
+// 4096 from 60 deals, largest 1.20): those groups are held to 1.35. (Until the collision-groups
+// audit every group was held to 1.1, which 19 % of Maxwellian groups exceed: the test passed
+// for this seed's deal and failed for four of the five other deals the audit's mutations made.)
 TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
   const std::size_t n = 4 * 4096 + 101;  // a short tile of 37 grains: the scalar tail of the bound
   Particles p = maxwellian(n, 3, [](std::size_t) { return 1.0; }, Vec3{0.7, -0.4, 0.2});
@@ -133,7 +139,7 @@ TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
     const double worst = std::sqrt(worst2);
     std::printf("group %zu (%zu grains): bound %.4f, largest |g| %.4f\n", g, deal.grains(g), bound, worst);
     EXPECT_GE(bound, worst);
-    EXPECT_LT(bound, 1.1 * worst);
+    EXPECT_LT(bound, (g == with_short ? 1.1 : 1.35) * worst);
   }
 }
 
