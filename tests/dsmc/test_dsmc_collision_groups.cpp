@@ -487,3 +487,82 @@ TEST(CollisionGroups, DealIsTheFisherYatesShuffleOfItsOwnStream) {
       }
     }
 }
+
+// The exact NTC bound in a group (`[dsmc] bound = "exact"`, the default; src/dsmc/collide.hpp,
+// BoundGuard): a group of 3 elastic grains (one short tile) at dt = 2, about 2.3 collisions a
+// grain and step, whose collisions often make a pair faster than the step's bound. Its
+// collision rate must be the microcanonical (n / (N - 1)) <sum over pairs |g|> of an isolated
+// cell of N grains with zero momentum (as NtcBound.ExactBoundKeepsThePairRateAtCoarseSteps for a
+// cell, by the same Monte Carlo); Bird's start-of-step bound falls 5 standard errors below it
+// there, and does here.
+namespace {
+void to_zero_momentum_sphere(std::vector<Vec3>& v) {
+  Vec3 mean;
+  for (const Vec3& u : v) mean += u;
+  mean = (1.0 / static_cast<double>(v.size())) * mean;
+  double e = 0.0;
+  for (Vec3& u : v) {
+    u -= mean;
+    e += norm2(u);
+  }
+  const double s = std::sqrt(3.0 * static_cast<double>(v.size() - 1) / e);
+  for (Vec3& u : v) u *= s;
+}
+}  // namespace
+
+TEST(CollisionGroups, ExactBoundKeepsThePairRateOfAGroupAtCoarseSteps) {
+  const std::size_t n = 3;
+  // (n / (N - 1)) <sum |g|> over the uniform distribution on the energy sphere, by Monte Carlo
+  double s1 = 0, s2 = 0;
+  const int samples = 400000;
+  {
+    CounterRng rng(11, Stream::initial_velocities, n, 0);
+    std::vector<Vec3> v(n);
+    for (int k = 0; k < samples; ++k) {
+      for (Vec3& u : v) u = {rng.normal(), rng.normal(), rng.normal()};
+      to_zero_momentum_sphere(v);
+      const double x = (norm(v[0] - v[1]) + norm(v[0] - v[2]) + norm(v[1] - v[2])) / static_cast<double>(n - 1);
+      s1 += x;
+      s2 += x * x;
+    }
+  }
+  const double expected = s1 / samples, expected_se = std::sqrt((s2 / samples - expected * expected) / samples);
+  auto rate = [&](bool exact, double& se) {
+    Particles p;
+    p.resize(n, false);
+    CounterRng init(5, Stream::initial_velocities, n, 1);
+    std::vector<Vec3> v(n);
+    for (Vec3& u : v) u = {init.normal(), init.normal(), init.normal()};
+    to_zero_momentum_sphere(v);
+    for (std::size_t i = 0; i < n; ++i) {
+      p.set_velocity(i, v[i]);
+      p.id[i] = i;
+    }
+    const std::uint32_t tiles[] = {0};
+    const ElasticRestitution law{};
+    GrainCounters counters;
+    const double dt = 2.0;
+    const int batches = 25, per_batch = 8000;
+    std::vector<double> rates;
+    std::uint64_t before = 0;
+    for (int step = 0; step < batches * per_batch; ++step) {
+      CellCollisionRng rng(3, Stream::grain_collisions, 0, static_cast<std::uint64_t>(step));
+      collide_group(p, tiles, 1, n, 1.0, dt, 1.0, law, rng, counters, exact);
+      if ((step + 1) % per_batch == 0) {
+        rates.push_back(static_cast<double>(counters.collisions - before) / (per_batch * dt));
+        before = counters.collisions;
+      }
+    }
+    double mean = 0, var = 0;
+    for (double x : rates) mean += x / batches;
+    for (double x : rates) var += (x - mean) * (x - mean) / (batches - 1);
+    se = std::sqrt(var / batches);
+    return mean;
+  };
+  double se_exact, se_bird;
+  const double exact = rate(true, se_exact), bird = rate(false, se_bird);
+  std::printf("group of 3, dt 2: rate exact %.5f +- %.5f, Bird %.5f +- %.5f; microcanonical %.5f +- %.5f\n", exact,
+              se_exact, bird, se_bird, expected, expected_se);
+  EXPECT_NEAR(exact, expected, 5 * std::hypot(se_exact, expected_se));
+  EXPECT_LT(bird, expected - 5 * std::hypot(se_bird, expected_se));
+}
