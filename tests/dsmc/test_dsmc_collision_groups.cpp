@@ -107,7 +107,13 @@ TEST(CollisionGroups, EveryPairOfTilesSharesAGroupEquallyOften) {
 }
 
 // The bound of each group is at least the largest |v_i - v_j| over its pairs (by brute force),
-// and at most 10 % above it.
+// and close above it: within 10 % for the group with the planted head-on pair, whose |g| the
+// two largest deviations match. A Maxwellian group's bound is at most twice its largest |g|
+// (the reference point, the first tile's mean, lies in the group's convex hull, so every
+// |v - a| is at most the largest |g|) and measured 1.072 +- 0.035 times it (240 groups of
+// 4096 from 60 deals, largest 1.20): those groups are held to 1.35. (Until the collision-groups
+// audit every group was held to 1.1, which 19 % of Maxwellian groups exceed: the test passed
+// for this seed's deal and failed for four of the five other deals the audit's mutations made.)
 TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
   const std::size_t n = 4 * 4096 + 101;  // a short tile of 37 grains: the scalar tail of the bound
   Particles p = maxwellian(n, 3, [](std::size_t) { return 1.0; }, Vec3{0.7, -0.4, 0.2});
@@ -133,7 +139,7 @@ TEST(CollisionGroups, BoundHoldsForEveryPairAndIsTight) {
     const double worst = std::sqrt(worst2);
     std::printf("group %zu (%zu grains): bound %.4f, largest |g| %.4f\n", g, deal.grains(g), bound, worst);
     EXPECT_GE(bound, worst);
-    EXPECT_LT(bound, 1.1 * worst);
+    EXPECT_LT(bound, (g == with_short ? 1.1 : 1.35) * worst);
   }
 }
 
@@ -273,4 +279,290 @@ t_end = 0.05
   EXPECT_EQ(grouped.summary.number("counters.collision_groups"), 4.0);
   const auto one_cell = grainbath::testing::run_dsmc(head + "collision_group = 0\n", 3, 1, "groups-summary-0");
   EXPECT_EQ(one_cell.summary.number("counters.collision_groups"), 0.0);
+}
+
+// Mutation audit (docs/reviews/mutation-audit-collision-groups.md): the deal's law, the bound
+// wherever the fastest grains sit, every grain a partner, and the deal's edge cases.
+
+// Every tile, the short one included, falls in a group with probability (the group's tiles) /
+// (all tiles), as under a uniformly random permutation: 33 tiles (the last one short) in groups
+// of 16 and 17, over 1e5 steps, each tile's count in the first group binomial with p = 16/33.
+// A shuffle that can never leave a tile where it was, or that never swaps the first two
+// places, or a short tile moved across the wrong group boundary, changes single tiles'
+// probabilities by about 1/33 (10 to 20 standard errors here).
+TEST(CollisionGroups, EveryTileFallsInEachGroupInProportionToItsSize) {
+  const std::size_t tiles = 33, n = tiles * kGroupTile - 27, steps = 100000;
+  CollisionGroups deal;
+  std::vector<double> in_first(tiles, 0.0);
+  for (std::size_t step = 0; step < steps; ++step) {
+    deal.deal(n, 16 * kGroupTile, 7, step);
+    ASSERT_EQ(deal.count(), 2u);
+    ASSERT_EQ(deal.tile_count(0), 16u);
+    for (std::size_t t = 0; t < deal.tile_count(0); ++t) in_first[deal.tiles(0)[t]] += 1;
+  }
+  const double p = 16.0 / 33.0, var = static_cast<double>(steps) * p * (1 - p);
+  double chi2 = 0, worst = 0;
+  for (std::size_t t = 0; t < tiles; ++t) {
+    const double z = (in_first[t] - static_cast<double>(steps) * p) / std::sqrt(var);
+    chi2 += z * z;
+    worst = std::max(worst, std::abs(z));
+  }
+  const double dof = 32;  // the counts add up to 16 tiles a step
+  std::printf("tiles in the first group: chi2 = %.1f for %g degrees of freedom, largest |z| %.2f (short tile %.2f)\n",
+              chi2, dof, worst, (in_first[tiles - 1] - static_cast<double>(steps) * p) / std::sqrt(var));
+  EXPECT_LT(chi2, dof + 6 * std::sqrt(2 * dof));
+  EXPECT_LT(worst, 4.5);
+  // and the deal is a function of the seed too: another seed, another deal at the same step
+  CollisionGroups a, b;
+  a.deal(100000, 4096, 5, 17);
+  b.deal(100000, 4096, 6, 17);
+  bool other = false;
+  for (std::size_t g = 0; g < a.count(); ++g)
+    for (std::size_t t = 0; t < a.tile_count(g); ++t) other = other || a.tiles(g)[t] != b.tiles(g)[t];
+  EXPECT_TRUE(other);
+}
+
+// The bound of a group holds wherever its two fastest grains sit: in one SIMD lane, in the
+// other, one in each, in the last slot of a full tile, in the scalar tail of the short tile, in
+// the first tile (whose mean is the reference point), in a gas drifting at 37 thermal speeds.
+// The pair is planted head-on, so its
+// |g| is the group's largest; the bound must cover it and stay within 5 % of it. The reference
+// the bound reports (BoundGuard's centre and largest deviation) must cover every grain.
+TEST(CollisionGroups, BoundHoldsWhereverTheFastestPairSits) {
+  const std::size_t n = 2 * 4096 + 37;  // 129 tiles, the last of 37 grains (odd: a scalar tail)
+  CollisionGroups deal;
+  deal.deal(n, 4096, 13, 2);
+  std::size_t g = 0;
+  while (deal.grains(g) % kGroupTile == 0) ++g;  // the group with the short tile
+  const std::size_t size = deal.grains(g), tail = size - 1;
+  ASSERT_EQ(size % 2, 1u);
+  // slot pairs (slot of the faster grain, slot of the slower)
+  const std::size_t pairs[][2] = {{0, 2},          {2, 0},           {1, 3},        {3, 1},
+                                  {10, 11},        {11, 10},         {63, 127},     {127, 63},
+                                  {130, 64 + 63},  {tail, tail - 1}, {tail - 1, tail}, {tail, 5},
+                                  {6, tail},       {tail - 2, 200},  {201, tail - 2}};
+  const Vec3 e = (1.0 / norm(Vec3{0.6, -0.3, 0.74})) * Vec3{0.6, -0.3, 0.74};
+  for (const auto& pr : pairs) {
+    Particles p = maxwellian(n, 21, [](std::size_t) { return 1.0; }, Vec3{30.0, -20.0, 10.0});
+    const std::size_t a = slot_index(deal, g, pr[0]), b = slot_index(deal, g, pr[1]);
+    p.set_velocity(a, Vec3{30.0, -20.0, 10.0} + 7.0 * e);
+    p.set_velocity(b, Vec3{30.0, -20.0, 10.0} - 6.5 * e);
+    const double planted = norm(p.velocity(a) - p.velocity(b));
+    BoundReference ref;
+    const double bound = group_pair_speed_bound(p.vx.data(), p.vy.data(), p.vz.data(), deal.tiles(g),
+                                                deal.tile_count(g), size, &ref);
+    EXPECT_GE(bound, planted) << "slots " << pr[0] << ", " << pr[1];
+    EXPECT_LT(bound, 1.05 * planted) << "slots " << pr[0] << ", " << pr[1];
+    double deviation2 = 0;
+    for (std::size_t s = 0; s < size; ++s)
+      deviation2 = std::max(deviation2, norm2(p.velocity(slot_index(deal, g, s)) - Vec3{ref.ax, ref.ay, ref.az}));
+    EXPECT_GE(ref.max_deviation2, deviation2) << "slots " << pr[0] << ", " << pr[1];
+    EXPECT_LE(bound, 2 * std::sqrt(ref.max_deviation2) * (1 + 1e-12));
+  }
+}
+
+// Every grain is a partner: with the short tile always last in its group, its last grain is
+// always a group's last slot. Elastic grains at T = 1, n = 1, over 40 steps of 0.25 (about 22
+// collisions a grain; that none occurs has probability 3e-10 a grain): every velocity has
+// changed.
+TEST(CollisionGroups, EveryGrainCollides) {
+  const std::size_t n = 2 * 4096 + 37;
+  Particles p = maxwellian(n, 8, [](std::size_t) { return 1.0; });
+  const std::vector<Vec3> start = [&] {
+    std::vector<Vec3> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = p.velocity(i);
+    return v;
+  }();
+  auto same = [&](std::size_t i) {
+    const Vec3 v = p.velocity(i);
+    return v.x == start[i].x && v.y == start[i].y && v.z == start[i].z;
+  };
+  CollisionGroups deal;
+  GrainCounters counters;
+  const ElasticRestitution law{};
+  for (std::size_t step = 0; step < 40; ++step) {
+    deal.deal(n, 4096, 8, step);
+    for (std::size_t g = 0; g < deal.count(); ++g) {
+      CellCollisionRng rng(8, Stream::grain_collisions, g, step);
+      collide_group(p, deal.tiles(g), deal.tile_count(g), deal.grains(g), 1.0, 0.25, 1.0, law, rng, counters, true);
+    }
+  }
+  std::size_t unchanged = 0;
+  for (std::size_t i = 0; i < n; ++i) unchanged += same(i) ? 1 : 0;
+  std::printf("%llu collisions of %zu grains; %zu never collided\n",
+              static_cast<unsigned long long>(counters.collisions), n, unchanged);
+  EXPECT_EQ(unchanged, 0u);
+  EXPECT_FALSE(same(n - 1)) << "the short tile's last grain";
+}
+
+// The deal on its own (the driver deals only where apply() holds): fewer tiles than two
+// groups make one group of all of them; no grains is refused; so is a group size whose largest
+// group (2 per_group - 1 tiles) could hold more than the 2^32 - 1 grains of the pair draw's
+// 32-bit slots, and 2^31 grains is not.
+TEST(CollisionGroups, SmallAndOversizedDealsAreOneGroupOrRefused) {
+  CollisionGroups deal;
+  for (const std::size_t n : {1u, 63u, 64u, 1000u, 127u * 64}) {
+    deal.deal(n, 4096, 3, 1);
+    ASSERT_EQ(deal.count(), 1u) << n;
+    EXPECT_EQ(deal.grains(0), n);
+    std::vector<int> seen(n, 0);
+    for (std::size_t s = 0; s < n; ++s) ++seen.at(slot_index(deal, 0, s));
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(seen[i], 1) << "grain " << i << " of " << n;
+  }
+  EXPECT_THROW(deal.deal(0, 4096, 3, 1), std::invalid_argument);
+  EXPECT_NO_THROW(deal.deal(1000, std::size_t{1} << 31, 3, 1));
+  EXPECT_THROW(deal.deal(1000, (std::size_t{1} << 31) + 64, 3, 1), std::length_error);
+  EXPECT_THROW(deal.deal(1000, std::size_t{3} << 30, 3, 1), std::length_error);
+}
+
+// The group size is the whole number of tiles nearest the request (groups of "about G
+// grains"): within half a tile of G for every G a case may ask for up to 20000, and so the
+// mean group of a large deal is within half a tile of G too.
+TEST(CollisionGroups, GroupsAreTheWholeTilesNearestTheRequest) {
+  for (std::size_t request = kMinCollisionGroup; request <= 20000; ++request) {
+    const std::size_t size = CollisionGroups::tiles_per_group(request) * kGroupTile;
+    ASSERT_LE(size > request ? size - request : request - size, kGroupTile / 2) << "collision_group = " << request;
+  }
+  const std::size_t n = 1 << 22;  // 65536 tiles: the groups' sizes differ by at most a tile
+  for (const std::size_t request : {1025u, 4100u, 4127u, 4129u, 6000u}) {
+    const double mean = static_cast<double>(n) / static_cast<double>(CollisionGroups::group_count(n, request));
+    EXPECT_LE(std::abs(mean - static_cast<double>(request)), 32.0 + 1.0) << "collision_group = " << request;
+  }
+}
+
+// NTC in a group: the candidates are ordered pairs of distinct grains drawn uniformly, so each
+// grain is in a candidate with probability 2 / N_g; for it to be offered partners at the rate
+// n g_max of the case density (and so collide at n <|g|>), a group needs N_g n g_max dt / 2
+// candidates a step on average. The count is that number rounded down or up, up with the
+// probability of its fraction: averaged over u on a fine grid it is exact, and it is never
+// more than one away.
+TEST(CollisionGroups, CandidatesGiveEachGrainTheCaseDensitysRate) {
+  struct Case {
+    std::size_t grains;
+    double density, g_max, dt;
+  };
+  for (const Case& c : {Case{1024, 1.0, 5.3, 0.01}, Case{4097, 0.37, 7.1, 0.003}, Case{5000, 2.5, 0.9, 0.2}}) {
+    // per grain: candidates x (2 / N_g) / dt = n g_max
+    const double per_grain_rate_target = c.density * c.g_max;
+    const int grid = 10000;
+    double mean = 0;
+    std::uint64_t lo = ~std::uint64_t{0}, hi = 0;
+    for (int k = 0; k < grid; ++k) {
+      const std::uint64_t m = group_candidates(c.grains, c.density, c.g_max, c.dt, (k + 0.5) / grid);
+      mean += static_cast<double>(m) / grid;
+      lo = std::min(lo, m);
+      hi = std::max(hi, m);
+    }
+    const double rate = mean * 2.0 / static_cast<double>(c.grains) / c.dt;
+    EXPECT_NEAR(rate / per_grain_rate_target, 1.0, 5e-5) << "N_g = " << c.grains;
+    EXPECT_LE(hi - lo, 1u);
+  }
+}
+
+// The deal's key, pinned as docs/dsmc.md and the header give it: Fisher-Yates from the last
+// place down, each place's partner an exact bounded integer (below_from) of the words of
+// Philox4x32Words(seed, Stream::collision_groups, 0, step), the groups the consecutive runs
+// of g * tiles / groups places. The deal is part of a run's bits (a restart or another
+// thread count continues it exactly), and its words must not be those of a group's collision
+// generator (seed, Stream::grain_collisions; group, step). A whole number of tiles: no short
+// tile to move. (The law of the deal is checked above without this reference.)
+TEST(CollisionGroups, DealIsTheFisherYatesShuffleOfItsOwnStream) {
+  const std::size_t tiles = 200, n = tiles * kGroupTile;
+  CollisionGroups deal;
+  for (const std::uint64_t seed : {5u, 6u})
+    for (const std::uint64_t step : {0u, 17u, 4000000000u}) {
+      deal.deal(n, 4096, seed, step);
+      std::vector<std::uint32_t> order(tiles);
+      for (std::size_t t = 0; t < tiles; ++t) order[t] = static_cast<std::uint32_t>(t);
+      Philox4x32Words words(seed, Stream::collision_groups, 0, step);
+      for (std::size_t t = tiles - 1; t > 0; --t)
+        std::swap(order[t], order[below_from(static_cast<std::uint32_t>(words.bits64()),
+                                             static_cast<std::uint32_t>(t + 1), words)]);
+      ASSERT_EQ(deal.count(), 3u);
+      std::size_t at = 0;
+      for (std::size_t g = 0; g < deal.count(); ++g) {
+        EXPECT_EQ(deal.tile_count(g), (g + 1) * tiles / 3 - g * tiles / 3);
+        for (std::size_t t = 0; t < deal.tile_count(g); ++t, ++at)
+          ASSERT_EQ(deal.tiles(g)[t], order[at]) << "seed " << seed << " step " << step << " place " << at;
+      }
+    }
+}
+
+// The exact NTC bound in a group (`[dsmc] bound = "exact"`, the default; src/dsmc/collide.hpp,
+// BoundGuard): a group of 3 elastic grains (one short tile) at dt = 2, about 2.3 collisions a
+// grain and step, whose collisions often make a pair faster than the step's bound. Its
+// collision rate must be the microcanonical (n / (N - 1)) <sum over pairs |g|> of an isolated
+// cell of N grains with zero momentum (as NtcBound.ExactBoundKeepsThePairRateAtCoarseSteps for a
+// cell, by the same Monte Carlo); Bird's start-of-step bound falls 5 standard errors below it
+// there, and does here.
+namespace {
+void to_zero_momentum_sphere(std::vector<Vec3>& v) {
+  Vec3 mean;
+  for (const Vec3& u : v) mean += u;
+  mean = (1.0 / static_cast<double>(v.size())) * mean;
+  double e = 0.0;
+  for (Vec3& u : v) {
+    u -= mean;
+    e += norm2(u);
+  }
+  const double s = std::sqrt(3.0 * static_cast<double>(v.size() - 1) / e);
+  for (Vec3& u : v) u *= s;
+}
+}  // namespace
+
+TEST(CollisionGroups, ExactBoundKeepsThePairRateOfAGroupAtCoarseSteps) {
+  const std::size_t n = 3;
+  // (n / (N - 1)) <sum |g|> over the uniform distribution on the energy sphere, by Monte Carlo
+  double s1 = 0, s2 = 0;
+  const int samples = 400000;
+  {
+    CounterRng rng(11, Stream::initial_velocities, n, 0);
+    std::vector<Vec3> v(n);
+    for (int k = 0; k < samples; ++k) {
+      for (Vec3& u : v) u = {rng.normal(), rng.normal(), rng.normal()};
+      to_zero_momentum_sphere(v);
+      const double x = (norm(v[0] - v[1]) + norm(v[0] - v[2]) + norm(v[1] - v[2])) / static_cast<double>(n - 1);
+      s1 += x;
+      s2 += x * x;
+    }
+  }
+  const double expected = s1 / samples, expected_se = std::sqrt((s2 / samples - expected * expected) / samples);
+  auto rate = [&](bool exact, double& se) {
+    Particles p;
+    p.resize(n, false);
+    CounterRng init(5, Stream::initial_velocities, n, 1);
+    std::vector<Vec3> v(n);
+    for (Vec3& u : v) u = {init.normal(), init.normal(), init.normal()};
+    to_zero_momentum_sphere(v);
+    for (std::size_t i = 0; i < n; ++i) {
+      p.set_velocity(i, v[i]);
+      p.id[i] = i;
+    }
+    const std::uint32_t tiles[] = {0};
+    const ElasticRestitution law{};
+    GrainCounters counters;
+    const double dt = 2.0;
+    const int batches = 25, per_batch = 8000;
+    std::vector<double> rates;
+    std::uint64_t before = 0;
+    for (int step = 0; step < batches * per_batch; ++step) {
+      CellCollisionRng rng(3, Stream::grain_collisions, 0, static_cast<std::uint64_t>(step));
+      collide_group(p, tiles, 1, n, 1.0, dt, 1.0, law, rng, counters, exact);
+      if ((step + 1) % per_batch == 0) {
+        rates.push_back(static_cast<double>(counters.collisions - before) / (per_batch * dt));
+        before = counters.collisions;
+      }
+    }
+    double mean = 0, var = 0;
+    for (double x : rates) mean += x / batches;
+    for (double x : rates) var += (x - mean) * (x - mean) / (batches - 1);
+    se = std::sqrt(var / batches);
+    return mean;
+  };
+  double se_exact, se_bird;
+  const double exact = rate(true, se_exact), bird = rate(false, se_bird);
+  std::printf("group of 3, dt 2: rate exact %.5f +- %.5f, Bird %.5f +- %.5f; microcanonical %.5f +- %.5f\n", exact,
+              se_exact, bird, se_bird, expected, expected_se);
+  EXPECT_NEAR(exact, expected, 5 * std::hypot(se_exact, expected_se));
+  EXPECT_LT(bird, expected - 5 * std::hypot(se_bird, expected_se));
 }
