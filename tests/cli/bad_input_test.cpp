@@ -1620,7 +1620,12 @@ TEST_F(BadInput, DsmcRunTableGivesNoDistanceFromTheHomogeneousTheoryInAnInhomoge
 double summary_number(const std::string& json, const std::string& section, const std::string& key) {
   const auto at = json.find("\"" + section + "\": {");
   if (at == std::string::npos) return std::nan("");
-  const auto end = json.find('}', at);
+  // the section's own closing brace (it may hold objects: theory's edmd.box)
+  std::size_t end = json.find('{', at), depth = 0;
+  for (; end < json.size(); ++end) {
+    if (json[end] == '{') ++depth;
+    if (json[end] == '}' && --depth == 0) break;
+  }
   const auto k = json.find("\"" + key + "\": ", at);
   if (k == std::string::npos || k > end) return std::nan("");
   return std::strtod(json.c_str() + k + key.size() + 4, nullptr);

@@ -12,6 +12,7 @@
 
 #include "dsmc/collision_groups.hpp"
 #include "support.hpp"
+#include "tests/dsmc/microcanonical.hpp"
 
 using namespace grainbath;
 using namespace grainbath::dsmc;
@@ -495,45 +496,19 @@ TEST(CollisionGroups, DealIsTheFisherYatesShuffleOfItsOwnStream) {
 // cell of N grains with zero momentum (as NtcBound.ExactBoundKeepsThePairRateAtCoarseSteps for a
 // cell, by the same Monte Carlo); Bird's start-of-step bound falls 5 standard errors below it
 // there, and does here.
-namespace {
-void to_zero_momentum_sphere(std::vector<Vec3>& v) {
-  Vec3 mean;
-  for (const Vec3& u : v) mean += u;
-  mean = (1.0 / static_cast<double>(v.size())) * mean;
-  double e = 0.0;
-  for (Vec3& u : v) {
-    u -= mean;
-    e += norm2(u);
-  }
-  const double s = std::sqrt(3.0 * static_cast<double>(v.size() - 1) / e);
-  for (Vec3& u : v) u *= s;
-}
-}  // namespace
-
 TEST(CollisionGroups, ExactBoundKeepsThePairRateOfAGroupAtCoarseSteps) {
   const std::size_t n = 3;
   // (n / (N - 1)) <sum |g|> over the uniform distribution on the energy sphere, by Monte Carlo
-  double s1 = 0, s2 = 0;
-  const int samples = 400000;
-  {
-    CounterRng rng(11, Stream::initial_velocities, n, 0);
-    std::vector<Vec3> v(n);
-    for (int k = 0; k < samples; ++k) {
-      for (Vec3& u : v) u = {rng.normal(), rng.normal(), rng.normal()};
-      to_zero_momentum_sphere(v);
-      const double x = (norm(v[0] - v[1]) + norm(v[0] - v[2]) + norm(v[1] - v[2])) / static_cast<double>(n - 1);
-      s1 += x;
-      s2 += x * x;
-    }
-  }
-  const double expected = s1 / samples, expected_se = std::sqrt((s2 / samples - expected * expected) / samples);
+  double sum_g = 0.0, sum_g_se = 0.0;
+  grainbath::dsmc::testing::microcanonical_pair_speed_sum(n, 400000, sum_g, sum_g_se);
+  const double expected = sum_g / static_cast<double>(n - 1), expected_se = sum_g_se / static_cast<double>(n - 1);
   auto rate = [&](bool exact, double& se) {
     Particles p;
     p.resize(n, false);
     CounterRng init(5, Stream::initial_velocities, n, 1);
     std::vector<Vec3> v(n);
     for (Vec3& u : v) u = {init.normal(), init.normal(), init.normal()};
-    to_zero_momentum_sphere(v);
+    grainbath::dsmc::testing::to_sphere(v);
     for (std::size_t i = 0; i < n; ++i) {
       p.set_velocity(i, v[i]);
       p.id[i] = i;
