@@ -18,24 +18,9 @@ for k in 0 1 2 3 4; do
   d=$(ls -d "$work"/mpi/variant-${k}_* | grep -v '\.log$')
   [ -s "$d/results.h5" ] && [ -s "$d/summary.json" ] || { echo "FAIL: replica $k has no results ($d)"; exit 1; }
 done
-python3 - "$work/fork/ensemble.json" "$work/mpi/ensemble.json" <<'PY'
-import json, sys
-a, b = (json.load(open(f)) for f in sys.argv[1:3])
-def flat(d, p=""):
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict): out.update(flat(v, p + k + "."))
-        else: out[p + k] = v
-    return out
-a, b = flat(a), flat(b)
-if not a or a != b:
-    print("FAIL: ensemble.json differs:", [k for k in set(a) | set(b) if a.get(k) != b.get(k)][:10])
-    sys.exit(1)
-t = a["temperature.mean.ensemble_mean"], a["temperature.mean.ensemble_stderr"], a["temperature.mean.replicas"]
-if t[2] != 5 or not t[1] > 0:
-    print("FAIL: merged temperature", t); sys.exit(1)
-print("ok   MPI ensemble of %d replicas: T = %.6g +- %.2g, identical to the process-parallel sweep" % (t[2], t[0], t[1]))
-PY
+merged=$(same_ensemble "$work/fork/ensemble.json" "$work/mpi/ensemble.json" 5) || { echo "$merged"; exit 1; }
+read -r T T_se <<< "$merged"
+echo "ok   MPI ensemble of 5 replicas: T = $T +- $T_se, identical to the process-parallel sweep"
 
 # The notes of an MPI sweep's variants (review 3): the ranks run the variants in-process,
 # each into its .log, after the sweep has validated them all in that process; a note

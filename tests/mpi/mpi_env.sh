@@ -91,3 +91,26 @@ stop_rank() {
   stopped_rc=0
   wait "$launcher" || stopped_rc=$?
 }
+# same_ensemble A B N: the two ensemble.json identical (every value, nested keys flattened) and
+# merged from N replicas with an error > 0. Prints the merged temperature and its error, or
+# "FAIL: ..." and returns 1.
+same_ensemble() {
+  python3 - "$1" "$2" "$3" <<'PY'
+import json, sys
+def flat(d, p=""):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict): out.update(flat(v, p + k + "."))
+        else: out[p + k] = v
+    return out
+a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
+if not a or a != b:
+    print("FAIL: %s and %s differ:" % tuple(sys.argv[1:3]), [k for k in set(a) | set(b) if a.get(k) != b.get(k)][:10])
+    sys.exit(1)
+t = a["temperature.mean.ensemble_mean"], a["temperature.mean.ensemble_stderr"], a["temperature.mean.replicas"]
+if t[2] != int(sys.argv[3]) or not t[1] > 0:
+    print("FAIL: merged temperature (mean, error, replicas) %s, not from %s replicas" % (t, sys.argv[3]))
+    sys.exit(1)
+print("%.6g %.2g" % t[:2])
+PY
+}

@@ -67,23 +67,11 @@ if [ "$(grep -c "^table: " "$work/resumed.out" || true)" != 1 ]; then
 fi
 grep -q "sweep: resuming: 2 of 4 variants finished earlier" "$work/resumed.err" ||
   { echo "FAIL: the resume did not count the 2 finished variants:"; cat "$work/resumed.err"; fail=1; }
-python3 - "$work/fork/ensemble.json" "$work/mpi/ensemble.json" <<'PY' || fail=1
-import json, sys
-def flat(d, p=""):
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict): out.update(flat(v, p + k + "."))
-        else: out[p + k] = v
-    return out
-a, b = (flat(json.load(open(f))) for f in sys.argv[1:3])
-if not a or a != b:
-    print("FAIL: the resumed MPI sweep's ensemble.json differs from the process-parallel sweep's:",
-          [k for k in set(a) | set(b) if a.get(k) != b.get(k)][:10])
-    sys.exit(1)
-if a["temperature.mean.replicas"] != 4:
-    print("FAIL: %s replicas merged, not 4" % a["temperature.mean.replicas"]); sys.exit(1)
-print("ok   resumed on 2 ranks: ensemble.json identical to the process-parallel sweep's (4 replicas)")
-PY
+if merged=$(same_ensemble "$work/fork/ensemble.json" "$work/mpi/ensemble.json" 4); then
+  echo "ok   resumed on 2 ranks: ensemble.json identical to the process-parallel sweep's (4 replicas)"
+else
+  echo "FAIL: the resumed MPI sweep's ensemble: $merged"; fail=1
+fi
 
 # ---- 2. the variants of rank 1 fail (a non-finite sample at its third sample); rank 0's finish
 short=(--set run.seed=$seeds --set dsmc.t_end=1 --set sampling.steady_from=0.5)
