@@ -28,6 +28,9 @@ case_dir=$2
 work=$3
 shim=$4  # libgrainbath_test_fail_rename.so (tests/cli/fail_rename.cpp)
 source "$(dirname "$0")/mpi_env.sh"
+# ld.so ignores a preload it cannot find, with a warning, and the failed-move check below would
+# then see a move that succeeded: without the shim there is nothing to test
+[ -f "$shim" ] || { echo "FAIL: no rename shim at $shim (cmake --build build-mpi --target grainbath_mpi_tests)"; exit 1; }
 fresh_work_dir "$work"
 fail=0
 seeds=1,2,3,4
