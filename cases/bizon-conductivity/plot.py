@@ -2,7 +2,8 @@
 """Bizon et al. (1999) Sec. V A, Figs. 11-13: profiles, heat flux and kappa/kappa_Enskog.
 
 Reads every nu*/output/{results.h5,summary.json} of this case; writes conductivity.png and
-conductivity.csv (one row per run). Run after run.sh (or by it)."""
+conductivity.csv (one row per run) into --out DIR (default output/ beside this script, which git
+ignores) and compares the table with the shipped conductivity.csv. Run after run.sh (or by it)."""
 import os
 import sys
 
@@ -14,8 +15,9 @@ import numpy as np
 
 here = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(here, "..", "bizon-conductivity"))
-from transport_runs import load_runs, write_csv  # noqa: E402
+from transport_runs import load_runs, output_dir, save  # noqa: E402
 
+out = output_dir(here, __doc__)
 runs = load_runs(here)
 
 fig, ax = plt.subplots(1, 3, figsize=(16, 4.8))
@@ -74,5 +76,4 @@ ax[2].set_ylabel("kappa / kappa_Enskog (eq. 17, local nu and T)")
 ax[2].set_title("Bizon Fig. 13: planes at 0.2-0.8 of L/2 from the peak")
 ax[2].legend(fontsize=6)
 fig.tight_layout()
-fig.savefig(os.path.join(here, "conductivity.png"), dpi=110)
-write_csv(os.path.join(here, "conductivity.csv"), rows)
+save(here, out, "conductivity", fig, rows)

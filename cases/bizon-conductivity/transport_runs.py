@@ -1,9 +1,14 @@
 """Shared by the bizon-conductivity and bizon-viscosity plot scripts: the finished runs of a
-case (every nu*/output with summary.json and results.h5) and the one-row-per-run CSV."""
+case (every nu*/output with summary.json and results.h5), where the table and figure go
+(--out DIR, default the case's output/, which git ignores) and the one-row-per-run CSV, compared
+with the shipped one beside the case's README (scripts/compare_tables.py)."""
+import argparse
 import csv
 import glob
 import json
 import os
+import subprocess
+import sys
 
 import h5py
 
@@ -33,3 +38,23 @@ def write_csv(path, rows):
             w.writerow({k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in r.items()})
     for r in rows:
         print(r)
+
+
+def output_dir(case_dir, doc):
+    """The --out directory of the plot script (created), by default case_dir/output."""
+    ap = argparse.ArgumentParser(description=doc.split("\n")[0])
+    ap.add_argument("--out", default=os.path.join(case_dir, "output"),
+                    help="where the table and figure go (the case directory itself replaces the shipped ones)")
+    out = ap.parse_args().out
+    os.makedirs(out, exist_ok=True)
+    return out
+
+
+def save(case_dir, out, name, fig, rows):
+    """NAME.png and NAME.csv into out; then the table against the shipped case_dir/NAME.csv."""
+    fig.savefig(os.path.join(out, name + ".png"), dpi=110)
+    write_csv(os.path.join(out, name + ".csv"), rows)
+    print(f"wrote {os.path.join(out, name + '.csv')} and {name}.png beside it")
+    if os.path.realpath(out) != os.path.realpath(case_dir):
+        subprocess.run([sys.executable, os.path.join(case_dir, "..", "..", "scripts", "compare_tables.py"),
+                        os.path.join(case_dir, name + ".csv"), os.path.join(out, name + ".csv")], check=True)

@@ -3,7 +3,8 @@
 mu/mu_Enskog.
 
 Reads every nu*/output/{results.h5,summary.json} of this case; writes viscosity.png and
-viscosity.csv (one row per run). Bizon's (y, z) are grainbath's (x, y) in 2D."""
+viscosity.csv (one row per run) into --out DIR (default output/ beside this script, which git
+ignores) and compares the table with the shipped viscosity.csv. Bizon's (y, z) are grainbath's (x, y) in 2D."""
 import os
 import sys
 
@@ -15,8 +16,9 @@ import numpy as np
 
 here = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(here, "..", "bizon-conductivity"))
-from transport_runs import load_runs, write_csv  # noqa: E402
+from transport_runs import load_runs, output_dir, save  # noqa: E402
 
+out = output_dir(here, __doc__)
 runs = load_runs(here)
 
 fig, ax = plt.subplots(1, 4, figsize=(21, 4.8))
@@ -79,5 +81,4 @@ ax[3].set_ylabel("(P_xx - P_yy) / P  (slab virial, box average)")
 ax[3].set_title("normal stress difference (Bizon Fig. 15)")
 ax[3].legend(fontsize=7)
 fig.tight_layout()
-fig.savefig(os.path.join(here, "viscosity.png"), dpi=110)
-write_csv(os.path.join(here, "viscosity.csv"), rows)
+save(here, out, "viscosity", fig, rows)

@@ -3,9 +3,11 @@
 
     GRAINBATH=build/grainbath python3 cases/hard-disk-eos/sweep.py [--quick] [--reuse] [--out DIR]
 
-Writes output-sweep/<packing>/summary.json, eos.csv and eos.png into DIR: by default beside
-this script (the shipped eos.csv and eos.png), with --quick into output-quick/ beside it, so
-that a quick look never replaces the stored results.
+Writes output-sweep/<packing>/summary.json, eos.csv and eos.png into DIR: by default into
+output/ beside this script (git ignores it), with --quick into output-quick/ beside it; then
+compares eos.csv with the shipped one beside this script (scripts/compare_tables.py; the
+collisions_per_second column is a timing and always differs). `--out` with this script's own
+folder replaces the shipped eos.csv and eos.png.
 cases/hard-sphere-eos/sweep.py is a link to this file: it reads the dimension from the
 case.toml beside the path it was called by."""
 import csv
@@ -19,7 +21,7 @@ here = os.path.dirname(os.path.abspath(__file__))
 exe = os.environ.get("GRAINBATH", "build/grainbath")
 quick = "--quick" in sys.argv
 reuse = "--reuse" in sys.argv  # only tabulate / plot existing outputs
-base = os.path.join(here, "output-quick") if quick else here
+base = os.path.join(here, "output-quick" if quick else "output")
 if "--out" in sys.argv:
     k = sys.argv.index("--out")
     if k + 1 >= len(sys.argv):
@@ -100,3 +102,6 @@ b.axhline(0, color="k", lw=0.5), b.axhspan(-0.5, 0.5, color="0.9")
 b.set_xlabel("packing fraction"), b.set_ylabel("Z / Z_ref - 1  [%]")
 fig.tight_layout()
 fig.savefig(os.path.join(base, "eos.png"), dpi=120)
+if os.path.realpath(base) != os.path.realpath(here):
+    subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py"),
+                    os.path.join(here, "eos.csv"), os.path.join(base, "eos.csv")], check=True)

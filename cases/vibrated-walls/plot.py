@@ -1,21 +1,27 @@
 #!/usr/bin/env python3
 """Tables and figure of cases/vibrated-walls from output/<run>/ (made by run.py).
 
-  /usr/bin/python3 cases/vibrated-walls/plot.py
+  /usr/bin/python3 cases/vibrated-walls/plot.py [--out DIR]
 
 Writes balance.csv (mean temperature vs the energy balance), eos.csv (local equation of
 state), fourier.csv (generalised Fourier law fits), tails.csv (velocity-distribution tail
-weights) and vibrated-walls.png."""
+weights) and vibrated-walls.png into DIR (default output/ beside this script, beside the runs;
+git ignores it), then compares each table with the shipped one beside this script
+(scripts/compare_tables.py). `--out cases/vibrated-walls` replaces the shipped ones."""
+import argparse
 import csv
 import json
 import math
 import os
+import subprocess
+import sys
 
 import h5py
 import numpy as np
 
 here = os.path.dirname(os.path.abspath(__file__))
 outdir = os.path.join(here, "output")
+tables = outdir  # where the tables and the figure go (--out)
 
 
 def z_henderson(nu):
@@ -98,6 +104,11 @@ def slab_energy_balance(run):
 
 
 def main():
+    global tables
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default=outdir, help="where the tables and the figure go")
+    tables = ap.parse_args().out
+    os.makedirs(tables, exist_ok=True)
     names = sorted(d for d in os.listdir(outdir)
                    if not d.endswith(".previous") and os.path.exists(os.path.join(outdir, d, "summary.json")))
     runs = {n: load(n) for n in names}
@@ -176,12 +187,18 @@ def main():
                 tails.append(row)
         write_csv("tails.csv", tails)
     figure(runs, rows, four)
+    if os.path.realpath(tables) != here:
+        pairs = [p for name in ("balance.csv", "eos.csv", "fourier.csv", "tails.csv")
+                 if os.path.exists(os.path.join(tables, name))
+                 for p in (os.path.join(here, name), os.path.join(tables, name))]
+        subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py")] + pairs,
+                       check=True)
 
 
 def write_csv(name, rows):
     if not rows:
         return
-    with open(os.path.join(here, name), "w", newline="") as f:
+    with open(os.path.join(tables, name), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         for r in rows:
@@ -272,8 +289,8 @@ def figure(runs, rows, four):
         a.set_title("velocity distributions (main)")
         a.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(os.path.join(here, "vibrated-walls.png"), dpi=110)
-    print("wrote vibrated-walls.png")
+    fig.savefig(os.path.join(tables, "vibrated-walls.png"), dpi=110)
+    print(f"wrote {os.path.join(tables, 'vibrated-walls.png')}")
 
 
 if __name__ == "__main__":
