@@ -3,10 +3,18 @@
 G_s vs the Carnahan-Starling G (Fig. 5: white noise and air table below, Boltzmann slightly
 above), g(r) with g(sigma) against G_s/nu (Fig. 4), velocity correlations (Fig. 7), the
 distribution of normal collision speeds (Fig. 10) and gamma/gamma_e (Fig. 8b).
-Writes heat_baths.png and heat_baths.csv beside this script."""
+
+    /usr/bin/python3 cases/bizon-heat-baths/plot.py [--out DIR]
+
+Writes heat_baths.png and heat_baths.csv into DIR (default: output/ beside this script, which
+git ignores), then compares the table with the shipped heat_baths.csv beside this script (the
+reference; scripts/compare_tables.py). `--out cases/bizon-heat-baths` replaces the reference."""
+import argparse
 import csv
 import json
 import os
+import subprocess
+import sys
 
 import h5py
 import matplotlib
@@ -15,6 +23,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 here = os.path.dirname(os.path.abspath(__file__))
+ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+ap.add_argument("--out", default=os.path.join(here, "output"), help="where the table and figure go")
+out = ap.parse_args().out
+os.makedirs(out, exist_ok=True)
 runs = {"white noise": "white-noise/output", "air table": "air-table/output", "Boltzmann": "boltzmann/output",
         "elastic": "elastic/output"}
 nu = 0.5
@@ -68,10 +80,14 @@ ax[1, 2].legend()
 fig.suptitle("Bizon et al. heat baths, ν = 0.5, T ≈ 1 (paper: white noise and air table G_s < G_CS, Boltzmann ≥; "
              "γ/γ_e < 1 tracks the collision-velocity reduction)", fontsize=9)
 fig.tight_layout()
-fig.savefig(os.path.join(here, "heat_baths.png"), dpi=110)
-with open(os.path.join(here, "heat_baths.csv"), "w", newline="") as f:
+fig.savefig(os.path.join(out, "heat_baths.png"), dpi=110)
+with open(os.path.join(out, "heat_baths.csv"), "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
     w.writeheader()
     w.writerows(rows)
 for r in rows:
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
+print(f"wrote {os.path.join(out, 'heat_baths.csv')} and heat_baths.png beside it")
+if os.path.realpath(out) != here:
+    subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py"),
+                    os.path.join(here, "heat_baths.csv"), os.path.join(out, "heat_baths.csv")], check=True)

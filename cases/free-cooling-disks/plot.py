@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """T(t) of cases/free-cooling-disks against Haff's law (with and without the a2 correction).
-    python3 cases/free-cooling-disks/plot.py [OUTPUT_DIR]      -> haff.png beside this script"""
+    /usr/bin/python3 cases/free-cooling-disks/plot.py [OUTPUT_DIR]      -> OUTPUT_DIR/haff.png
+OUTPUT_DIR is the run's output directory (default output/ beside this script); the figure goes
+beside its results, never over the shipped haff.png beside this script."""
 import json
 import os
 import sys
@@ -30,5 +32,6 @@ b.plot(t, t / s["haff"]["t0_theory"], "k-", label="Haff + a2")
 b.set_xlabel("t"), b.set_ylabel("√(T0/T) − 1"), b.legend()
 fig.suptitle(f"free cooling, e = 0.9, ν = 0.1: t0 measured/theory = {s['haff']['ratio']:.4f}")
 fig.tight_layout()
-fig.savefig(os.path.join(here, "haff.png"), dpi=120)
+fig.savefig(os.path.join(out, "haff.png"), dpi=120)
 print(s["haff"])
+print(f"wrote {os.path.join(out, 'haff.png')}")
