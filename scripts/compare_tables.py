@@ -9,7 +9,8 @@ tables are the reference that the same commands made, so a reader sees at once w
 reproduced them, and by how much each column moved if not.
 
 Tables: CSV (.csv), tab-separated (.tsv) or Markdown pipe tables (.md, the first table of the
-file). Rows are matched by the first column, columns by their headers. For each column present
+file). Rows are matched by the first column (the n-th row of a repeated value with the n-th),
+columns by their headers. For each column present
 in both, the report gives "identical" or the largest relative change |new - ref| / max(|ref|,
 |new|) with its row. Rows or columns that only one of the two has are named.
 
@@ -57,10 +58,13 @@ def read_table(path):
     for k, r in enumerate(body):
         if len(r) != len(header):
             fail(f"{path}: row {k + 1} has {len(r)} cells, the header {len(header)}")
-    keyed = {}
+    # a key that repeats (a time series per run: edmd_curves.csv) names its n-th row "KEY #n",
+    # so that the n-th rows of the two tables are compared
+    keyed, seen = {}, {}
     for r in body:
-        keyed.setdefault(r[0], r)  # a repeated key: the first row stands for it
-    return header, keyed, [r[0] for r in body]
+        seen[r[0]] = seen.get(r[0], 0) + 1
+        keyed[r[0] if seen[r[0]] == 1 else f"{r[0]} #{seen[r[0]]}"] = r
+    return header, keyed, list(keyed)
 
 
 def number(text):

@@ -11,16 +11,29 @@
                     errors understate the scatter between runs (docs/edmd.md "Errors of the
                     window means"): quote the seeds' columns.
 Time unit: 1/nu(0), nu(0) = G sqrt(Ttr(0)), G = 2 n sigma chi sqrt(pi) (docs/rough.md R1,
-Henderson chi), as in theory_curves.csv."""
+Henderson chi), as in theory_curves.csv.
+
+    /usr/bin/python3 cases/rough-driven/collect.py [--out DIR]
+
+Both files go to DIR (default output/ beside this script, which git ignores) and are compared
+with the shipped ones beside this script (scripts/compare_tables.py); `--out cases/rough-driven`
+replaces the shipped ones."""
+import argparse
 import csv
 import glob
 import json
 import math
 import os
+import subprocess
+import sys
 
 import h5py
 
 here = os.path.dirname(os.path.abspath(__file__))
+ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+ap.add_argument("--out", default=os.path.join(here, "output"), help="where the two tables go")
+out = ap.parse_args().out
+os.makedirs(out, exist_ok=True)
 
 
 def prefactor_2d(phi):
@@ -29,7 +42,7 @@ def prefactor_2d(phi):
     return 2.0 * n * chi * math.sqrt(math.pi)
 
 
-with open(os.path.join(here, "edmd_curves.csv"), "w", newline="") as f:
+with open(os.path.join(out, "edmd_curves.csv"), "w", newline="") as f:
     w = csv.writer(f)
     w.writerow(["mu", "t_nu0", "Ttr", "Trot"] + [f"Ttr_{m}" for m in "ABCDE"] + [f"Trot_{m}" for m in "ABCDE"])
     for sub, mu in (("mu-inf", "inf"), ("mu-0.5", "0.5")):
@@ -75,10 +88,14 @@ for mu, runs in groups.items():
                 [th[f"model_{m}"]["R"] for m in "ABCDE"] + [th["model_E"]["Ttr"], len(runs)] +
                 list(mean_sem(R)) + list(mean_sem(T)))
 rows.sort()
-with open(os.path.join(here, "edmd_r_vs_mu.csv"), "w", newline="") as f:
+with open(os.path.join(out, "edmd_r_vs_mu.csv"), "w", newline="") as f:
     w = csv.writer(f)
     w.writerow(["mu", "R", "R_stderr", "Ttr", "Ttr_stderr", "R_A", "R_B", "R_C", "R_D", "R_E", "Ttr_E",
                 "seeds", "R_seeds", "R_seeds_sem", "Ttr_seeds", "Ttr_seeds_sem"])
     for r in rows:
         w.writerow([f"{x:.6g}" for x in r])
-print("wrote edmd_curves.csv, edmd_r_vs_mu.csv")
+print(f"wrote {os.path.join(out, 'edmd_curves.csv')} and edmd_r_vs_mu.csv beside it")
+if os.path.realpath(out) != here:
+    subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py")] +
+                   [p for name in ("edmd_curves.csv", "edmd_r_vs_mu.csv")
+                    for p in (os.path.join(here, name), os.path.join(out, name))], check=True)

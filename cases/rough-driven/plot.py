@@ -1,10 +1,13 @@
 #!/usr/bin/python3
 """Thesis Fig. 10.9 setting: Ttr(t), Trot(t) of the driven rough gas (mu = inf and 0.5) from the
 EDMD beside mean-field models A-E, and the steady R = Trot/Ttr vs mu (EDMD, event-free MC, models).
-    /usr/bin/python3 cases/rough-driven/plot.py      -> rough_driven.png (this folder)
-Inputs (this folder): edmd_curves.csv, edmd_r_vs_mu.csv (collect.py, from the EDMD runs of
-run.sh) and r_vs_mu.csv (models and the event-free MC, written by
-    GRAINBATH_ROUGH_CURVES_DIR=DIR build/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*')."""
+    /usr/bin/python3 cases/rough-driven/plot.py [--out DIR]     -> DIR/rough_driven.png
+DIR (default output/ beside this script, which git ignores) holds edmd_curves.csv and
+edmd_r_vs_mu.csv (collect.py --out DIR, from the EDMD runs of run.sh); r_vs_mu.csv (models and
+the event-free MC) is the shipped one beside this script, written by
+    GRAINBATH_ROUGH_CURVES_DIR=DIR build/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*'
+`--out cases/rough-driven` plots the shipped tables and replaces the shipped figure."""
+import argparse
 import csv
 import os
 
@@ -13,14 +16,21 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 here = os.path.dirname(os.path.abspath(__file__))
+ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+ap.add_argument("--out", default=os.path.join(here, "output"), help="collect.py's tables; the figure goes there")
+out_dir = ap.parse_args().out
 
 
-def rows(name):
-    with open(os.path.join(here, name)) as f:
+def rows(folder, name):
+    path = os.path.join(folder, name)
+    if not os.path.exists(path):
+        raise SystemExit(f"plot.py: {path}: no such file (collect.py --out {folder} writes it)")
+    with open(path) as f:
         return list(csv.DictReader(f))
 
 
-curves, edmd_r, rmu = rows("edmd_curves.csv"), rows("edmd_r_vs_mu.csv"), rows("r_vs_mu.csv")
+curves, edmd_r = rows(out_dir, "edmd_curves.csv"), rows(out_dir, "edmd_r_vs_mu.csv")
+rmu = rows(here, "r_vs_mu.csv")
 colors = {"A": "tab:gray", "B": "tab:orange", "C": "tab:green", "D": "tab:purple", "E": "k"}
 fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
 for ax, mu, tag in [(axes[0, 0], "inf", "(a) μ = ∞"), (axes[0, 1], "0.5", "(b) μ = 0.5")]:
@@ -72,6 +82,6 @@ ax.set_xlabel("μ"), ax.set_ylabel("R / R_E − 1  [%]")
 ax.set_title("(d) deviation from model E (B, C, D leave the frame at small μ)", fontsize=10)
 ax.legend(fontsize=7)
 fig.tight_layout()
-out = os.path.join(here, "rough_driven.png")
+out = os.path.join(out_dir, "rough_driven.png")
 fig.savefig(out, dpi=100)
 print("wrote", out)

@@ -5,7 +5,7 @@ tables they just made (in the case's output folder) with the shipped ones.
 Hand-made reference and new tables in CSV, TSV and Markdown; every line of the report is
 worked out here: identical columns, the largest relative change and its row, a text cell that
 changed, a number written otherwise (1.0 and 1) counted as the same, rows and columns that only
-one side has, Markdown cells with "±" errors, and exit 2 with the reason for a missing file, a
+one side has, a repeated first column paired row by row, Markdown cells with "±" errors, and exit 2 with the reason for a missing file, a
 file without a table and a row with the wrong number of cells. Standard library only."""
 import argparse
 import os
@@ -65,6 +65,18 @@ expect("tsv report", out, f"""{tsv} against the shipped {tsv}: 2 rows and 2 colu
   every column identical
 {ref} against the shipped {ref}: 3 rows and 5 columns in both
   every column identical
+""")
+
+# 2b. A first column that repeats (a time series per run): the n-th rows of a value are paired,
+# "KEY #n" names them; the third row of "inf" only in the reference
+rep_ref = write("rep_ref.csv", "mu,t,T\ninf,0,1.0\ninf,1,0.5\ninf,2,0.25\n0.5,0,1.0\n")
+rep_new = write("rep_new.csv", "mu,t,T\ninf,0,1.0\ninf,1,0.4\n0.5,0,1.0\n")
+code, out, err = run(rep_ref, rep_new)
+expect("repeated keys exit", (code, err), (0, ""))
+expect("repeated keys report", out, f"""{rep_new} against the shipped {rep_ref}: 3 rows and 2 columns in both
+  rows only in the reference: inf #3
+  identical: t
+  changed: T: largest in row inf #2: 0.5 -> 0.4 (0.2 relative)
 """)
 
 # 3. Markdown: the first table only, the separator row skipped, "±" errors and a minus sign
