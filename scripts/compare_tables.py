@@ -12,7 +12,11 @@ Tables: CSV (.csv), tab-separated (.tsv) or Markdown pipe tables (.md, the first
 file). Rows are matched by the first column (the n-th row of a repeated value with the n-th),
 columns by their headers. For each column present
 in both, the report gives "identical" or the largest relative change |new - ref| / max(|ref|,
-|new|) with its row. Rows or columns that only one of the two has are named.
+|new|) with its row, and where both tables give the column's standard error (an error column
+X_err, X_stderr, X_sem or X.stderr beside X, X.mean or X_mean, or "value ± error" in the cell)
+the largest distance |new - ref| / sqrt(err_ref^2 + err_new^2) in those errors ("sigma": the
+two as independent estimates, as from another seed). Rows or columns that only one of the two
+has are named.
 
 Exit status: 0 when both tables were read, whatever they say (the comparison informs, it does
 not judge: a run with another seed or another build differs within its errors); 2 when a file
@@ -76,6 +80,33 @@ def number(text):
         return None
 
 
+def cell_error(text):
+    """The error written in the cell itself ("1.00 ± 0.05"), or None."""
+    if "\u00b1" not in text:
+        return None
+    return number(text.split("\u00b1", 1)[1].strip())
+
+
+def error_column(column, header):
+    """The column holding the standard error of `column`, by the names the case scripts and
+    summaries use (X_err, X_stderr, X_sem, X.stderr; X.mean and X_mean with X.stderr,
+    X_stderr), or None."""
+    names = [column + s for s in ("_err", "_stderr", "_sem", ".stderr")]
+    for mean, err in ((".mean", ".stderr"), ("_mean", "_stderr")):
+        if column.endswith(mean):
+            names.append(column[:-len(mean)] + err)
+    return next((n for n in names if n in header), None)
+
+
+def sigma(row, header, i, column):
+    """The standard error of row[i] (the cell's own "±" or the error column), or None."""
+    e = cell_error(row[i])
+    if e is None:
+        name = error_column(column, header)
+        e = number(row[header.index(name)]) if name else None
+    return e if e is not None and math.isfinite(e) and e > 0 else None
+
+
 def compare(ref_path, new_path):
     ref_header, ref, ref_order = read_table(ref_path)
     new_header, new, _ = read_table(new_path)
@@ -98,6 +129,7 @@ def compare(ref_path, new_path):
     for c in columns:
         i, j = ref_header.index(c), new_header.index(c)
         worst = None  # (relative change, row, reference text, new text)
+        farthest = None  # (|new - ref| / sigma, row), over the rows where both give an error
         for k in rows:
             a, b = ref[k][i], new[k][j]
             if a == b:
@@ -110,16 +142,24 @@ def compare(ref_path, new_path):
                 rel = abs(y - x) / scale if scale > 0 else 0.0
                 if rel == 0.0:
                     continue  # the same number written otherwise (1.0 and 1)
+                ea, eb = sigma(ref[k], ref_header, i, c), sigma(new[k], new_header, j, c)
+                if ea is not None and eb is not None:
+                    # two independent estimates (another seed, another build's draws)
+                    z = abs(y - x) / math.hypot(ea, eb)
+                    if farthest is None or z > farthest[0]:
+                        farthest = (z, k)
             if worst is None or rel > worst[0]:
                 worst = (rel, k, a, b)
         if worst is None:
             identical.append(c)
         else:
-            changed.append((c, worst))
+            changed.append((c, worst, farthest))
     if identical:
         print(f"  identical: {', '.join(identical)}" if changed else "  every column identical")
-    for c, (rel, k, a, b) in sorted(changed, key=lambda t: -t[1][0]):
+    for c, (rel, k, a, b), farthest in sorted(changed, key=lambda t: -t[1][0]):
         size = "not a number" if math.isinf(rel) else f"{rel:.2g} relative"
+        if farthest is not None:
+            size += f"; at most {farthest[0]:.2g} sigma, row {farthest[1]}"
         print(f"  changed: {c}: largest in row {k}: {a} -> {b} ({size})")
 
 

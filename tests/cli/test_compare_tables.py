@@ -3,7 +3,9 @@
 tables they just made (in the case's output folder) with the shipped ones.
 
 Hand-made reference and new tables in CSV, TSV and Markdown; every line of the report is
-worked out here: identical columns, the largest relative change and its row, a text cell that
+worked out here: identical columns, the largest relative change and its row, the largest
+distance in the two tables' standard errors (error columns by their names, "±" in a cell; none
+where an error is missing, zero or nan), a text cell that
 changed, a number written otherwise (1.0 and 1) counted as the same, rows and columns that only
 one side has, a repeated first column paired row by row, Markdown cells with "±" errors, and exit 2 with the reason for a missing file, a
 file without a table and a row with the wrong number of cells. Standard library only."""
@@ -57,6 +59,38 @@ expect("csv report", out, f"""{new} against the shipped {ref}: 2 rows and 4 colu
   changed: Z: largest in row a: 3.0 -> 3.03 (0.0099 relative)
 """)
 
+# 1b. Errors: T with T_err (row a: 0.3/hypot(0.1, 0.1) = 2.1 sigma, row b: 0.1/hypot(0.3, 0.4)
+# = 0.2; the largest relative change is row b's, the largest distance row a's), Z with Z_stderr
+# given only by the reference (no distance), x.mean with x.stderr (0.5/hypot(0.3, 0.4) = 1),
+# y_mean with y_stderr where one error is 0 and the other nan (no distance); the error columns
+# themselves change without one
+err_ref = write("err_ref.csv", "run,T,T_err,Z,Z_stderr,x.mean,x.stderr,y_mean,y_stderr\n"
+                               "a,2.0,0.1,1,0.1,1.0,0.3,5,0\nb,0.4,0.3,1,0.1,2.0,0.3,6,nan\n")
+err_new = write("err_new.csv", "run,T,T_err,Z,x.mean,x.stderr,y_mean,y_stderr\n"
+                               "a,2.3,0.1,2,1.5,0.4,5.5,0.2\nb,0.5,0.4,1,2.0,0.4,6,0.2\n")
+code, out, err = run(err_ref, err_new)
+expect("errors exit", (code, err), (0, ""))
+expect("errors report", out, f"""{err_new} against the shipped {err_ref}: 2 rows and 7 columns in both
+  columns only in the reference: Z_stderr
+  changed: y_stderr: largest in row b: nan -> 0.2 (not a number)
+  changed: Z: largest in row a: 1 -> 2 (0.5 relative)
+  changed: x.mean: largest in row a: 1.0 -> 1.5 (0.33 relative; at most 1 sigma, row a)
+  changed: T_err: largest in row b: 0.3 -> 0.4 (0.25 relative)
+  changed: x.stderr: largest in row a: 0.3 -> 0.4 (0.25 relative)
+  changed: T: largest in row b: 0.4 -> 0.5 (0.2 relative; at most 2.1 sigma, row a)
+  changed: y_mean: largest in row a: 5 -> 5.5 (0.091 relative)
+""")
+
+# 1c. R with R_sem over three rows: the largest relative change in row b (0.2/0.6), the largest
+# distance in the last row, c (0.3/hypot(0.1, 0.1) = 2.1 sigma; a: 0.1/0.5, b: 0.2/0.14)
+sem_ref = write("sem_ref.csv", "run,R,R_sem\na,1.0,0.3\nb,0.4,0.1\nc,1.0,0.1\n")
+sem_new = write("sem_new.csv", "run,R,R_sem\na,1.1,0.4\nb,0.6,0.1\nc,1.3,0.1\n")
+code, out, err = run(sem_ref, sem_new)
+expect("sem report", (code, out, err), (0, f"""{sem_new} against the shipped {sem_ref}: 3 rows and 2 columns in both
+  changed: R: largest in row b: 0.4 -> 0.6 (0.33 relative; at most 2.1 sigma, row c)
+  changed: R_sem: largest in row a: 0.3 -> 0.4 (0.25 relative)
+""", ""))
+
 # 2. TSV, identical, and two pairs in one call
 tsv = write("t.tsv", "variant\tT\tZ\nv0\t1\t2\nv1\t3\t4\n")
 code, out, err = run(tsv, tsv, ref, ref)
@@ -88,7 +122,7 @@ code, out, err = run(md_ref, md_new)
 expect("md exit", (code, err), (0, ""))
 expect("md report", out, f"""{md_new} against the shipped {md_ref}: 1 rows and 2 columns in both
   identical: err
-  changed: rate: largest in row 0.1: 1.00 ± 0.05 -> 1.02 ± 0.06 (0.02 relative)
+  changed: rate: largest in row 0.1: 1.00 ± 0.05 -> 1.02 ± 0.06 (0.02 relative; at most 0.26 sigma, row 0.1)
 """)
 
 # 4. Errors: exit 2, the file and the reason, nothing on stdout
