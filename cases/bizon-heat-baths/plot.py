@@ -88,6 +88,6 @@ with open(os.path.join(out, "heat_baths.csv"), "w", newline="") as f:
 for r in rows:
     print(" ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()))
 print(f"wrote {os.path.join(out, 'heat_baths.csv')} and heat_baths.png beside it")
-if os.path.realpath(out) != here:
+if os.path.realpath(out) != os.path.realpath(here):
     subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py"),
                     os.path.join(here, "heat_baths.csv"), os.path.join(out, "heat_baths.csv")], check=True)

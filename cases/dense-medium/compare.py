@@ -41,6 +41,6 @@ with open(os.path.join(out, "compare.csv"), "w", newline="") as f:
     w.writerows(rows)
 for r in rows:
     print(" ".join(f"{k}={v:.5g}" for k, v in r.items()))
-if os.path.realpath(out) != here:
+if os.path.realpath(out) != os.path.realpath(here):
     subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py"),
                     os.path.join(here, "compare.csv"), os.path.join(out, "compare.csv")], check=True)

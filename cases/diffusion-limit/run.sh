@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The scan: eps = 0.2 ... 0.01 at fixed k = pi (L = 2); one output per eps in OUT/eps-EPS, then
 # a table and a plot in OUT, compared with the shipped sweep/table.md (table.py). OUT is
-# cases/diffusion-limit/output (git ignores it) unless given first: run.sh --out DIR [eps ...] t_end = 0.3/eps so the mode decays by the same factor
-# (about e^-2) at every eps; dt = eps/10 keeps the velocity-sampling error of the splitting
-# at (gamma dt)^2/12 ~ 0.2% (gamma ~ 1.5/eps: momentum relaxation rate).
+# cases/diffusion-limit/output (git ignores it) unless given first: run.sh --out DIR [eps ...].
+# t_end = 0.3/eps so the mode decays by the same factor (about e^-2) at every eps; dt = eps/10
+# keeps the velocity-sampling error of the splitting at (gamma dt)^2/12 ~ 0.2% (gamma ~ 1.5/eps:
+# momentum relaxation rate).
 # Cost grows as 1/eps^2: eps = 0.01 takes about 2e9 particle-steps. Pass eps values to run
 # a subset: cases/diffusion-limit/run.sh 0.2 0.1 0.05
 set -euo pipefail

@@ -95,7 +95,7 @@ with open(os.path.join(out, "edmd_r_vs_mu.csv"), "w", newline="") as f:
     for r in rows:
         w.writerow([f"{x:.6g}" for x in r])
 print(f"wrote {os.path.join(out, 'edmd_curves.csv')} and edmd_r_vs_mu.csv beside it")
-if os.path.realpath(out) != here:
+if os.path.realpath(out) != os.path.realpath(here):
     subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py")] +
                    [p for name in ("edmd_curves.csv", "edmd_r_vs_mu.csv")
                     for p in (os.path.join(here, name), os.path.join(out, name))], check=True)

@@ -5,7 +5,7 @@ EDMD beside mean-field models A-E, and the steady R = Trot/Ttr vs mu (EDMD, even
 DIR (default output/ beside this script, which git ignores) holds edmd_curves.csv and
 edmd_r_vs_mu.csv (collect.py --out DIR, from the EDMD runs of run.sh); r_vs_mu.csv (models and
 the event-free MC) is the shipped one beside this script, written by
-    GRAINBATH_ROUGH_CURVES_DIR=DIR build/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*'
+    GRAINBATH_ROUGH_CURVES_DIR=$PWD/cases/rough-driven build/tests/rough/rough_driven_mc --gtest_filter='RoughDrivenCase.*'
 `--out cases/rough-driven` plots the shipped tables and replaces the shipped figure."""
 import argparse
 import csv

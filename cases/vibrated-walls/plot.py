@@ -187,7 +187,7 @@ def main():
                 tails.append(row)
         write_csv("tails.csv", tails)
     figure(runs, rows, four)
-    if os.path.realpath(tables) != here:
+    if os.path.realpath(tables) != os.path.realpath(here):
         pairs = [p for name in ("balance.csv", "eos.csv", "fourier.csv", "tails.csv")
                  if os.path.exists(os.path.join(tables, name))
                  for p in (os.path.join(here, name), os.path.join(tables, name))]
