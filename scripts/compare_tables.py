@@ -8,8 +8,9 @@ the case's output folder, which git ignores, and end by calling this on each tab
 tables are the reference that the same commands made, so a reader sees at once whether a run
 reproduced them, and by how much each column moved if not.
 
-Tables: CSV (.csv), tab-separated (.tsv) or Markdown pipe tables (.md, the first table of the
-file). Rows are matched by the first column (the n-th row of a repeated value with the n-th),
+Tables: CSV (.csv), tab-separated (.tsv), Markdown pipe tables (.md, the first table of the
+file), or a run's summary.json (.json: one row, a column per key, "a.b.c"; e.g. a run against
+the copy of its summary that a case ships in results/). Rows are matched by the first column (the n-th row of a repeated value with the n-th),
 columns by their headers. For each column present
 in both, the report gives "identical" or the largest relative change |new - ref| / max(|ref|,
 |new|) with its row, and where both tables give the column's standard error (an error column
@@ -22,6 +23,7 @@ Exit status: 0 when both tables were read, whatever they say (the comparison inf
 not judge: a run with another seed or another build differs within its errors); 2 when a file
 is missing or holds no table, with the reason."""
 import csv
+import json
 import math
 import os
 import sys
@@ -48,11 +50,36 @@ def read_markdown(path):
     return rows
 
 
+def read_summary(path):
+    """A summary.json as a table of one row: a column per key ("a.b.c"), the row named
+    "summary"."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            tree = json.load(f)
+    except (OSError, ValueError) as e:
+        fail(f"{path}: not a JSON summary ({e})")
+    if not isinstance(tree, dict):
+        fail(f"{path}: expected a JSON object (a summary.json), found {type(tree).__name__}")
+    flat = {}
+
+    def walk(node, prefix):
+        for k, v in node.items():
+            if isinstance(v, dict):
+                walk(v, prefix + k + ".")
+            else:
+                flat[prefix + k] = json.dumps(v)  # numbers at full precision, as written
+
+    walk(tree, "")
+    return [["row"] + list(flat), ["summary"] + list(flat.values())]
+
+
 def read_table(path):
     if not os.path.isfile(path):
         fail(f"{path}: no such file")
     if path.endswith(".md"):
         rows = read_markdown(path)
+    elif path.endswith(".json"):
+        rows = read_summary(path)
     else:
         with open(path, newline="", encoding="utf-8") as f:
             rows = [r for r in csv.reader(f, delimiter="\t" if path.endswith(".tsv") else ",") if r]
@@ -154,13 +181,19 @@ def compare(ref_path, new_path):
             identical.append(c)
         else:
             changed.append((c, worst, farthest))
-    if identical:
-        print(f"  identical: {', '.join(identical)}" if changed else "  every column identical")
+    if identical and not changed:
+        print("  every column identical")
+    elif len(identical) > 20:  # a summary's hundred keys: the count says enough
+        print(f"  identical: {len(identical)} columns")
+    elif identical:
+        print(f"  identical: {', '.join(identical)}")
+    one_row = ref_path.endswith(".json")  # a summary.json: one row, none to name
     for c, (rel, k, a, b), farthest in sorted(changed, key=lambda t: -t[1][0]):
         size = "not a number" if math.isinf(rel) else f"{rel:.2g} relative"
         if farthest is not None:
-            size += f"; at most {farthest[0]:.2g} sigma, row {farthest[1]}"
-        print(f"  changed: {c}: largest in row {k}: {a} -> {b} ({size})")
+            size += f"; {farthest[0]:.2g} sigma" if one_row else f"; at most {farthest[0]:.2g} sigma, row {farthest[1]}"
+        where = "" if one_row else f"largest in row {k}: "
+        print(f"  changed: {c}: {where}{a} -> {b} ({size})")
 
 
 def main(argv):

@@ -51,10 +51,21 @@ def output_dir(case_dir, doc):
 
 
 def save(case_dir, out, name, fig, rows):
-    """NAME.png and NAME.csv into out; then the table against the shipped case_dir/NAME.csv."""
+    """NAME.png and NAME.csv into out; then the table against the shipped case_dir/NAME.csv,
+    and each run's summary.json against its copy in case_dir/results/."""
     fig.savefig(os.path.join(out, name + ".png"), dpi=110)
     write_csv(os.path.join(out, name + ".csv"), rows)
     print(f"wrote {os.path.join(out, name + '.csv')} and {name}.png beside it")
+    pairs = []
     if os.path.realpath(out) != os.path.realpath(case_dir):
-        subprocess.run([sys.executable, os.path.join(case_dir, "..", "..", "scripts", "compare_tables.py"),
-                        os.path.join(case_dir, name + ".csv"), os.path.join(out, name + ".csv")], check=True)
+        pairs += [os.path.join(case_dir, name + ".csv"), os.path.join(out, name + ".csv")]
+    # each run's summary against the copy the case ships in results/ (same seed: the same
+    # trajectory, so every key but the timings should agree)
+    for summary in sorted(glob.glob(os.path.join(case_dir, "nu*", "output", "summary.json"))):
+        run = os.path.basename(os.path.dirname(os.path.dirname(summary)))
+        stored = os.path.join(case_dir, "results", run + ".summary.json")
+        if os.path.exists(stored):
+            pairs += [stored, summary]
+    if pairs:
+        subprocess.run([sys.executable, os.path.join(case_dir, "..", "..", "scripts", "compare_tables.py")] + pairs,
+                       check=True)

@@ -3,7 +3,7 @@
 tables they just made (in the case's output folder) with the shipped ones.
 
 Hand-made reference and new tables in CSV, TSV and Markdown; every line of the report is
-worked out here: identical columns, the largest relative change and its row, the largest
+worked out here (a summary.json as a one-row table too): identical columns, the largest relative change and its row, the largest
 distance in the two tables' standard errors (error columns by their names, "±" in a cell; none
 where an error is missing, zero or nan), a text cell that
 changed, a number written otherwise (1.0 and 1) counted as the same, rows and columns that only
@@ -125,6 +125,32 @@ expect("md report", out, f"""{md_new} against the shipped {md_ref}: 1 rows and 2
   changed: rate: largest in row 0.1: 1.00 ± 0.05 -> 1.02 ± 0.06 (0.02 relative; at most 0.26 sigma, row 0.1)
 """)
 
+# 3b. summary.json: nested keys flattened to columns ("a.b"), one row, so no row is named;
+# temperature.mean with temperature.stderr (0.03/hypot(0.01, 0.01) = 2.1 sigma), a string and a
+# list compared as text, a null against a number is not a number, a key only in one
+js_ref = write("ref.json", '{"temperature": {"mean": 1.0, "stderr": 0.01}, "state": {"hash": "ab"},'
+                           ' "run": {"seed": 1, "theory": {"hcs": {"a2": 0.1}}}, "box": [1, 2], "z": null, "old": 3}')
+js_new = write("new.json", '{"temperature": {"mean": 1.03, "stderr": 0.01}, "state": {"hash": "cd"},'
+                           ' "run": {"seed": 1, "theory": {"hcs": {"a2": 0.1}}}, "box": [1, 3], "z": 0.5}')
+code, out, err = run(js_ref, js_new)
+expect("json report", (code, out, err), (0, f"""{js_new} against the shipped {js_ref}: 1 rows and 7 columns in both
+  columns only in the reference: old
+  identical: temperature.stderr, run.seed, run.theory.hcs.a2
+  changed: state.hash: "ab" -> "cd" (not a number)
+  changed: box: [1, 2] -> [1, 3] (not a number)
+  changed: z: null -> 0.5 (not a number)
+  changed: temperature.mean: 1.0 -> 1.03 (0.029 relative; 2.1 sigma)
+""", ""))
+
+# 3c. More than 20 identical columns are counted, not listed
+wide_ref = write("wide_ref.csv", "k," + ",".join(f"c{i}" for i in range(22)) + "\nr," + ",".join("1" * 22) + "\n")
+wide_new = write("wide_new.csv", "k," + ",".join(f"c{i}" for i in range(22)) + "\nr," + ",".join("1" * 21) + ",2\n")
+code, out, err = run(wide_ref, wide_new)
+expect("wide report", (code, out, err), (0, f"""{wide_new} against the shipped {wide_ref}: 1 rows and 22 columns in both
+  identical: 21 columns
+  changed: c21: largest in row r: 1 -> 2 (0.5 relative)
+""", ""))
+
 # 4. Errors: exit 2, the file and the reason, nothing on stdout
 missing = os.path.join(a.work, "missing.csv")
 empty = write("empty.md", "no table here\n")
@@ -133,6 +159,8 @@ for label, args, want in [
         ("missing file", (ref, missing), f"compare_tables.py: {missing}: no such file\n"),
         ("no table", (empty, ref), f"compare_tables.py: {empty}: expected a table with a header and at least one row, found 0 line(s)\n"),
         ("ragged row", (ragged, ref), f"compare_tables.py: {ragged}: row 1 has 3 cells, the header 2\n"),
+        ("json list", (write("list.json", "[1, 2]"), ref),
+         f"compare_tables.py: {os.path.join(a.work, 'list.json')}: expected a JSON object (a summary.json), found list\n"),
         ("odd arguments", (ref,), "compare_tables.py: usage: compare_tables.py REFERENCE NEW [REFERENCE NEW ...]\n")]:
     code, out, err = run(*args)
     expect(label, (code, out, err), (2, "", want))
