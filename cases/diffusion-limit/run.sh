@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The scan: eps = 0.2 ... 0.01 at fixed k = pi (L = 2); one output per eps in OUT/eps-EPS, then
-# a table and a plot in OUT, compared with the shipped sweep/table.md (table.py). OUT is
+# a table and a plot in OUT, compared with the shipped reference/table.md (table.py). OUT is
 # cases/diffusion-limit/output (git ignores it) unless given first: run.sh --out DIR [eps ...].
 # t_end = 0.3/eps so the mode decays by the same factor (about e^-2) at every eps; dt = eps/10
 # keeps the velocity-sampling error of the splitting at (gamma dt)^2/12 ~ 0.2% (gamma ~ 1.5/eps:

@@ -7,7 +7,7 @@ closures' finite-eps linear rates.
 
 Reads the runs DIR/eps-* (default output/ beside this script, where run.sh puts them; git
 ignores it), writes DIR/table.md and DIR/diffusion_limit.png and compares the table with the
-shipped sweep/table.md (scripts/compare_tables.py). `--out cases/diffusion-limit/sweep` reads
+shipped reference/table.md (scripts/compare_tables.py). `--out cases/diffusion-limit/reference` reads
 and replaces the shipped ones."""
 import argparse
 import json
@@ -62,6 +62,6 @@ ax.grid(alpha=0.3)
 fig.tight_layout()
 fig.savefig(out / "diffusion_limit.png", dpi=110)
 print(f"wrote {out / 'table.md'} and diffusion_limit.png beside it")
-if out != (here / "sweep").resolve():
+if out != (here / "reference").resolve():
     subprocess.run([sys.executable, str(here.parent.parent / "scripts" / "compare_tables.py"),
-                    str(here / "sweep" / "table.md"), str(out / "table.md")], check=True)
+                    str(here / "reference" / "table.md"), str(out / "table.md")], check=True)
