@@ -10,14 +10,14 @@ reproduced them, and by how much each column moved if not.
 
 Tables: CSV (.csv), tab-separated (.tsv), Markdown pipe tables (.md, the first table of the
 file), or a run's summary.json (.json: one row, a column per key, "a.b.c"; e.g. a run against
-the copy of its summary that a case ships in results/). Rows are matched by the first column (the n-th row of a repeated value with the n-th),
-columns by their headers. For each column present
-in both, the report gives "identical" or the largest relative change |new - ref| / max(|ref|,
-|new|) with its row, and where both tables give the column's standard error (an error column
-X_err, X_stderr, X_sem or X.stderr beside X, X.mean or X_mean, or "value ± error" in the cell)
-the largest distance |new - ref| / sqrt(err_ref^2 + err_new^2) in those errors ("sigma": the
-two as independent estimates, as from another seed). Rows or columns that only one of the two
-has are named.
+the copy of its summary that a case ships in results/). Rows are matched by the first column
+(the n-th row of a repeated value with the n-th), columns by their headers. For each column
+present in both, the report gives "identical" or the largest relative change |new - ref| /
+max(|ref|, |new|) with its row, and where both tables give the column's standard error (an
+error column X_err, X_stderr, X_sem or X.stderr beside X, X.mean or X_mean, or "value ± error"
+in the cell) the largest distance |new - ref| / sqrt(err_ref^2 + err_new^2) in those errors
+("sigma": the two as independent estimates, as from another seed). Rows or columns that only
+one of the two has are named; more than 20 identical columns are counted, not listed.
 
 Exit status: 0 when both tables were read, whatever they say (the comparison informs, it does
 not judge: a run with another seed or another build differs within its errors); 2 when a file
