@@ -32,6 +32,8 @@ runs = {"white noise": "white-noise/output", "air table": "air-table/output", "B
 nu = 0.5
 G_cs = nu * (16 - 7 * nu) / (16 * (1 - nu) ** 2)  # Bizon eq. 5
 
+if not any(os.path.exists(os.path.join(here, d, "summary.json")) for d in runs.values()):
+    raise SystemExit(f"plot.py: no finished runs in {here}/<bath>/output (run.sh makes them)")
 fig, ax = plt.subplots(2, 3, figsize=(15, 8))
 rows = []
 for name, d in runs.items():

@@ -21,7 +21,10 @@ out = ap.parse_args().out
 os.makedirs(out, exist_ok=True)
 rows = []
 for phi, e, d in [(0.05, "nu0.05", "dsmc-0.05"), (0.30, "nu0.30", "dsmc-0.30")]:
-    s = json.load(open(os.path.join(here, e, "output", "summary.json")))
+    p = os.path.join(here, e, "output", "summary.json")
+    if not os.path.exists(p):
+        raise SystemExit(f"compare.py: {p}: no such file (run.sh makes it)")
+    s = json.load(open(p))
     row = {"phi": phi, "T_edmd": s["temperature"]["mean"], "T_edmd_err": s["temperature"]["stderr"],
            "T_theory_enskog_maxwell": s["theory"]["medium_steady_temperature"],
            "edmd_over_theory": s["medium"]["temperature_over_theory"], "a2_edmd": s["velocity"]["a2"],

@@ -109,8 +109,10 @@ def main():
     ap.add_argument("--out", default=outdir, help="where the tables and the figure go")
     tables = ap.parse_args().out
     os.makedirs(tables, exist_ok=True)
-    names = sorted(d for d in os.listdir(outdir)
+    names = sorted(d for d in (os.listdir(outdir) if os.path.isdir(outdir) else [])
                    if not d.endswith(".previous") and os.path.exists(os.path.join(outdir, d, "summary.json")))
+    if not names:
+        raise SystemExit(f"plot.py: no finished runs in {outdir} (run.py makes them)")
     runs = {n: load(n) for n in names}
     # ---- energy balance -----------------------------------------------------------------
     rows = []
@@ -187,10 +189,12 @@ def main():
                 tails.append(row)
         write_csv("tails.csv", tails)
     figure(runs, rows, four)
+    pairs = []
     if os.path.realpath(tables) != os.path.realpath(here):
         pairs = [p for name in ("balance.csv", "eos.csv", "fourier.csv", "tails.csv")
                  if os.path.exists(os.path.join(tables, name))
                  for p in (os.path.join(here, name), os.path.join(tables, name))]
+    if pairs:  # (no table written: nothing to compare, and compare_tables.py refuses no arguments)
         subprocess.run([sys.executable, os.path.join(here, "..", "..", "scripts", "compare_tables.py")] + pairs,
                        check=True)
 
