@@ -1,5 +1,7 @@
 #include "edmd/engine.hpp"
 
+#include "edmd/contact_time.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <sstream>
@@ -37,61 +39,6 @@ double quadratic_hit(double x, double v, double acc, double bound, double out) {
     if (r >= -1e-12 * (1.0 + std::abs(r2)) && out * (v + acc * t) > 0.0) return t;
   }
   return kInf;
-}
-
-// --- first root of a quartic on [0, tmax] (air-table pair collisions) -------------------
-struct Poly {
-  double c[5] = {0, 0, 0, 0, 0};  // c[k] t^k
-  int deg = 4;
-  double operator()(double t) const {
-    double s = 0.0;
-    for (int k = deg; k >= 0; --k) s = s * t + c[k];
-    return s;
-  }
-  Poly derivative() const {
-    Poly p;
-    p.deg = std::max(0, deg - 1);
-    for (int k = 1; k <= deg; ++k) p.c[k - 1] = k * c[k];
-    return p;
-  }
-};
-
-// Root of p on [a, b] where p(a), p(b) have opposite signs (or p(b) == 0), by bisection.
-double bisect(const Poly& p, double a, double b) {
-  double fa = p(a);
-  for (int it = 0; it < 200; ++it) {
-    const double m = 0.5 * (a + b);
-    if (m <= a || m >= b) break;
-    const double fm = p(m);
-    if ((fm > 0.0) == (fa > 0.0)) a = m, fa = fm;
-    else b = m;
-  }
-  return b;
-}
-
-// Sorted roots of p in (a, b), p of degree <= 4, found by recursively splitting at the
-// roots of p' (on each piece p is monotone, so a sign change brackets exactly one root).
-// Fixed-size storage: no allocation.
-struct Roots {
-  double t[8];
-  int n = 0;
-};
-void roots_in(const Poly& p, double a, double b, Roots& out, bool entering_only = false) {
-  double cuts[10];
-  int nc = 0;
-  cuts[nc++] = a;
-  if (p.deg >= 2) {
-    Roots crit;
-    roots_in(p.derivative(), a, b, crit);
-    for (int k = 0; k < crit.n; ++k) cuts[nc++] = crit.t[k];
-  }
-  cuts[nc++] = b;
-  for (int k = 0; k + 1 < nc; ++k) {
-    const double fa = p(cuts[k]), fb = p(cuts[k + 1]);
-    const bool down = fa > 0.0 && fb <= 0.0, up = fa < 0.0 && fb >= 0.0;
-    if ((down || (up && !entering_only)) && out.n < 8)
-      out.t[out.n++] = bisect(p, cuts[k], cuts[k + 1]);
-  }
 }
 
 }  // namespace
@@ -386,9 +333,7 @@ double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double 
   // first root. Touching and separating (just collided; f(0) may be +0, 0 or -0 by
   // round-off): the parting root is skipped whatever its sign bookkeeping, and the
   // re-collision the relative acceleration may bring is found.
-  Roots roots;
-  roots_in(p, 0.0, tmax, roots, /*entering_only=*/true);
-  return roots.n > 0 ? roots.t[0] : kInf;
+  return first_entering_root(p, tmax);
 }
 
 // Earliest collision of i with the grains of one cell (image shifted by `shift`); updates

@@ -1,0 +1,312 @@
+// The first contact time of two grains under constant accelerations (src/edmd/contact_time.hpp,
+// the air table's pair prediction) against an independent reference: a branch-and-bound search
+// for the first point where f(t) = |dr + dv t + da t^2/2|^2 - 1 is <= 0, in long double with
+// interval bounds of the polynomial on each piece (a piece whose bound is positive holds no
+// contact; the search goes left to right and halves the others down to 1e-15 relative), over
+// random pairs that approach, recede and come back, graze, and touch while parting.
+// Milliseconds to a second in Release.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+
+#include "edmd/contact_time.hpp"
+
+using namespace grainbath::edmd;
+
+namespace {
+
+using LD = long double;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct Interval {
+  LD lo, hi;
+};
+
+// f on [lo, hi] (lo >= 0) by interval Horner: an enclosure of its values there
+Interval bound(const Poly& p, LD lo, LD hi) {
+  Interval s{p.c[p.deg], p.c[p.deg]};
+  for (int k = p.deg - 1; k >= 0; --k) {
+    const LD a = s.lo * lo, b = s.lo * hi, c = s.hi * lo, d = s.hi * hi;
+    s = {std::min({a, b, c, d}) + p.c[k], std::max({a, b, c, d}) + p.c[k]};
+  }
+  return s;
+}
+
+LD value(const Poly& p, LD t) {
+  LD s = p.c[p.deg];
+  for (int k = p.deg - 1; k >= 0; --k) s = s * t + p.c[k];
+  return s;
+}
+
+// The first point of [lo, hi] where f may be <= 0 (to 1e-15 relative), or +inf; `nodes`
+// counts the pieces looked at (the search gives up, returning NaN, beyond a budget).
+LD first_nonpositive(const Poly& p, LD lo, LD hi, long& nodes) {
+  if (++nodes > 2000000) return std::numeric_limits<LD>::quiet_NaN();
+  if (bound(p, lo, hi).lo > 0) return std::numeric_limits<LD>::infinity();
+  if (hi - lo <= 1e-15L * std::max<LD>(1, hi)) return lo;
+  const LD mid = 0.5L * (lo + hi);
+  const LD left = first_nonpositive(p, lo, mid, nodes);
+  if (!std::isinf(left)) return left;
+  return first_nonpositive(p, mid, hi, nodes);
+}
+
+Poly contact_poly(const double dr[3], const double dv[3], const double da[3]) {
+  double rr = 0, rv = 0, vv = 0, rs = 0, vs = 0, ss = 0;
+  for (int k = 0; k < 3; ++k) {
+    const double s = 0.5 * da[k];
+    rr += dr[k] * dr[k];
+    rv += dr[k] * dv[k];
+    vv += dv[k] * dv[k];
+    rs += dr[k] * s;
+    vs += dv[k] * s;
+    ss += s * s;
+  }
+  Poly p;  // the coefficients as the engine forms them (Engine::pair_time)
+  p.c[4] = ss;
+  p.c[3] = 2.0 * vs;
+  p.c[2] = vv + 2.0 * rs;
+  p.c[1] = 2.0 * rv;
+  p.c[0] = rr - 1.0;
+  p.deg = p.c[4] > 0.0 ? 4 : 2;
+  return p;
+}
+
+struct Tally {
+  int cases = 0, contacts = 0, none = 0, ambiguous = 0;
+};
+
+// One case: our root against the reference. A disagreement is accepted as ambiguous only
+// where the reference's contact is a graze (|f'| tiny there: its time is ill-conditioned)
+// or the search hit its budget.
+void check_case(const Poly& p, double tmax, LD search_from, Tally& tally, const char* what) {
+  ++tally.cases;
+  const double ours = first_entering_root(p, tmax);
+  long nodes = 0;
+  const LD ref = first_nonpositive(p, search_from, tmax, nodes);
+  if (std::isnan(ref)) {
+    ++tally.ambiguous;
+    return;
+  }
+  if (std::isinf(ref) && std::isinf(ours)) {
+    ++tally.none;
+    return;
+  }
+  const Poly dp = p.derivative();
+  const LD slope = std::isinf(ref) ? 0 : value(dp, ref);
+  const LD scale = std::max<LD>(1, std::isinf(ref) ? ours : ref);
+  const bool agree = !std::isinf(ref) && !std::isinf(ours) && std::fabs(ours - ref) <= 1e-9L * scale;
+  if (agree) {
+    ++tally.contacts;
+    // the contract: at the time returned the pair touches or overlaps by round-off
+    EXPECT_LE(p(ours), 0.0) << what << ": f(t) > 0 at the returned contact t = " << ours;
+    EXPECT_LE(value(dp, ours), 1e-12L) << what << ": the returned root is not a fall through zero";
+    return;
+  }
+  // a graze: the reference's first non-positive point with f' ~ 0, or ours where f' ~ 0
+  const LD our_slope = std::isinf(ours) ? 0 : value(dp, ours);
+  const bool graze = (!std::isinf(ref) && std::fabs(slope) < 1e-6L * scale) ||
+                     (!std::isinf(ours) && std::fabs(our_slope) < 1e-6L * scale);
+  if (graze) {
+    ++tally.ambiguous;
+    return;
+  }
+  ADD_FAILURE() << what << ": first contact " << ours << ", reference " << static_cast<double>(ref)
+                << " (f' there " << static_cast<double>(slope) << "); coefficients " << p.c[0] << " " << p.c[1]
+                << " " << p.c[2] << " " << p.c[3] << " " << p.c[4] << ", tmax " << tmax;
+}
+
+void random_vector(std::mt19937_64& rng, double scale, double out[3]) {
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int k = 0; k < 3; ++k) out[k] = scale * g(rng);
+}
+
+// dv re-aimed, its speed kept, at the partner at distance `dist` along -dr with impact
+// parameter b (b < 1: a head-on or oblique hit, b > 1: a miss unless accelerations bend it)
+void aim(std::mt19937_64& rng, const double dr[3], double dist, double b, double dv[3]) {
+  double e[3];
+  random_vector(rng, 1.0, e);
+  double re = 0.0;
+  for (int k = 0; k < 3; ++k) re += e[k] * dr[k] / dist;
+  for (int k = 0; k < 3; ++k) e[k] -= re * dr[k] / dist;
+  const double en = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+  const double speed = std::sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
+  const double sin_t = std::min(1.0, b / dist), cos_t = std::sqrt(1.0 - sin_t * sin_t);
+  for (int k = 0; k < 3; ++k) dv[k] = speed * (-cos_t * dr[k] / dist + sin_t * e[k] / en);
+}
+
+}  // namespace
+
+// Pairs apart now (|dr| in (1, 4)), relative velocities and accelerations over four decades,
+// horizons from 0.3 to the engine's 1e6: approaching pairs, receding ones the acceleration
+// brings back, near misses.
+TEST(ContactTime, FirstContactOfPairsApartMatchesBranchAndBound) {
+  std::mt19937_64 rng(20261207);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Tally tally;
+  for (int n = 0; n < 20000; ++n) {
+    double dr[3], dv[3], da[3];
+    random_vector(rng, 1.0, dr);
+    const double norm = std::sqrt(dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2]);
+    const double dist = 1.0 + 3.0 * u(rng) * u(rng) + 1e-9;
+    for (double& x : dr) x *= dist / norm;
+    random_vector(rng, std::pow(10.0, -1.0 + 2.0 * u(rng)), dv);
+    random_vector(rng, std::pow(10.0, -2.0 + 3.0 * u(rng)), da);
+    if (n % 3 == 1) aim(rng, dr, dist, 1.3 * u(rng), dv);  // impact parameters 0 .. 1.3
+    if (n % 3 == 2) {  // receding, the acceleration towards the partner: many come back
+      for (int k = 0; k < 3; ++k) dv[k] = -dv[k];
+      aim(rng, dr, dist, 1.3 * u(rng), dv);
+      for (int k = 0; k < 3; ++k) dv[k] = -dv[k];
+      const double speed = std::sqrt(da[0] * da[0] + da[1] * da[1] + da[2] * da[2]);
+      for (int k = 0; k < 3; ++k) da[k] = -speed * dr[k] / dist + 0.3 * da[k];
+    }
+    if (n % 4 == 0) dr[2] = dv[2] = da[2] = 0.0;  // disks
+    const double horizons[] = {0.3, 3.0, 30.0, 1e6};
+    const double tmax = horizons[n % 4];
+    const Poly p = contact_poly(dr, dv, da);
+    if (p.c[0] <= 0.0) continue;  // (dist rounds to 1: touching, not this test's case)
+    check_case(p, tmax, 0.0L, tally, "apart");
+  }
+  std::printf("pairs apart: %d cases, %d contacts, %d without contact, %d grazing (ambiguous)\n", tally.cases,
+              tally.contacts, tally.none, tally.ambiguous);
+  EXPECT_GT(tally.contacts, 4000);
+  EXPECT_GT(tally.none, 3000);
+  EXPECT_LT(tally.ambiguous, tally.cases / 200);
+}
+
+// Pairs that touch now (f(0) = 0 up to round-off) and part: the parting is no contact; the
+// first contact is the re-contact the relative acceleration brings, found by the reference
+// after f's first maximum.
+TEST(ContactTime, PartingPairsFindOnlyTheReContact) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Tally tally;
+  int recontacts = 0;
+  for (int n = 0; n < 20000; ++n) {
+    double dr[3], dv[3], da[3];
+    random_vector(rng, 1.0, dr);
+    const double norm = std::sqrt(dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2]);
+    for (double& x : dr) x /= norm;
+    random_vector(rng, 1.0, dv);
+    double rv = dr[0] * dv[0] + dr[1] * dv[1] + dr[2] * dv[2];
+    if (rv < 0.0)
+      for (int k = 0; k < 3; ++k) dv[k] -= 2.0 * rv * dr[k];  // parting: the normal velocity outward
+    random_vector(rng, std::pow(10.0, -1.0 + 2.0 * u(rng)), da);
+    // pull the acceleration towards the partner half of the time, so that many come back
+    if (n % 2 == 0) {
+      const double ra = dr[0] * da[0] + dr[1] * da[1] + dr[2] * da[2];
+      if (ra > 0.0)
+        for (int k = 0; k < 3; ++k) da[k] -= 2.0 * ra * dr[k];
+    }
+    Poly p = contact_poly(dr, dv, da);
+    if (n % 3 == 0) p.c[0] = 0.0;  // exactly touching, as well as the round-off of |dr|^2 - 1
+    if (!(p.c[1] > 0.0)) continue;
+    // the reference searches after f's first maximum (f rises from the contact first)
+    const Poly dp = p.derivative();
+    // f' > 0 just after 0; its first sign change, on a geometric grid and then by bisection,
+    // is f's first maximum. None before the horizon: no re-contact.
+    LD prev = 0, t = 1e-9L;
+    bool found = false;
+    while (t < 1e6L) {
+      if (value(dp, t) <= 0) {
+        found = true;
+        break;
+      }
+      prev = t;
+      t *= 1.05L;
+    }
+    LD lo = 1e6L;
+    if (found) {
+      LD a = prev, b = t;
+      for (int it = 0; it < 200; ++it) {
+        const LD m = 0.5L * (a + b);
+        if (value(dp, m) > 0)
+          a = m;
+        else
+          b = m;
+      }
+      lo = b;
+    }
+    const double ours = first_entering_root(p, 1e6);
+    if (!std::isinf(ours)) ++recontacts;
+    check_case(p, 1e6, lo, tally, "parting");
+  }
+  std::printf("parting pairs: %d cases, %d re-contacts, %d without, %d grazing (ambiguous)\n", tally.cases,
+              recontacts, tally.none, tally.ambiguous);
+  EXPECT_GT(recontacts, 1500);
+  EXPECT_GT(tally.none, 2000);
+  EXPECT_LT(tally.ambiguous, tally.cases / 200);
+}
+
+// Without relative acceleration the quartic is the ballistic quadratic: the first contact is
+// the closed form (|dr|^2 - 1) / (-b + sqrt(b^2 - |dv|^2 (|dr|^2 - 1))), b = dr.dv.
+TEST(ContactTime, BallisticPairsGiveTheClosedForm) {
+  std::mt19937_64 rng(11);
+  int contacts = 0;
+  for (int n = 0; n < 5000; ++n) {
+    double dr[3], dv[3], da[3] = {0, 0, 0};
+    random_vector(rng, 1.5, dr);
+    random_vector(rng, 1.0, dv);
+    const double dist = std::sqrt(dr[0] * dr[0] + dr[1] * dr[1] + dr[2] * dr[2]);
+    if (n % 2 == 0) aim(rng, dr, dist, 1.2 * std::uniform_real_distribution<double>(0.0, 1.0)(rng), dv);
+    const Poly p = contact_poly(dr, dv, da);
+    if (p.c[0] <= 0.0) continue;
+    ASSERT_EQ(p.deg, 2);
+    const double b = 0.5 * p.c[1], q2 = p.c[0], v2 = p.c[2];
+    const double disc = b * b - v2 * q2;
+    const double expected = (b < 0.0 && disc > 0.0) ? q2 / (-b + std::sqrt(disc)) : kInf;
+    const double ours = first_entering_root(p, 1e6);
+    if (std::isinf(expected)) {
+      EXPECT_TRUE(std::isinf(ours)) << "no contact expected, found " << ours;
+    } else {
+      ++contacts;
+      EXPECT_NEAR(ours, expected, 1e-12 * std::max(1.0, expected));
+    }
+  }
+  EXPECT_GT(contacts, 1000);
+}
+
+// The roots of cubics and quadratics that the splitting uses, against their factors.
+TEST(ContactTime, RootsOfKnownCubicsAndQuadratics) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-2.0, 5.0);
+  for (int n = 0; n < 5000; ++n) {
+    double r[3] = {u(rng), u(rng), u(rng)};
+    std::sort(r, r + 3);
+    if (r[1] - r[0] < 1e-3 || r[2] - r[1] < 1e-3) continue;
+    const double lead = n % 2 == 0 ? 1.0 : -0.25;
+    Poly p;  // lead (t - r0)(t - r1)(t - r2)
+    p.deg = 3;
+    p.c[3] = lead;
+    p.c[2] = -lead * (r[0] + r[1] + r[2]);
+    p.c[1] = lead * (r[0] * r[1] + r[0] * r[2] + r[1] * r[2]);
+    p.c[0] = -lead * r[0] * r[1] * r[2];
+    double out[3];
+    const int m = contact_detail::roots_in(p, 0.0, 4.0, out);
+    int expected = 0;
+    for (double x : r)
+      if (x > 0.0 && x < 4.0) {
+        ASSERT_LT(expected, m);
+        EXPECT_NEAR(out[expected], x, 1e-10 * std::max(1.0, std::fabs(x)));
+        ++expected;
+      }
+    EXPECT_EQ(m, expected);
+    Poly q;  // (t - r0)(t - r2)
+    q.deg = 2;
+    q.c[2] = 1.0;
+    q.c[1] = -(r[0] + r[2]);
+    q.c[0] = r[0] * r[2];
+    const int mq = contact_detail::roots_in(q, 0.0, 4.0, out);
+    int eq = 0;
+    for (double x : {r[0], r[2]})
+      if (x > 0.0 && x < 4.0) {
+        ASSERT_LT(eq, mq);
+        EXPECT_NEAR(out[eq], x, 1e-12 * std::max(1.0, std::fabs(x)));
+        ++eq;
+      }
+    EXPECT_EQ(mq, eq);
+  }
+}
