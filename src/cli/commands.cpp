@@ -432,9 +432,15 @@ int command_run(const RunArgs& a) {
                    lc->threads, busy, use.cores);
     }
   }
+  // EDMD: the event loop is serial; threads serve only the snapshot measurements, and their
+  // idle OpenMP workers spin between snapshots, taking a core the loop or another run could
+  // use (a second thread made cases/hard-disk-eos 1.4x slower beside another job, docs/edmd.md
+  // "Threads"). So [run] threads = 0 means one thread here, unless OMP_NUM_THREADS is set.
+  if (lc->solver == "edmd" && lc->threads == 0 && std::getenv("OMP_NUM_THREADS") == nullptr) ctx.threads = 1;
   if (lc->solver == "edmd" && lc->threads > 1 && writer && !a.quiet)
-    std::fprintf(stderr, "note: [run] threads = %d: the EDMD engine runs on one thread (threads are for DSMC; run "
-                         "replicas in parallel with grainbath sweep --set run.seed=1,2,...)\n", lc->threads);
+    std::fprintf(stderr, "note: [run] threads = %d: the EDMD event loop runs on one thread; the others share only "
+                         "the snapshot measurements (run replicas in parallel with grainbath sweep --set "
+                         "run.seed=1,2,...)\n", lc->threads);
   ctx.quiet = a.quiet;
   ctx.case_text = lc->reader.source_text();
   ctx.resolved = lc->reader.resolved();

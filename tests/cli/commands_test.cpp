@@ -148,7 +148,10 @@ TEST_F(Commands, AReaderThatWentAwayDoesNotKillTheRun) {
 
 // A finished run names its files on stdout, and its summary.json names the solver, the seed,
 // the version and the build's commit (docs/OUTPUT.md, "summary.json"). An EDMD case with
-// threads > 1 is told it runs on one thread, except with --quiet.
+// threads > 1 is told its event loop runs on one thread, except with --quiet. The threads of
+// an EDMD run (its snapshot measurements) are [run] threads where given, else one, or
+// OMP_NUM_THREADS where set (performance.threads; OpenMP's own default would be every core,
+// whose idle workers spin between snapshots).
 TEST_F(Commands, ARunNamesItsFilesAndItself) {
   write_text(case_dir() / "case.toml", dsmc_case(1000, 0.2));
   RunResult r = grainbath(run_args({"--quiet"}));
@@ -161,13 +164,27 @@ TEST_F(Commands, ARunNamesItsFilesAndItself) {
   EXPECT_TRUE(std::regex_search(summary, std::regex(R"("run": \{\s*"seed": 7,\s*"version": "[0-9.]+",\s*"commit": ")")))
       << summary;
   write_text(case_dir() / "case.toml", kEdmdCase);
+  const std::regex two_threads(R"("performance": \{[^}]*"threads": 2\b)"), one_thread(R"("performance": \{[^}]*"threads": 1\b)");
   r = grainbath(run_args({"--set", "run.threads=2"}));
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
-  EXPECT_NE(r.err.find("note: [run] threads = 2: the EDMD engine runs on one thread"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("note: [run] threads = 2: the EDMD event loop runs on one thread"), std::string::npos) << r.err;
   EXPECT_NE(read_text(out() / "summary.json").find("\"solver\": \"edmd\""), std::string::npos);
+  EXPECT_TRUE(std::regex_search(read_text(out() / "summary.json"), two_threads)) << read_text(out() / "summary.json");
   r = grainbath(run_args({"--set", "run.threads=2", "--quiet"}));
   ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
   EXPECT_EQ(r.err.find("note: [run] threads"), std::string::npos) << r.err;
+  // without run.threads (run_args sets 1): the default, 0
+  const std::vector<std::string> bare = {"run", case_dir().string(), "--out", out().string(), "--quiet"};
+  if (std::getenv("OMP_NUM_THREADS") == nullptr) {  // the default: one thread, whatever the cores
+    r = grainbath(bare);
+    ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+    EXPECT_TRUE(std::regex_search(read_text(out() / "summary.json"), one_thread)) << read_text(out() / "summary.json");
+  }
+  RunOptions omp2;
+  omp2.env = {{"OMP_NUM_THREADS", "2"}};
+  r = grainbath(bare, omp2);
+  ASSERT_TRUE(r.exited && r.code == 0) << r.describe();
+  EXPECT_TRUE(std::regex_search(read_text(out() / "summary.json"), two_threads)) << read_text(out() / "summary.json");
 }
 
 // A run that fails (here a non-finite sample, the test hook of core/run_support.hpp) says that
