@@ -9,7 +9,7 @@
 // closed forms of src/dsmc/theory.cpp.
 // The tests at the end close survivors of the mutation audit of the theory
 // (docs/reviews/mutation-audit-theory.md): the mode keys of a case without a mode, the Sonine
-// closure's relaxation series, the free-cooling keys of elastic grains.
+// closure's relaxation series, the free-cooling keys of elastic and rough grains.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -511,4 +511,32 @@ t_end = 12.0
   EXPECT_EQ(value(th, "haff.temperature_at_t_end_no_a2"), 1.7);
   EXPECT_EQ(value(th, "hcs.a2_sonine2"), 0.0);
   EXPECT_EQ(value(th, "hcs.a3_sonine2"), 0.0);
+}
+
+// Rough grains without a medium cool through their spins as well: their theory is the rough
+// models' (rough.rough_model_X.*_at_t_end), never the smooth grains' Haff law and cooling
+// state of the normal restitution alone (DS17).
+TEST(DsmcTheory, RoughGrainsWithoutAMediumGetTheRoughModelsOnly) {
+  const auto th = case_theory(R"(
+[grains]
+density = 1.0
+temperature = 1.0
+rotational_temperature = 0.0
+[restitution]
+law = "walton"
+e = 0.8
+beta0 = 0.4
+q = 0.4
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 5.0
+)");
+  ASSERT_FALSE(th.empty());
+  for (const auto& [k, x] : th) {
+    EXPECT_EQ(k.rfind("rough.", 0), 0u) << k;
+    EXPECT_EQ(k.find("haff"), std::string::npos) << k;
+  }
+  // the spins start cold and take energy from the translation
+  EXPECT_GT(value(th, "rough.rough_model_A.Trot_at_t_end"), 0.0);
 }
