@@ -7,6 +7,9 @@
 // collision loses (m/4)(1 - e^2)(g.n)^2): the energy loss of Maxwellian grains is integrated
 // numerically over g and the apse angle, and dT/dt is integrated by RK4, without the
 // closed forms of src/dsmc/theory.cpp.
+// The tests at the end close survivors of the mutation audit of the theory
+// (docs/reviews/mutation-audit-theory.md): the mode keys of a case without a mode, the Sonine
+// closure's relaxation series, the free-cooling keys of elastic and rough grains.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -408,4 +411,132 @@ t_end = 2.0
       EXPECT_LT(std::abs(v[3 * 3 + 1] - 0.6), 0.5 * std::abs(-0.5 - 0.6));
       EXPECT_LT(std::abs(v[3 * 3 + 2] + 0.4), 0.5 * std::abs(0.8 + 0.4));
     }
+}
+
+// A spatial case whose grains start uniform has no density mode: no mode wavenumber and no
+// mode decay rate may be printed, only the transport coefficients (mutation audit of the
+// theory, DS8, docs/reviews/mutation-audit-theory.md; with the mode's profile the keys are
+// there, ModeDecayRateOnlyForAUniformBackground).
+TEST(DsmcTheory, NoModeDecayRateWithoutADensityMode) {
+  const std::string toml = R"(
+[domain]
+dimensions = 1
+length = [2.0]
+cells = [50]
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.1
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 1.0
+)";
+  const auto th = case_theory(toml);
+  for (const auto& [k, x] : th) {
+    EXPECT_NE(k, "hydro.k");
+    EXPECT_EQ(k.find("hydro.decay_rate"), std::string::npos) << k;
+  }
+  value(th, "hydro.diffusion_coefficient_kinetic");  // the coefficients stay
+}
+
+// The Sonine closure's relaxation series (/theory/sonine/temperature, /theory/sonine/a2) starts
+// from the case's grains, which the DSMC draws Maxwellian (a2 = 0), and ends at the Sonine
+// closure's equilibrium, which theory_values finds by solving the steady state (closures'
+// equilibrium_sonine) rather than by integrating in time: after many relaxation times the two
+// must agree (DS11, DS13). The Grad closure keeps a Gaussian, so its a2 is not this one.
+TEST(DsmcTheory, SonineRelaxationSeriesStartsMaxwellianAndEndsAtTheSonineEquilibrium) {
+  const std::string toml = R"(
+[grains]
+density = 0.5
+mass = 1.0
+temperature = 2.0
+[background]
+mass_ratio = 0.5
+density = 1.0
+temperature = 1.0
+knudsen = 0.2
+[restitution]
+law = "power"
+beta = 0.15
+delta = 0.2
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 40.0
+)";
+  const auto th = case_theory(toml);
+  const double T_eq = value(th, "equilibrium.sonine.T"), a2_eq = value(th, "equilibrium.sonine.a2");
+  const std::vector<double> times = {0.0, 1.0, 40.0};
+  const std::vector<double>*T = nullptr, *a2 = nullptr;
+  const auto series = dsmc::relaxation_series(case_config(toml), times);
+  for (const auto& [name, v] : series) {
+    if (name == "sonine/temperature") T = &v;
+    if (name == "sonine/a2") a2 = &v;
+  }
+  ASSERT_NE(T, nullptr);
+  ASSERT_NE(a2, nullptr);
+  std::printf("sonine: T %.6f -> %.9f (equilibrium %.9f), a2 %.6f -> %.9f (equilibrium %.9f)\n", (*T)[0], (*T)[2], T_eq,
+              (*a2)[0], (*a2)[2], a2_eq);
+  EXPECT_EQ((*T)[0], 2.0);
+  EXPECT_EQ((*a2)[0], 0.0);
+  EXPECT_NE((*a2)[1], 0.0);
+  EXPECT_GT(std::abs(a2_eq), 1e-3);
+  EXPECT_NEAR((*T)[2], T_eq, 1e-6 * T_eq);
+  EXPECT_NEAR((*a2)[2], a2_eq, 1e-6);
+}
+
+// Elastic grains without a medium conserve their energy: the free-cooling keys say so (no
+// cooling rate, T(t_end) = T0, a Maxwellian cooling state, a2 = a3 = 0) rather than being left
+// out (DS15).
+TEST(DsmcTheory, ElasticGrainsWithoutAMediumDoNotCool) {
+  const auto th = case_theory(R"(
+[grains]
+density = 0.8
+mass = 1.5
+temperature = 1.7
+[restitution]
+law = "elastic"
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 12.0
+)");
+  EXPECT_EQ(value(th, "haff.zeta0"), 0.0);
+  EXPECT_EQ(value(th, "haff.a2_van_noije_ernst"), 0.0);
+  EXPECT_EQ(value(th, "haff.temperature_at_t_end"), 1.7);
+  EXPECT_EQ(value(th, "haff.temperature_at_t_end_no_a2"), 1.7);
+  EXPECT_EQ(value(th, "hcs.a2_sonine2"), 0.0);
+  EXPECT_EQ(value(th, "hcs.a3_sonine2"), 0.0);
+}
+
+// Rough grains without a medium cool through their spins as well: their theory is the rough
+// models' (rough.rough_model_X.*_at_t_end), never the smooth grains' Haff law and cooling
+// state of the normal restitution alone (DS17).
+TEST(DsmcTheory, RoughGrainsWithoutAMediumGetTheRoughModelsOnly) {
+  const auto th = case_theory(R"(
+[grains]
+density = 1.0
+temperature = 1.0
+rotational_temperature = 0.0
+[restitution]
+law = "walton"
+e = 0.8
+beta0 = 0.4
+q = 0.4
+[dsmc]
+particles = 1000
+dt = 0.01
+t_end = 5.0
+)");
+  ASSERT_FALSE(th.empty());
+  for (const auto& [k, x] : th) {
+    EXPECT_EQ(k.rfind("rough.", 0), 0u) << k;
+    EXPECT_EQ(k.find("haff"), std::string::npos) << k;
+  }
+  // the spins start cold and take energy from the translation
+  EXPECT_GT(value(th, "rough.rough_model_A.Trot_at_t_end"), 0.0);
 }
