@@ -115,6 +115,49 @@ constexpr PackTable kPack{};
   _mm256_storeu_pd(out, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), perm)));
 }
 
+// Pass 2 of the AVX2 kernels: the n packed pairs of grain i (velocity vi) four at a time into
+// the histograms: square roots, the three divisions and the correlation products (the IEEE
+// operations of accumulate_pair in its order, no FMA: the same values bit for bit), then the
+// histograms incremented lane by lane in packed (j) order.
+[[gnu::target("avx2"), gnu::always_inline]] inline void accumulate_packed(const PairHistograms& h, const PairBins& p,
+                                                                         const Vec3& vi, const PackedPairs& pk,
+                                                                         std::size_t n) {
+  const __m256d vix = _mm256_set1_pd(vi.x), viy = _mm256_set1_pd(vi.y), viz = _mm256_set1_pd(vi.z);
+  const __m256d one = _mm256_set1_pd(1.0);
+  const __m256d grb = _mm256_set1_pd(p.gr_bin), crb = _mm256_set1_pd(p.corr_bin);
+  alignas(32) double rb[4], rc[4], r[4], par[4], perp[4];
+  for (std::size_t q = 0; q < n; q += 4) {
+    const __m256d dx = _mm256_loadu_pd(&pk.dx[q]), dy = _mm256_loadu_pd(&pk.dy[q]), dz = _mm256_loadu_pd(&pk.dz[q]);
+    // lanes past n hold stale or initial values: finite, and their adds go to spare bins
+    const __m256d rr = _mm256_sqrt_pd(_mm256_loadu_pd(&pk.r2[q]));
+    const __m256d inv = _mm256_div_pd(one, rr);
+    const __m256d kx = _mm256_mul_pd(dx, inv), ky = _mm256_mul_pd(dy, inv), kz = _mm256_mul_pd(dz, inv);
+    const __m256d vjx = _mm256_loadu_pd(&pk.vx[q]), vjy = _mm256_loadu_pd(&pk.vy[q]), vjz = _mm256_loadu_pd(&pk.vz[q]);
+    const __m256d p1 = dot3(vix, viy, viz, kx, ky, kz), p2 = dot3(vjx, vjy, vjz, kx, ky, kz);
+    // q = v - p k
+    const __m256d q1x = _mm256_sub_pd(vix, _mm256_mul_pd(kx, p1)), q1y = _mm256_sub_pd(viy, _mm256_mul_pd(ky, p1)),
+                  q1z = _mm256_sub_pd(viz, _mm256_mul_pd(kz, p1));
+    const __m256d q2x = _mm256_sub_pd(vjx, _mm256_mul_pd(kx, p2)), q2y = _mm256_sub_pd(vjy, _mm256_mul_pd(ky, p2)),
+                  q2z = _mm256_sub_pd(vjz, _mm256_mul_pd(kz, p2));
+    _mm256_store_pd(rb, _mm256_div_pd(rr, grb));
+    _mm256_store_pd(rc, _mm256_div_pd(rr, crb));
+    _mm256_store_pd(r, rr);
+    _mm256_store_pd(par, _mm256_mul_pd(p1, p2));
+    _mm256_store_pd(perp, dot3(q1x, q1y, q1z, q2x, q2y, q2z));
+    for (int l = 0; l < 4; ++l) {
+      const bool lane = q + static_cast<std::size_t>(l) < n;
+      // bins of lanes past n are never used: clamp before converting
+      const std::size_t b = lane ? static_cast<std::size_t>(rb[l]) : h.gr_bins;
+      const std::size_t c = lane ? static_cast<std::size_t>(rc[l]) : h.corr_bins;
+      h.gr[b < h.gr_bins ? b : h.gr_bins + l] += 1.0;
+      const std::size_t cc = c < h.corr_bins && r[l] > 0.0 ? c : h.corr_bins + l;
+      h.par[cc] += par[l];
+      h.perp[cc] += perp[l];
+      h.count[cc] += 1.0;
+    }
+  }
+}
+
 // The same in AVX2 lanes, in two passes so that the divider (a square root and 1/r per
 // pair, the bottleneck: perf puts the samples behind vsqrtpd and vdivpd) only sees pairs in
 // range, about half of the candidates at the defaults:
@@ -152,40 +195,91 @@ constexpr PackTable kPack{};
     pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
     n += static_cast<std::size_t>(std::popcount(in));
   }
-  const __m256d vix = _mm256_set1_pd(vi.x), viy = _mm256_set1_pd(vi.y), viz = _mm256_set1_pd(vi.z);
-  const __m256d one = _mm256_set1_pd(1.0);
-  const __m256d grb = _mm256_set1_pd(p.gr_bin), crb = _mm256_set1_pd(p.corr_bin);
-  alignas(32) double rb[4], rc[4], r[4], par[4], perp[4];
-  for (std::size_t q = 0; q < n; q += 4) {
-    const __m256d dx = _mm256_loadu_pd(&pk.dx[q]), dy = _mm256_loadu_pd(&pk.dy[q]), dz = _mm256_loadu_pd(&pk.dz[q]);
-    // lanes past n hold stale or initial values: finite, and their adds go to spare bins
-    const __m256d rr = _mm256_sqrt_pd(_mm256_loadu_pd(&pk.r2[q]));
-    const __m256d inv = _mm256_div_pd(one, rr);
-    const __m256d kx = _mm256_mul_pd(dx, inv), ky = _mm256_mul_pd(dy, inv), kz = _mm256_mul_pd(dz, inv);
-    const __m256d vjx = _mm256_loadu_pd(&pk.vx[q]), vjy = _mm256_loadu_pd(&pk.vy[q]), vjz = _mm256_loadu_pd(&pk.vz[q]);
-    const __m256d p1 = dot3(vix, viy, viz, kx, ky, kz), p2 = dot3(vjx, vjy, vjz, kx, ky, kz);
-    // q = v - p k
-    const __m256d q1x = _mm256_sub_pd(vix, _mm256_mul_pd(kx, p1)), q1y = _mm256_sub_pd(viy, _mm256_mul_pd(ky, p1)),
-                  q1z = _mm256_sub_pd(viz, _mm256_mul_pd(kz, p1));
-    const __m256d q2x = _mm256_sub_pd(vjx, _mm256_mul_pd(kx, p2)), q2y = _mm256_sub_pd(vjy, _mm256_mul_pd(ky, p2)),
-                  q2z = _mm256_sub_pd(vjz, _mm256_mul_pd(kz, p2));
-    _mm256_store_pd(rb, _mm256_div_pd(rr, grb));
-    _mm256_store_pd(rc, _mm256_div_pd(rr, crb));
-    _mm256_store_pd(r, rr);
-    _mm256_store_pd(par, _mm256_mul_pd(p1, p2));
-    _mm256_store_pd(perp, dot3(q1x, q1y, q1z, q2x, q2y, q2z));
-    for (int l = 0; l < 4; ++l) {
-      const bool lane = q + static_cast<std::size_t>(l) < n;
-      // bins of lanes past n are never used: clamp before converting
-      const std::size_t b = lane ? static_cast<std::size_t>(rb[l]) : h.gr_bins;
-      const std::size_t c = lane ? static_cast<std::size_t>(rc[l]) : h.corr_bins;
-      h.gr[b < h.gr_bins ? b : h.gr_bins + l] += 1.0;
-      const std::size_t cc = c < h.corr_bins && r[l] > 0.0 ? c : h.corr_bins + l;
-      h.par[cc] += par[l];
-      h.perp[cc] += perp[l];
-      h.count[cc] += 1.0;
-    }
+  accumulate_packed(h, p, vi, pk, n);
+}
+
+// std::round (halves away from zero) in four lanes, bit for bit: trunc(q), moved one away from
+// zero where |q - trunc(q)| >= 1/2 (q - trunc(q) is exact for every double); trunc keeps the
+// sign of a zero as std::round does.
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256d round_half_away(__m256d q) {
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  const __m256d t = _mm256_round_pd(q, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
+  const __m256d frac = _mm256_andnot_pd(sign, _mm256_sub_pd(q, t));
+  const __m256d away = _mm256_add_pd(t, _mm256_or_pd(_mm256_and_pd(q, sign), _mm256_set1_pd(1.0)));
+  return _mm256_blendv_pd(t, away, _mm256_cmp_pd(frac, _mm256_set1_pd(0.5), _CMP_GE_OQ));
+}
+
+// The direct sum's AVX2 kernel: grain i against the grains i < j < n in id order, with
+// add_all_pairs' operations in four lanes (dr = x_j - x_i; along a periodic dimension
+// c -= L round(c / L); z = 0 in 2D), then pass 2 as above: the same bits as add_all_pairs
+// (tested). `image` holds L along the periodic dimensions and 0 along walls.
+[[gnu::target("avx2")]] void pair_all_avx2(const PairHistograms& h, const PairBins& p, const SortedGrains& g,
+                                           std::size_t i, std::size_t n_grains, const double (&image)[3], bool flat,
+                                           PackedPairs& pk) {
+  const __m256d xix = _mm256_set1_pd(g.x[i]), xiy = _mm256_set1_pd(g.y[i]), xiz = _mm256_set1_pd(g.z[i]);
+  const __m256d lx = _mm256_set1_pd(image[0]), ly = _mm256_set1_pd(image[1]), lz = _mm256_set1_pd(image[2]);
+  const bool wrap_x = image[0] > 0.0, wrap_y = image[1] > 0.0, wrap_z = image[2] > 0.0 && !flat;
+  const __m256d r2max = _mm256_set1_pd(p.rmax * p.rmax);
+  std::size_t n = 0;
+  for (std::size_t j = i + 1; j < n_grains; j += 4) {
+    __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&g.x[j]), xix);
+    __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&g.y[j]), xiy);
+    __m256d dz = flat ? _mm256_setzero_pd() : _mm256_sub_pd(_mm256_loadu_pd(&g.z[j]), xiz);
+    if (wrap_x) dx = _mm256_sub_pd(dx, _mm256_mul_pd(lx, round_half_away(_mm256_div_pd(dx, lx))));
+    if (wrap_y) dy = _mm256_sub_pd(dy, _mm256_mul_pd(ly, round_half_away(_mm256_div_pd(dy, ly))));
+    if (wrap_z) dz = _mm256_sub_pd(dz, _mm256_mul_pd(lz, round_half_away(_mm256_div_pd(dz, lz))));
+    // norm2 = (dx dx + dy dy) + dz dz
+    const __m256d r2 =
+        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
+    const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
+                        (n_grains - j >= 4 ? 15u : (1u << (n_grains - j)) - 1u);
+    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.words[in]));
+    pack(&pk.dx[n], dx, perm);
+    pack(&pk.dy[n], dy, perm);
+    pack(&pk.dz[n], dz, perm);
+    pack(&pk.r2[n], r2, perm);
+    pack(&pk.vx[n], _mm256_loadu_pd(&g.vx[j]), perm);
+    pack(&pk.vy[n], _mm256_loadu_pd(&g.vy[j]), perm);
+    pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
+    n += static_cast<std::size_t>(std::popcount(in));
   }
+  accumulate_packed(h, p, g.velocity(i), pk, n);
+}
+
+// add_all_pairs through pair_all_avx2. The histograms' running sums are copied into arrays
+// with the kernels' four spare bins after each and back, so that every pair adds to them in
+// add_all_pairs' order (summing a snapshot apart first would round differently). The direct
+// sum serves the boxes too small for the cell search, among them every run of N <= 4000
+// grains, whose correlations reach L/2 (driver.cpp): 64 % of a white-noise run of
+// cases/bizon-heat-baths went to the scalar loop (perf, docs/performance/edmd.md).
+void add_all_pairs_avx2(PairStatistics& s, const std::vector<Vec3>& x, const std::vector<Vec3>& v) {
+  const std::size_t gb = s.gr_counts.size(), cb = s.corr_counts.size();
+  std::vector<double> sums((gb + 4) + 3 * (cb + 4), 0.0);
+  double* const gr = sums.data();
+  double* const par = gr + gb + 4;
+  double* const perp = par + cb + 4;
+  double* const count = perp + cb + 4;
+  std::copy(s.gr_counts.begin(), s.gr_counts.end(), gr);
+  std::copy(s.corr_par.begin(), s.corr_par.end(), par);
+  std::copy(s.corr_perp.begin(), s.corr_perp.end(), perp);
+  std::copy(s.corr_counts.begin(), s.corr_counts.end(), count);
+  const PairHistograms h{gr, par, perp, count, gb, cb};
+  SortedGrains g;
+  g.resize(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    g.x[i] = x[i].x, g.y[i] = x[i].y, g.z[i] = x[i].z;
+    g.vx[i] = v[i].x, g.vy[i] = v[i].y, g.vz[i] = v[i].z;
+  }
+  double image[3] = {0.0, 0.0, 0.0};
+  for (int d = 0; d < s.dims; ++d) image[d] = s.walls[d] ? 0.0 : comp(s.L, d);
+  PackedPairs pk;
+  pk.reserve(x.size());
+  const PairBins bins{s.rmax, s.gr_bin, s.corr_bin};
+  for (std::size_t i = 0; i < x.size(); ++i) pair_all_avx2(h, bins, g, i, x.size(), image, s.dims == 2, pk);
+  std::copy(gr, gr + gb, s.gr_counts.begin());
+  std::copy(par, par + cb, s.corr_par.begin());
+  std::copy(perp, perp + cb, s.corr_perp.begin());
+  std::copy(count, count + cb, s.corr_counts.begin());
 }
 }  // namespace
 
@@ -220,7 +314,8 @@ void PairStatistics::add(const std::vector<Vec3>& x, const std::vector<Vec3>& v,
   bool fits = true;
   for (int d = 0; d < dims; ++d) fits = fits && std::floor(comp(L, d) / (rmax / s)) >= 2 * s + 1;
   if (!fits) {
-    add_all_pairs(x, v);
+    if (kernel == PairKernel::automatic && Philox4x32Lanes::have_avx2()) add_all_pairs_avx2(*this, x, v);
+    else add_all_pairs(x, v);
     return;
   }
   for (int d = 0; d < dims; ++d) nc[d] = static_cast<int>(std::floor(comp(L, d) / (rmax / s)));

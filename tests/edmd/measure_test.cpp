@@ -17,6 +17,7 @@
 #endif
 
 #include "edmd/measure.hpp"
+#include "operators/random.hpp"
 #include "edmd/profile.hpp"
 #include "tests/edmd/gr_support.hpp"
 
@@ -157,6 +158,66 @@ TEST(EdmdPairStatistics, VelocityCorrelationsOfOneHandBuiltPair) {
       EXPECT_NEAR(p.corr_radii()[q.corr_bin], norm(q.dr), 1e-12);
     }
   }
+}
+
+// The direct sum (boxes too small for the cell search: every run of N <= 4000 grains, whose
+// correlations reach L/2) in AVX2 lanes gives add_all_pairs' bits: g(r) counts, both
+// correlation sums and their counts, over three snapshots added to the same running sums, in
+// 2D and 3D, periodic and with walls, positions not wrapped (up to two box lengths outside
+// along the periodic dimensions, so the nearest image rounds c / L of magnitude up to about
+// 3), some pairs exactly half a box apart along one axis. Where the CPU lacks AVX2 (or
+// GRAINBATH_SIMD=sse2) both sides are the scalar loop and the test says so.
+TEST(EdmdPairStatistics, DirectSumInAvx2LanesGivesTheScalarBits) {
+  struct Box {
+    int dims;
+    Vec3 L;
+    std::array<bool, 3> walls;
+  };
+  const Box boxes[] = {
+      {2, {10.0, 12.0, 0.0}, {false, false, false}},
+      {2, {11.0, 9.5, 0.0}, {false, true, false}},
+      {3, {8.0, 9.0, 10.0}, {false, false, false}},
+      {3, {9.0, 8.5, 7.0}, {true, false, true}},
+  };
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::uniform_int_distribution<int> shift(-2, 2);
+  for (const Box& box : boxes) {
+    const std::size_t n = box.dims == 2 ? 301 : 402;  // not a multiple of the four lanes
+    PairStatistics lanes, scalar, direct;
+    // 100 sigma asked: clamped to half the shortest side, too small a box for the cells
+    for (PairStatistics* p : {&lanes, &scalar, &direct}) p->init(box.dims, box.L, box.walls, 100.0, 0.05, 0.25);
+    for (int snapshot = 0; snapshot < 3; ++snapshot) {
+      std::vector<Vec3> x(n), v(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        double c[3] = {0.0, 0.0, 0.0};
+        for (int d = 0; d < box.dims; ++d) {
+          const double l = d == 0 ? box.L.x : d == 1 ? box.L.y : box.L.z;
+          c[d] = u(rng) * l + (box.walls[d] || i % 2 ? 0.0 : shift(rng) * l);
+        }
+        x[i] = {c[0], c[1], c[2]};
+        v[i] = {gauss(rng), gauss(rng), box.dims == 3 ? gauss(rng) : 0.0};
+      }
+      for (std::size_t i = 0; i + 1 < n; i += 50) x[i + 1].x = x[i].x + 0.5 * box.L.x;  // exact halves
+      lanes.add(x, v, 1.0);
+      scalar.add(x, v, 1.0, PairStatistics::PairKernel::scalar);
+      direct.add_all_pairs(x, v);
+    }
+    const std::string where = "box " + std::to_string(&box - boxes);
+    EXPECT_EQ(lanes.gr_counts, direct.gr_counts) << where;
+    EXPECT_EQ(lanes.corr_par, direct.corr_par) << where;
+    EXPECT_EQ(lanes.corr_perp, direct.corr_perp) << where;
+    EXPECT_EQ(lanes.corr_counts, direct.corr_counts) << where;
+    EXPECT_EQ(scalar.gr_counts, direct.gr_counts) << where;
+    EXPECT_EQ(scalar.corr_par, direct.corr_par) << where;
+    // the pairs were counted: about n(n-1)/2 x (ball of L/2 / box volume) per snapshot
+    double pairs = 0.0;
+    for (double c : direct.gr_counts) pairs += c;
+    double volume = box.L.x * box.L.y * (box.dims == 3 ? box.L.z : 1.0);
+    EXPECT_GT(pairs, 3 * 0.25 * 0.5 * n * (n - 1.0) * ball(box.dims, direct.rmax) / volume) << where;
+  }
+  if (!Philox4x32Lanes::have_avx2()) GTEST_SKIP() << "no AVX2 lanes on this CPU (or GRAINBATH_SIMD=sse2): both sides ran the scalar loop";
 }
 
 // The contact fit's window (measure.hpp): the bins reaching above sigma whose centre is at most
