@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 #include <type_traits>
@@ -679,6 +680,26 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
   // per range: an id of the range's particles has a bit above 31 (then the cells are
   // ordered through the 64-bit ids, order_cell_by_id)
   std::vector<unsigned char> wide_ranges(static_cast<std::size_t>(threads_used), 0);
+  // The blocks loop's split: thread u takes the blocks [split[u], split[u + 1]) of the block
+  // order, a contiguous range as under schedule(static) (its gather's look-ahead stays in its
+  // own cache; dynamic chunks were 8 % slower, docs/performance/dsmc1.md), but sized by the
+  // shares of the previous step, which follow the threads' measured speeds: on a VM whose two
+  // vCPUs run at different speeds (one 20 % slower at times, docs/performance/dsmc1.md) the
+  // equal split waits for the slower thread. A block's results do not depend on the thread
+  // that takes it (its counters go to per_block[blk], its random words are keyed by cell and
+  // step), so neither do the step's.
+  const std::size_t nthreads = static_cast<std::size_t>(threads_used);
+  if (w.block_share.size() != nthreads) w.block_share.assign(nthreads, 1.0 / static_cast<double>(nthreads));
+  std::vector<std::size_t> split(nthreads + 1, 0);
+  {
+    double cumulative = 0.0;
+    for (std::size_t u = 0; u + 1 < nthreads; ++u) {
+      cumulative += w.block_share[u];
+      split[u + 1] = std::max(split[u], std::min(my_blocks, static_cast<std::size_t>(std::llround(cumulative * static_cast<double>(my_blocks)))));
+    }
+    split[nthreads] = my_blocks;
+  }
+  std::vector<double> block_seconds(nthreads, 0.0);
 #pragma omp parallel num_threads(threads_used)
   {
     const int threads = omp_get_num_threads(), t = omp_get_thread_num();
@@ -728,89 +749,115 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
     // per block of cells: order each cell by id, gather the block from the previous arrays
     // (streaming it on the way) into the new order, then collide in each cell while the
     // block is in L2
-#pragma omp for schedule(static)
-    for (std::size_t ordinal = 0; ordinal < my_blocks; ++ordinal) {
-      const std::size_t blk = block_order != nullptr ? block_order[ordinal] : first_blk + ordinal;
-      GrainCounters counters;
-      const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
-      // What the gather fetches ahead. Plain order: the leading edge of the window, `lead`
-      // slots ahead. Tiled: while a block of row y, plane z is gathered, the rows the tile
-      // will need two planes on (old cells of plane z + 2; the new start of a cell stands
-      // for its old start, they differ by the net flow across a few faces): row y + 1, and
-      // for the blocks of the tile's first row also rows y and y - 1, so that the tile's
-      // rows -1 .. tile_rows of plane z + 2 are all fetched during plane z; the old ids
-      // with them (the ranking of plane z + 2 reads them). (No grain, as on a rank without
-      // any: nothing to fetch.)
-      WindowFetch window{{}, 0, nullptr};
-      if (n == 0) {
-      } else if (tiled) {
-        window.id = id;
-        auto ahead = [&](std::size_t shift) {
-          window.offset[window.count++] = (start[(k0 + shift) % cells] + n - start[k0]) % n;
-        };
-        ahead(2 * plane + nx);
-        if ((k0 / nx) % ny % tile_rows == 0) {
-          ahead(2 * plane);
-          ahead(2 * plane + cells - nx);
-        }
-      } else {
-        window.offset[window.count++] = lead % n;
-      }
-      if (!wide) {
-        if (avx512)
-          order_cells_by_key32_avx512(stable, key32, perm, id_out, id, start, k0, k1);
-        else if (avx2)
-          order_cells_by_key32_avx2(stable, key32, perm, id_out, id, start, k0, k1);
-        else
-          for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
-      } else {
-        const std::uint32_t index_mask = walled ? kIndexMask : kRemoved;
-        for (std::size_t j = start[k0]; j < start[k1]; ++j) {
-          perm[j] = stable[j];
-          id_out[j] = id[stable[j] & index_mask];
-        }
-        for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
-      }
-      const std::size_t j0 = start[k0], j1 = start[k1];
-      if (with_arrivals) {  // MPI ranks, walls: some old indices >= fresh are copied as they are
-        if (avx2) {
-          if (hazard)
-            gather_slots_avx2<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
-          else
-            gather_slots_avx2<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
-        } else if (hazard) {
-          gather_slots<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+    for (int u = t; u < threads_used; u += threads) {  // (a loop in case this region got fewer threads)
+      const double began = omp_get_wtime();
+      for (std::size_t ordinal = split[static_cast<std::size_t>(u)]; ordinal < split[static_cast<std::size_t>(u) + 1]; ++ordinal) {
+        const std::size_t blk = block_order != nullptr ? block_order[ordinal] : first_blk + ordinal;
+        GrainCounters counters;
+        const std::size_t k0 = blk * kCellBlock, k1 = std::min(cells, (blk + 1) * kCellBlock);
+        // What the gather fetches ahead. Plain order: the leading edge of the window, `lead`
+        // slots ahead. Tiled: while a block of row y, plane z is gathered, the rows the tile
+        // will need two planes on (old cells of plane z + 2; the new start of a cell stands
+        // for its old start, they differ by the net flow across a few faces): row y + 1, and
+        // for the blocks of the tile's first row also rows y and y - 1, so that the tile's
+        // rows -1 .. tile_rows of plane z + 2 are all fetched during plane z; the old ids
+        // with them (the ranking of plane z + 2 reads them). (No grain, as on a rank without
+        // any: nothing to fetch.)
+        WindowFetch window{{}, 0, nullptr};
+        if (n == 0) {
+        } else if (tiled) {
+          window.id = id;
+          auto ahead = [&](std::size_t shift) {
+            window.offset[window.count++] = (start[(k0 + shift) % cells] + n - start[k0]) % n;
+          };
+          ahead(2 * plane + nx);
+          if ((k0 / nx) % ny % tile_rows == 0) {
+            ahead(2 * plane);
+            ahead(2 * plane + cells - nx);
+          }
         } else {
-          gather_slots<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+          window.offset[window.count++] = lead % n;
         }
-      } else if (avx2) {
-        if (hazard)
-          gather_slots_avx2<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
-        else
-          gather_slots_avx2<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
-      } else if (hazard) {
-        gather_slots<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
-      } else {
-        gather_slots<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
+        if (!wide) {
+          if (avx512)
+            order_cells_by_key32_avx512(stable, key32, perm, id_out, id, start, k0, k1);
+          else if (avx2)
+            order_cells_by_key32_avx2(stable, key32, perm, id_out, id, start, k0, k1);
+          else
+            for (std::size_t k = k0; k < k1; ++k) order_cell_by_key32(stable, key32, perm, id_out, id, start[k], start[k + 1]);
+        } else {
+          const std::uint32_t index_mask = walled ? kIndexMask : kRemoved;
+          for (std::size_t j = start[k0]; j < start[k1]; ++j) {
+            perm[j] = stable[j];
+            id_out[j] = id[stable[j] & index_mask];
+          }
+          for (std::size_t k = k0; k < k1; ++k) order_cell_by_id(perm, id_out, id, start[k], start[k + 1]);
+        }
+        const std::size_t j0 = start[k0], j1 = start[k1];
+        if (with_arrivals) {  // MPI ranks, walls: some old indices >= fresh are copied as they are
+          if (avx2) {
+            if (hazard)
+              gather_slots_avx2<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+            else
+              gather_slots_avx2<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+          } else if (hazard) {
+            gather_slots<Dim, true, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+          } else {
+            gather_slots<Dim, false, true>(arrays, perm, j0, j1, n, window, dt, length, fresh);
+          }
+        } else if (avx2) {
+          if (hazard)
+            gather_slots_avx2<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
+          else
+            gather_slots_avx2<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
+        } else if (hazard) {
+          gather_slots<Dim, true>(arrays, perm, j0, j1, n, window, dt, length);
+        } else {
+          gather_slots<Dim, false>(arrays, perm, j0, j1, n, window, dt, length);
+        }
+        for (std::size_t k = k0; k < k1; ++k) {
+          const std::size_t b0 = start[k], b1 = start[k + 1];
+          if (b1 - b0 < 2) continue;
+          const double density = cell_partner_density(b1 - b0, weight, cell_volume);
+          CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
+          collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters, c.exact_bound);
+        }
+        if (predict) {  // the block's cells for the next step, while its x and v are in cache
+          std::size_t j = start[k0];
+          const std::size_t jn = start[k1];
+          if (simd_cells && avx512) j = detail::predict_cells_avx512<Dim>(next_args, j, jn, next_cell);
+          if (simd_cells)
+            j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one)
+                     : detail::stream_cells_sse2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one);
+          for (; j < jn; ++j) predict_one(j);
+        }
+        per_block[blk - first_blk] = counters;
       }
-      for (std::size_t k = k0; k < k1; ++k) {
-        const std::size_t b0 = start[k], b1 = start[k + 1];
-        if (b1 - b0 < 2) continue;
-        const double density = cell_partner_density(b1 - b0, weight, cell_volume);
-        CellCollisionRng rng(seed, Stream::grain_collisions, k, step);
-        collide_cell(p, b0, b1, density, dt, c.grains.mass, law, rng, s.remainder[k], counters, c.exact_bound);
-      }
-      if (predict) {  // the block's cells for the next step, while its x and v are in cache
-        std::size_t j = start[k0];
-        const std::size_t jn = start[k1];
-        if (simd_cells && avx512) j = detail::predict_cells_avx512<Dim>(next_args, j, jn, next_cell);
-        if (simd_cells)
-          j = avx2 ? detail::stream_cells_avx2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one)
-                   : detail::stream_cells_sse2<Dim, false>(next_args, j, jn, next_cell, nullptr, predict_one);
-        for (; j < jn; ++j) predict_one(j);
-      }
-      per_block[blk - first_blk] = counters;
+      block_seconds[static_cast<std::size_t>(u)] = omp_get_wtime() - began;
     }
+  }
+  // the next step's shares: each thread's speed (blocks per second) in this one, half-way
+  // from the old shares to the speeds' (damped: one step's timing is noisy), at least a tenth
+  // of the equal share; if a thread had no block or no measurable time, half-way back to
+  // equal shares instead (so that a small box's rounding cannot leave a thread idle for good)
+  if (nthreads > 1) {
+    std::vector<double> speed(nthreads, 0.0);
+    double total_speed = 0.0;
+    bool measured = true;
+    for (std::size_t u = 0; u < nthreads; ++u) {
+      const double blocks_u = static_cast<double>(split[u + 1] - split[u]);
+      measured = measured && blocks_u > 0 && block_seconds[u] > 0.0;
+      speed[u] = measured ? blocks_u / block_seconds[u] : 0.0;
+      total_speed += speed[u];
+    }
+    const double equal = 1.0 / static_cast<double>(nthreads);
+    double sum = 0.0;
+    for (std::size_t u = 0; u < nthreads; ++u) {
+      const double target = measured && total_speed > 0.0 ? speed[u] / total_speed : equal;
+      w.block_share[u] = std::max(0.1 * equal, 0.5 * w.block_share[u] + 0.5 * target);
+      sum += w.block_share[u];
+    }
+    for (double& share : w.block_share) share /= sum;
   }
   p.id.swap(w.id);
   w.cell_fresh = false;

@@ -114,6 +114,10 @@ struct SortScratch {
   std::size_t block_order_rows = 0, block_order_plane = 0;
   // fused step, boxes with walls: per thread, the wall events of its grains (WallEvent)
   std::vector<std::vector<WallEvent>> wall_events;
+  // fused step: each thread's share of the blocks loop, adapted every step to the threads'
+  // measured speeds (fused.cpp, block_split); the results do not depend on it. Not part of a
+  // checkpoint: a restart starts from equal shares.
+  std::vector<double> block_share;
   static constexpr std::size_t fused_bytes_per_particle = 5 * sizeof(std::uint32_t) + 7 * sizeof(double) + sizeof(std::uint64_t);
 };
 
