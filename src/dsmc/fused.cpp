@@ -851,13 +851,22 @@ void fused_step(State& s, const Config& c, const Law& law, std::uint64_t seed, s
       total_speed += speed[u];
     }
     const double equal = 1.0 / static_cast<double>(nthreads);
-    double sum = 0.0;
+    std::vector<double> target(nthreads, equal);
+    double off = 0.0;  // the largest move a share would make
     for (std::size_t u = 0; u < nthreads; ++u) {
-      const double target = measured && total_speed > 0.0 ? speed[u] / total_speed : equal;
-      w.block_share[u] = std::max(0.1 * equal, 0.5 * w.block_share[u] + 0.5 * target);
-      sum += w.block_share[u];
+      if (measured && total_speed > 0.0) target[u] = speed[u] / total_speed;
+      off = std::max(off, std::abs(target[u] - w.block_share[u]));
     }
-    for (double& share : w.block_share) share /= sum;
+    // (a dead band of 2 % of the blocks: equal threads keep their split from step to step,
+    // which keeps each one's blocks, and their lines, in its own cache)
+    if (off > 0.02) {
+      double sum = 0.0;
+      for (std::size_t u = 0; u < nthreads; ++u) {
+        w.block_share[u] = std::max(0.1 * equal, 0.5 * w.block_share[u] + 0.5 * target[u]);
+        sum += w.block_share[u];
+      }
+      for (double& share : w.block_share) share /= sum;
+    }
   }
   p.id.swap(w.id);
   w.cell_fresh = false;
