@@ -115,6 +115,28 @@ constexpr PackTable kPack{};
   _mm256_storeu_pd(out, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), perm)));
 }
 
+// Pass 1 of the AVX2 kernels for one group of four candidates j .. j + 3 (separations dx, dy,
+// dz from grain i; only the first `left` lanes are candidates): r^2 as accumulate_pair
+// computes it, and the lanes in range appended to `pk` at n, in j order. Returns the new count.
+[[gnu::target("avx2"), gnu::always_inline]] inline std::size_t pack_in_range(__m256d dx, __m256d dy, __m256d dz,
+                                                                            const SortedGrains& g, std::size_t j,
+                                                                            std::size_t left, __m256d r2max,
+                                                                            PackedPairs& pk, std::size_t n) {
+  // norm2 = (dx dx + dy dy) + dz dz
+  const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
+  const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
+                      (left >= 4 ? 15u : (1u << left) - 1u);
+  const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.words[in]));
+  pack(&pk.dx[n], dx, perm);
+  pack(&pk.dy[n], dy, perm);
+  pack(&pk.dz[n], dz, perm);
+  pack(&pk.r2[n], r2, perm);
+  pack(&pk.vx[n], _mm256_loadu_pd(&g.vx[j]), perm);
+  pack(&pk.vy[n], _mm256_loadu_pd(&g.vy[j]), perm);
+  pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
+  return n + static_cast<std::size_t>(std::popcount(in));
+}
+
 // Pass 2 of the AVX2 kernels: the n packed pairs of grain i (velocity vi) four at a time into
 // the histograms: square roots, the three divisions and the correlation products (the IEEE
 // operations of accumulate_pair in its order, no FMA: the same values bit for bit), then the
@@ -180,20 +202,7 @@ constexpr PackTable kPack{};
     const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(&g.x[j]), xix);
     const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(&g.y[j]), xiy);
     const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(&g.z[j]), xiz);
-    // norm2 = (dx dx + dy dy) + dz dz
-    const __m256d r2 =
-        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
-    const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
-                        (j1 - j >= 4 ? 15u : (1u << (j1 - j)) - 1u);
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.words[in]));
-    pack(&pk.dx[n], dx, perm);
-    pack(&pk.dy[n], dy, perm);
-    pack(&pk.dz[n], dz, perm);
-    pack(&pk.r2[n], r2, perm);
-    pack(&pk.vx[n], _mm256_loadu_pd(&g.vx[j]), perm);
-    pack(&pk.vy[n], _mm256_loadu_pd(&g.vy[j]), perm);
-    pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
-    n += static_cast<std::size_t>(std::popcount(in));
+    n = pack_in_range(dx, dy, dz, g, j, j1 - j, r2max, pk, n);
   }
   accumulate_packed(h, p, vi, pk, n);
 }
@@ -228,20 +237,7 @@ constexpr PackTable kPack{};
     if (wrap_x) dx = _mm256_sub_pd(dx, _mm256_mul_pd(lx, round_half_away(_mm256_div_pd(dx, lx))));
     if (wrap_y) dy = _mm256_sub_pd(dy, _mm256_mul_pd(ly, round_half_away(_mm256_div_pd(dy, ly))));
     if (wrap_z) dz = _mm256_sub_pd(dz, _mm256_mul_pd(lz, round_half_away(_mm256_div_pd(dz, lz))));
-    // norm2 = (dx dx + dy dy) + dz dz
-    const __m256d r2 =
-        _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
-    const unsigned in = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(r2, r2max, _CMP_LT_OQ))) &
-                        (n_grains - j >= 4 ? 15u : (1u << (n_grains - j)) - 1u);
-    const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.words[in]));
-    pack(&pk.dx[n], dx, perm);
-    pack(&pk.dy[n], dy, perm);
-    pack(&pk.dz[n], dz, perm);
-    pack(&pk.r2[n], r2, perm);
-    pack(&pk.vx[n], _mm256_loadu_pd(&g.vx[j]), perm);
-    pack(&pk.vy[n], _mm256_loadu_pd(&g.vy[j]), perm);
-    pack(&pk.vz[n], _mm256_loadu_pd(&g.vz[j]), perm);
-    n += static_cast<std::size_t>(std::popcount(in));
+    n = pack_in_range(dx, dy, dz, g, j, n_grains - j, r2max, pk, n);
   }
   accumulate_packed(h, p, g.velocity(i), pk, n);
 }
