@@ -66,7 +66,7 @@ Poly contact_poly(const double dr[3], const double dv[3], const double da[3]) {
     vs += dv[k] * s;
     ss += s * s;
   }
-  Poly p;  // the coefficients as the engine forms them (Engine::pair_time)
+  Poly p;  // the coefficients as first_contact_time forms them
   p.c[4] = ss;
   p.c[3] = 2.0 * vs;
   p.c[2] = vv + 2.0 * rs;
