@@ -576,7 +576,7 @@ Interval component_range(LD r, LD v, LD a, LD lo, LD hi) {
 }
 
 // A lower bound of |x|^2 - 1 on [lo, hi]
-LD overlap_free_bound(const Flight& f, LD lo, LD hi) {
+LD gap2_lower_bound(const Flight& f, LD lo, LD hi) {
   LD s = 0;
   for (int k = 0; k < 3; ++k) {
     const Interval c = component_range(f.dr[k], f.dv[k], f.da[k], lo, hi);
@@ -605,7 +605,7 @@ LD gap2_rate(const Flight& f, LD t) {  // d/dt |x(t)|^2 = 2 x.x'
 // beyond the budget
 LD first_touch(const Flight& f, LD lo, LD hi, long& nodes) {
   if (++nodes > 400000) return std::numeric_limits<LD>::quiet_NaN();
-  if (overlap_free_bound(f, lo, hi) > 0) return std::numeric_limits<LD>::infinity();
+  if (gap2_lower_bound(f, lo, hi) > 0) return std::numeric_limits<LD>::infinity();
   if (hi - lo <= 1e-14L * std::max<LD>(1, hi)) return lo;
   const LD mid = 0.5L * (lo + hi);
   const LD left = first_touch(f, lo, mid, nodes);
