@@ -18,6 +18,8 @@
 #include <limits>
 #include <utility>
 
+#include "operators/vec3.hpp"
+
 namespace grainbath::edmd {
 
 // c[0] + c[1] t + ... + c[deg] t^deg, deg <= 4
@@ -166,6 +168,40 @@ inline double first_entering_root(const Poly& p, double tmax) {
     fa = fb;
   }
   return std::numeric_limits<double>::infinity();
+}
+
+// The first contact of two grains of unit diameter whose separation is r(t) = dr + dv t +
+// da t^2/2 (relative position, velocity and acceleration, constant over the flight): the
+// time in [0, tmax] at which |r(t)| falls to 1, 0 for a pair that touches (by round-off)
+// and approaches now, +inf if there is none. tmax = +inf (no candidate yet) searches up to
+// 1e6. The air table's pair prediction (Engine::scan_cell); here, not in the engine, so
+// that the unit test reaches it.
+inline double first_contact_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) {
+  constexpr double never = std::numeric_limits<double>::infinity();
+  // |dr + dv t + da t^2/2|^2 - sigma^2 = 0: first root where the distance falls to sigma.
+  // Cheap rejection: the gap cannot close within tmax.
+  if (std::isfinite(tmax)) {
+    const double reach = std::sqrt(dot(dv, dv)) * tmax + 0.5 * std::sqrt(dot(da, da)) * tmax * tmax;
+    const double gap = std::sqrt(dot(dr, dr)) - 1.0;
+    if (gap > reach) return never;
+  }
+  const Vec3 s = 0.5 * da;
+  Poly p;
+  p.c[4] = dot(s, s);
+  p.c[3] = 2.0 * dot(dv, s);
+  p.c[2] = dot(dv, dv) + 2.0 * dot(dr, s);
+  p.c[1] = 2.0 * dot(dr, dv);
+  p.c[0] = dot(dr, dr) - 1.0;
+  p.deg = p.c[4] > 0.0 ? 4 : 2;
+  if (p.c[0] <= 0.0 && p.c[1] < 0.0) return 0.0;  // touching (round-off) and approaching
+  if (!std::isfinite(tmax)) tmax = 1e6;
+  // f non-decreasing for t >= 0 and positive now: never a contact
+  if (p.c[0] > 0.0 && p.c[1] >= 0.0 && p.c[2] >= 0.0 && p.c[3] >= 0.0) return never;
+  // The contact is the first *entering* root (f falls through 0). Apart now: that is the
+  // first root. Touching and separating (just collided; f(0) may be +0, 0 or -0 by
+  // round-off): the parting root is skipped whatever its sign bookkeeping, and the
+  // re-collision the relative acceleration may bring is found.
+  return first_entering_root(p, tmax);
 }
 
 }  // namespace grainbath::edmd

@@ -309,33 +309,6 @@ void Engine::draw_background_window(std::uint32_t i) {
   bg_time_[i] = now_ + (w.refresh ? h : dt);
 }
 
-double Engine::pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const {
-  // |dr + dv t + da t^2/2|^2 - sigma^2 = 0: first root where the distance falls to sigma.
-  // Cheap rejection: the gap cannot close within tmax.
-  if (std::isfinite(tmax)) {
-    const double reach = std::sqrt(dot(dv, dv)) * tmax + 0.5 * std::sqrt(dot(da, da)) * tmax * tmax;
-    const double gap = std::sqrt(dot(dr, dr)) - 1.0;
-    if (gap > reach) return kInf;
-  }
-  const Vec3 s = 0.5 * da;
-  Poly p;
-  p.c[4] = dot(s, s);
-  p.c[3] = 2.0 * dot(dv, s);
-  p.c[2] = dot(dv, dv) + 2.0 * dot(dr, s);
-  p.c[1] = 2.0 * dot(dr, dv);
-  p.c[0] = dot(dr, dr) - 1.0;
-  p.deg = p.c[4] > 0.0 ? 4 : 2;
-  if (p.c[0] <= 0.0 && p.c[1] < 0.0) return 0.0;  // touching (round-off) and approaching
-  if (!std::isfinite(tmax)) tmax = 1e6;
-  // f non-decreasing for t >= 0 and positive now: never a contact
-  if (p.c[0] > 0.0 && p.c[1] >= 0.0 && p.c[2] >= 0.0 && p.c[3] >= 0.0) return kInf;
-  // The contact is the first *entering* root (f falls through 0). Apart now: that is the
-  // first root. Touching and separating (just collided; f(0) may be +0, 0 or -0 by
-  // round-off): the parting root is skipped whatever its sign bookkeeping, and the
-  // re-collision the relative acceleration may bring is found.
-  return first_entering_root(p, tmax);
-}
-
 // Earliest collision of i with the grains of one cell (image shifted by `shift`); updates
 // the running best collision time and partner.
 inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, int cell, const Vec3& shift,
@@ -363,7 +336,7 @@ inline void Engine::scan_cell(std::uint32_t i, const Kin& ki, const Vec3& ai, in
     } else {
       const Vec3 vj = kj.v + dtj * a_[j];
       const Vec3 rj = kj.r + dtj * kj.v + (0.5 * dtj * dtj) * a_[j] + shift;
-      tcol = pair_time(rj - ki.r, vj - ki.v, a_[j] - ai, best.t1 - t);
+      tcol = first_contact_time(rj - ki.r, vj - ki.v, a_[j] - ai, best.t1 - t);
 #ifdef EDMD_DEBUG_QUARTIC
       {
         const Vec3 dr = rj - ki.r, dv = vj - ki.v, da = a_[j] - ai;

@@ -344,7 +344,6 @@ class Engine {
     return true;
   }
   void assign_cell(std::uint32_t i);
-  double pair_time(const Vec3& dr, const Vec3& dv, const Vec3& da, double tmax) const;
   void process_cell(std::uint32_t i);
   void process_wall(std::uint32_t i);
   void process_background(std::uint32_t i);

@@ -66,7 +66,7 @@ Poly contact_poly(const double dr[3], const double dv[3], const double da[3]) {
     vs += dv[k] * s;
     ss += s * s;
   }
-  Poly p;  // the coefficients as the engine forms them (Engine::pair_time)
+  Poly p;  // the coefficients as first_contact_time forms them
   p.c[4] = ss;
   p.c[3] = 2.0 * vs;
   p.c[2] = vv + 2.0 * rs;
@@ -544,4 +544,249 @@ TEST(ContactTime, ContactIsTheRootToWithinTheRoundingOfF) {
               static_cast<double>(widest), grazes);
   EXPECT_GT(checked, 10000);
   EXPECT_LT(grazes, checked / 100);
+}
+
+// --- Added by the mutation audit of first_contact_time (docs/reviews/mutation-audit-pair-time.md)
+
+namespace {
+
+using grainbath::Vec3;
+
+// A pair as Engine::scan_cell hands it over: separation, relative velocity and relative
+// acceleration now, and the horizon (the time to the grain's best candidate, +inf without one).
+struct Flight {
+  double dr[3], dv[3], da[3];
+  double tmax;
+  double contact() const {
+    return first_contact_time(Vec3{dr[0], dr[1], dr[2]}, Vec3{dv[0], dv[1], dv[2]}, Vec3{da[0], da[1], da[2]}, tmax);
+  }
+};
+
+// The reference below works on the separation x(t) = dr + dv t + da t^2/2 itself, not on the
+// coefficients of |x|^2 - 1, so that it also checks how first_contact_time forms them.
+// One component of x on [lo, hi]: its exact range (the ends and the vertex of the parabola).
+Interval component_range(LD r, LD v, LD a, LD lo, LD hi) {
+  const auto x = [&](LD t) { return r + v * t + 0.5L * a * t * t; };
+  Interval s{std::min(x(lo), x(hi)), std::max(x(lo), x(hi))};
+  if (a != 0) {
+    const LD vertex = -v / a;
+    if (vertex > lo && vertex < hi) s = {std::min(s.lo, x(vertex)), std::max(s.hi, x(vertex))};
+  }
+  return s;
+}
+
+// A lower bound of |x|^2 - 1 on [lo, hi]
+LD gap2_lower_bound(const Flight& f, LD lo, LD hi) {
+  LD s = 0;
+  for (int k = 0; k < 3; ++k) {
+    const Interval c = component_range(f.dr[k], f.dv[k], f.da[k], lo, hi);
+    if (c.lo > 0) s += c.lo * c.lo;
+    if (c.hi < 0) s += c.hi * c.hi;
+  }
+  return s - 1;
+}
+
+LD gap2(const Flight& f, LD t) {  // |x(t)|^2 - 1
+  LD s = 0;
+  for (int k = 0; k < 3; ++k) {
+    const LD x = f.dr[k] + f.dv[k] * t + 0.5L * f.da[k] * t * t;
+    s += x * x;
+  }
+  return s - 1;
+}
+
+LD gap2_rate(const Flight& f, LD t) {  // d/dt |x(t)|^2 = 2 x.x'
+  LD s = 0;
+  for (int k = 0; k < 3; ++k) s += 2 * (f.dr[k] + f.dv[k] * t + 0.5L * f.da[k] * t * t) * (f.dv[k] + f.da[k] * t);
+  return s;
+}
+
+// The first point of [lo, hi] where |x| may be <= 1 (to 1e-14 relative), +inf if none, NaN
+// beyond the budget
+LD first_touch(const Flight& f, LD lo, LD hi, long& nodes) {
+  if (++nodes > 400000) return std::numeric_limits<LD>::quiet_NaN();
+  if (gap2_lower_bound(f, lo, hi) > 0) return std::numeric_limits<LD>::infinity();
+  if (hi - lo <= 1e-14L * std::max<LD>(1, hi)) return lo;
+  const LD mid = 0.5L * (lo + hi);
+  const LD left = first_touch(f, lo, mid, nodes);
+  return std::isinf(left) ? first_touch(f, mid, hi, nodes) : left;
+}
+
+enum class Outcome { contact, none, ambiguous };
+
+// The reference first contact within the horizon (1e6 for tmax = +inf). A pair touching now
+// (|dr|^2 - 1 within round-off of 0) and parting: searched after the first maximum of |x|.
+// Ambiguous: a graze (|x|' ~ 0 at the contact), a contact within 1e-9 of the horizon (a tie
+// with the candidate that set it), or a parting pair whose |x| never clearly exceeds 1.
+Outcome reference_contact(const Flight& f, LD& t) {
+  const LD horizon = std::isinf(f.tmax) ? 1e6L : f.tmax;
+  LD from = 0;
+  if (gap2(f, 0) <= 1e-15L) {
+    EXPECT_GT(gap2_rate(f, 0), 0) << "reference_contact: pairs touching now must part";
+    LD prev = 0, next = 1e-9L;
+    while (next < horizon && gap2_rate(f, next) > 0) prev = next, next *= 1.05L;
+    if (next >= horizon) return Outcome::none;
+    for (int it = 0; it < 200; ++it) {
+      const LD mid = 0.5L * (prev + next);
+      (gap2_rate(f, mid) > 0 ? prev : next) = mid;
+    }
+    if (gap2(f, next) <= 1e-12L) return Outcome::ambiguous;
+    from = next;
+  }
+  long nodes = 0;
+  t = first_touch(f, from, horizon, nodes);
+  if (std::isnan(t)) return Outcome::ambiguous;
+  if (std::isinf(t)) return Outcome::none;
+  // the time is known to ~ (rounding of |x|^2 in double) / |d|x|^2/dt|; the size of the terms
+  // of |x|^2 sets that rounding
+  LD terms = 0;
+  for (int k = 0; k < 3; ++k) terms += std::fabs(f.dr[k]) + std::fabs(f.dv[k]) * t + 0.5L * std::fabs(f.da[k]) * t * t;
+  if (std::fabs(gap2_rate(f, t)) * std::max<LD>(1, t) < 1e-5L * (1 + terms * terms)) return Outcome::ambiguous;
+  if (horizon - t < 1e-9L * std::max<LD>(1, horizon)) return Outcome::ambiguous;
+  return Outcome::contact;
+}
+
+void set_length(double x[3], double length) {
+  const double n = std::sqrt(dot3(x, x));
+  for (int k = 0; k < 3; ++k) x[k] *= length / n;
+}
+
+}  // namespace
+
+// first_contact_time over pairs drawn as the engine meets them, against the reference on the
+// separation itself: apart at distances 1-4 with horizons from 0.01 to +inf; slow pairs near
+// contact under relative accelerations up to 60 per component (Bizon's a0 up to 30); pairs
+// parting from contact; relative accelerations down to 1e-10 (and none); dilute pairs up to
+// 21 diameters apart, slow, with long horizons. Each contact to 1e-9; no contact where the
+// reference finds none within the horizon. It checks the whole function: the coefficients of
+// |x|^2 - 1, the cheap rejection (its reach must bound |dv| t + |da| t^2/2: with half that
+// acceleration term, or without it, contacts within the horizon were lost), the shortcut for
+// a non-decreasing |x| (it needs all of c1, c2, c3 >= 0), the degree (a relative
+// acceleration of 1e-6 still bends the path) and the horizon.
+TEST(ContactTime, FirstContactTimeMatchesTheSeparationItself) {
+  std::mt19937_64 rng(20261209);
+  std::uniform_real_distribution<double> u(0.0, 1.0), sym(-1.0, 1.0);
+  const char* names[5] = {"apart", "slow, strong acceleration", "parting", "weak or no acceleration", "dilute, slow"};
+  const double horizons[5] = {0.01, 0.3, 3.0, 30.0, kInf};
+  for (int family = 0; family < 5; ++family) {
+    int contacts = 0, none = 0, ambiguous = 0;
+    for (int n = 0; n < 12000; ++n) {
+      Flight f;
+      random_vector(rng, 1.0, f.dr);
+      if (n % 2 == 0) f.dr[2] = 0.0;  // disks
+      const double dist = family == 0   ? 1.0 + 3.0 * u(rng) * u(rng) + 1e-9
+                          : family == 1 ? 1.0 + std::pow(10.0, -12.0 + 11.0 * u(rng))
+                          : family == 2 ? 1.0
+                          : family == 3 ? 1.0 + 3.0 * u(rng) + 1e-9
+                                        : 1.0 + 20.0 * u(rng);
+      set_length(f.dr, dist);
+      random_vector(rng, family == 1 || family == 4 ? std::pow(10.0, -3.0 + 3.0 * u(rng)) : std::pow(10.0, -1.0 + 2.0 * u(rng)),
+                    f.dv);
+      const double a = family == 0   ? std::pow(10.0, -2.0 + 3.78 * u(rng))
+                       : family == 1 ? std::pow(10.0, -1.0 + 2.78 * u(rng))
+                       : family == 2 ? std::pow(10.0, -1.0 + 2.5 * u(rng))
+                       : family == 3 ? (n % 2 ? 0.0 : std::pow(10.0, -10.0 + 6.0 * u(rng)))
+                                     : std::pow(10.0, -3.0 + 4.0 * u(rng));
+      for (double& x : f.da) x = a * sym(rng);  // components up to 60
+      if (n % 2 == 0) f.dv[2] = f.da[2] = 0.0;
+      const double d2 = dot3(f.dr, f.dr);
+      const double rv = dot3(f.dr, f.dv);
+      if ((family == 2 && rv < 0.0) || (family != 2 && n % 3 == 2 && rv > 0.0))  // parting; approaching
+        for (int k = 0; k < 3; ++k) f.dv[k] -= 2.0 * rv * f.dr[k] / d2;
+      const double ra = dot3(f.dr, f.da);
+      if (family != 1 && family != 3 && n % 3 == 1 && ra > 0.0)  // pulled towards the partner
+        for (int k = 0; k < 3; ++k) f.da[k] -= 2.0 * ra * f.dr[k] / d2;
+      f.tmax = family == 1 || family == 2 ? (n % 2 ? kInf : std::pow(10.0, -2.0 + 8.0 * u(rng)))
+               : family == 4              ? (n % 2 ? kInf : std::pow(10.0, 7.0 * u(rng)))
+                                          : horizons[n % 5];
+      if (family == 2 && !(gap2_rate(f, 0) > 0)) continue;
+      LD ref = 0;
+      const Outcome expected = reference_contact(f, ref);
+      const double ours = f.contact();
+      // a time beyond the horizon is no contact for the caller (its candidate comes first)
+      const bool found = ours <= (std::isinf(f.tmax) ? 1e6 : f.tmax);
+      if (expected == Outcome::ambiguous) {
+        ++ambiguous;
+      } else if (expected == Outcome::none) {
+        ++none;
+        EXPECT_FALSE(found) << names[family] << ": contact at " << ours << " where there is none within " << f.tmax;
+      } else {
+        ++contacts;
+        EXPECT_TRUE(found && std::fabs(ours - ref) <= 1e-9L * std::max<LD>(1, ref))
+            << names[family] << ": contact at " << ours << ", reference " << static_cast<double>(ref) << " (horizon "
+            << f.tmax << "; dr " << f.dr[0] << " " << f.dr[1] << " " << f.dr[2] << ", dv " << f.dv[0] << " " << f.dv[1]
+            << " " << f.dv[2] << ", da " << f.da[0] << " " << f.da[1] << " " << f.da[2] << ")";
+      }
+    }
+    std::printf("%s: %d contacts, %d without contact, %d ambiguous\n", names[family], contacts, none, ambiguous);
+    EXPECT_GT(contacts, 300) << names[family];
+    EXPECT_GT(none, 3000) << names[family];
+    EXPECT_LT(ambiguous, 60) << names[family];
+  }
+}
+
+// A pair that touches now (|dr| = 1 up to round-off, or exactly) and approaches collides now,
+// whatever its acceleration and horizon: the contact time is 0. (The search for an entering
+// root would skip it: f is not positive before it.)
+TEST(ContactTime, TouchingApproachingPairsCollideAtOnce) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int exact = 0;
+  for (int n = 0; n < 4000; ++n) {
+    Flight f;
+    random_vector(rng, 1.0, f.dr);
+    random_vector(rng, std::pow(10.0, -3.0 + 4.0 * u(rng)), f.dv);
+    random_vector(rng, n % 3 == 0 ? 0.0 : std::pow(10.0, -2.0 + 3.78 * u(rng)), f.da);
+    if (n % 2 == 0) f.dr[2] = f.dv[2] = f.da[2] = 0.0;
+    if (n % 4 == 1) {  // exactly touching: a unit vector along an axis
+      f.dr[0] = f.dr[1] = f.dr[2] = 0.0;
+      f.dr[n % 8 == 1 ? 0 : 1] = n % 16 < 8 ? 1.0 : -1.0;
+    } else {
+      set_length(f.dr, 1.0);
+    }
+    const double rv = dot3(f.dr, f.dv), d2 = dot3(f.dr, f.dr);
+    if (rv > 0.0)
+      for (int k = 0; k < 3; ++k) f.dv[k] -= 2.0 * rv * f.dr[k] / d2;  // approaching
+    if (!(d2 - 1.0 <= 0.0 && dot3(f.dr, f.dv) < 0.0)) continue;
+    if (d2 == 1.0) ++exact;
+    f.tmax = n % 5 == 0 ? kInf : std::pow(10.0, -3.0 + 6.0 * u(rng));
+    EXPECT_EQ(f.contact(), 0.0) << "|dr|^2 - 1 = " << d2 - 1.0 << ", dr.dv = " << dot3(f.dr, f.dv);
+  }
+  EXPECT_GT(exact, 500);
+}
+
+// Without a candidate yet (tmax = +inf) the search runs to 1e6: slow pairs whose contact comes
+// after 1e2 to 5e5 (head-on or oblique, a weak relative acceleration or none) must find it.
+TEST(ContactTime, FarContactsAreFoundWithoutACandidate) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int checked = 0;
+  for (int n = 0; n < 2000; ++n) {
+    const bool disk = n % 2 == 0;
+    Flight f;
+    const double dist = 1.0 + 20.0 * u(rng) + 0.01;
+    random_vector(rng, 1.0, f.dr);
+    if (disk) f.dr[2] = 0.0;
+    set_length(f.dr, dist);
+    // a direction e perpendicular to dr (in the plane for disks), and the velocity at the
+    // angle of impact parameter b < 0.9 from -dr, at the speed that meets in about `when`
+    double e[3] = {-f.dr[1], f.dr[0], 0.0};
+    if (!disk) {
+      double w[3];
+      random_vector(rng, 1.0, w);
+      e[0] = f.dr[1] * w[2] - f.dr[2] * w[1], e[1] = f.dr[2] * w[0] - f.dr[0] * w[2], e[2] = f.dr[0] * w[1] - f.dr[1] * w[0];
+    }
+    set_length(e, 1.0);
+    const double when = std::pow(10.0, 2.0 + 3.7 * u(rng));
+    const double speed = (dist - 1.0) / when, sin_b = 0.9 * u(rng) / dist, cos_b = std::sqrt(1.0 - sin_b * sin_b);
+    for (int k = 0; k < 3; ++k) f.dv[k] = speed * (-cos_b * f.dr[k] / dist + sin_b * e[k]);
+    random_vector(rng, n % 3 == 0 ? 0.0 : 1e-3 * (dist - 1.0) / (when * when), f.da);  // a weak bend
+    if (disk) f.da[2] = 0.0;
+    f.tmax = kInf;
+    LD ref = 0;
+    if (reference_contact(f, ref) != Outcome::contact || ref < 1e2) continue;
+    ++checked;
+    EXPECT_NEAR(f.contact(), static_cast<double>(ref), 1e-9 * static_cast<double>(ref)) << "meeting after about " << when;
+  }
+  EXPECT_GT(checked, 1500);
 }
