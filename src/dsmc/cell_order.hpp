@@ -9,6 +9,8 @@
 #include <limits>
 #include <vector>
 
+#include "operators/random.hpp"  // Philox4x32Lanes::have_avx512: the dispatch rule of every SIMD path
+
 namespace grainbath::dsmc {
 
 namespace detail {
@@ -49,11 +51,59 @@ inline void rank_keys32(const std::int32_t* __restrict keys, const std::uint32_t
 // them moves O(m^2) slots (70 % of a 1D run with 2000-particle cells went there). A natural
 // merge sort takes O(m log r) for r runs: find the runs, merge neighbouring runs pairwise
 // until one is left. Ids are distinct, so the order is the one of any other sort.
+// Which run gives the next element is a coin toss where two runs interleave (grains from the
+// neighbouring cells), so the merge's branch is mispredicted about once per element of the
+// smaller run: in hot-walls (1250 grains a cell) the merge held 19 % of a 1-thread run. The
+// fused step's cells (32-bit ids) therefore merge packed words, in AVX-512 where the CPU has
+// it, smallest runs first (merge_runs_by_key32; 12 % faster there, docs/performance/dsmc1.md).
+// A branch-free scalar merge (a select per element) was slower still: its loop-carried
+// dependency costs more than the mispredictions of the runs' unequal sizes.
 // The scratch is per thread and only grows (no allocation per cell or step).
 struct IdSlot {
   std::uint64_t id;
   std::uint32_t slot;
 };
+// Merges the ascending runs [a, ae) and [b, be) into `out`; `key` gives an element's sort
+// key. Equal keys (never two equal ids here) would take a's first.
+template <class T, class Key>
+inline T* merge_runs(const T* a, const T* ae, const T* b, const T* be, T* out, Key key) {
+  while (a != ae && b != be) {
+    if (key(*b) < key(*a))
+      *out++ = *b++;
+    else
+      *out++ = *a++;
+  }
+  out = std::copy(a, ae, out);
+  return std::copy(b, be, out);
+}
+// The natural merge sort of `from[0, m)` (with `to` the same size as scratch): the runs'
+// boundaries are found, neighbouring runs merged pairwise until one is left. Returns the
+// array that holds the result (from or to).
+template <class T, class Key, class Merge>
+inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::size_t>& runs, Key key, Merge merge) {
+  runs.clear();
+  runs.push_back(0);
+  for (std::size_t a = 1; a < m; ++a)
+    if (key(from[a]) < key(from[a - 1])) runs.push_back(a);
+  runs.push_back(m);
+  while (runs.size() > 2) {  // runs holds r + 1 boundaries
+    std::size_t kept = 1;
+    for (std::size_t r = 0; r + 1 < runs.size(); r += 2) {
+      const std::size_t lo = runs[r], mid = runs[r + 1];
+      const std::size_t hi = r + 2 < runs.size() ? runs[r + 2] : mid;  // an odd last run is copied
+      merge(from + lo, from + mid, from + mid, from + hi, to + lo);
+      runs[kept++] = hi;
+    }
+    runs.resize(kept);
+    std::swap(from, to);
+  }
+  return from;
+}
+template <class T, class Key>
+inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::size_t>& runs, Key key) {
+  return natural_merge_sort(from, to, m, runs, key,
+                            [key](const T* a, const T* ae, const T* b, const T* be, T* out) { merge_runs(a, ae, b, be, out, key); });
+}
 inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0,
                              std::size_t b1) {
   thread_local std::vector<IdSlot> scratch;
@@ -61,29 +111,187 @@ inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   const std::size_t m = b1 - b0;
   if (scratch.size() < 2 * m) scratch.resize(2 * m);
   IdSlot* from = scratch.data();
-  IdSlot* to = from + m;
+  for (std::size_t a = 0; a < m; ++a) from[a] = IdSlot{id_out[b0 + a], perm[b0 + a]};  // id_out: the ids of perm
+  const IdSlot* sorted = natural_merge_sort(from, from + m, m, runs, [](const IdSlot& x) { return x.id; });
+  for (std::size_t a = 0; a < m; ++a) {
+    perm[b0 + a] = sorted[a].slot;
+    id_out[b0 + a] = sorted[a].id;
+  }
+}
+// Merging in AVX-512 (packed 64-bit words, never equal, never UINT64_MAX): eight words of
+// each run in a register, a bitonic network leaves the eight smallest in one and the eight
+// largest in the other; the smallest are stored, and the next eight come from the run whose
+// next word is the smaller (the stored eight are then below every word not yet stored). One
+// unpredictable branch per eight words instead of one per word (the interleaving of two runs
+// is a coin toss per word: DSMC's arrivals from the neighbouring cells among the grains that
+// stay). The network: min/max of a and b reversed (the eight smallest and the eight largest,
+// each bitonic), then each half-cleaned at distances 4, 2 and 1.
+// (GCC 12 warns that the intrinsics' undefined pass-through operand "may be used
+// uninitialized" once they are inlined: a false positive of the masked builtins)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// lane l against lane `partner[l]`: the min where `upper` is clear, the max where it is set
+[[gnu::target("avx512f"), gnu::always_inline]] inline __m512i half_clean(__m512i v, __m512i partner, __mmask8 upper) {
+  const __m512i p = _mm512_permutexvar_epi64(partner, v);
+  return _mm512_mask_blend_epi64(upper, _mm512_min_epu64(v, p), _mm512_max_epu64(v, p));
+}
+[[gnu::target("avx512f"), gnu::always_inline]] inline void bitonic_merge8(__m512i& a, __m512i& b) {
+  b = _mm512_permutexvar_epi64(_mm512_set_epi64(0, 1, 2, 3, 4, 5, 6, 7), b);
+  __m512i lo = _mm512_min_epu64(a, b), hi = _mm512_max_epu64(a, b);
+  const auto clean = half_clean;
+  const __m512i d4 = _mm512_set_epi64(3, 2, 1, 0, 7, 6, 5, 4), d2 = _mm512_set_epi64(5, 4, 7, 6, 1, 0, 3, 2),
+                d1 = _mm512_set_epi64(6, 7, 4, 5, 2, 3, 0, 1);
+  lo = clean(clean(clean(lo, d4, 0xF0), d2, 0xCC), d1, 0xAA);
+  hi = clean(clean(clean(hi, d4, 0xF0), d2, 0xCC), d1, 0xAA);
+  a = lo;
+  b = hi;
+}
+[[gnu::target("avx512f")]] inline std::uint64_t* merge_words_avx512(const std::uint64_t* a, const std::uint64_t* ae,
+                                                                    const std::uint64_t* b, const std::uint64_t* be,
+                                                                    std::uint64_t* out) {
+  const auto identity = [](std::uint64_t w) { return w; };
+  if (ae - a < 8 || be - b < 8) return merge_runs(a, ae, b, be, out, identity);
+  __m512i low = _mm512_loadu_si512(a), high = _mm512_loadu_si512(b);
+  a += 8;
+  b += 8;
+  for (;;) {
+    bitonic_merge8(low, high);
+    _mm512_storeu_si512(out, low);
+    out += 8;
+    if (a != ae && (b == be || *a < *b)) {
+      if (ae - a < 8) break;
+      low = _mm512_loadu_si512(a);
+      a += 8;
+    } else {
+      if (b == be || be - b < 8) break;
+      low = _mm512_loadu_si512(b);
+      b += 8;
+    }
+  }
+  // the eight largest so far and what is left of both runs (one of them under eight words)
+  alignas(64) std::uint64_t rest[8];
+  _mm512_store_si512(rest, high);
+  const std::uint64_t* t = rest;
+  constexpr std::uint64_t done = std::numeric_limits<std::uint64_t>::max();
+  for (;;) {
+    const std::uint64_t x = t != rest + 8 ? *t : done, y = a != ae ? *a : done, z = b != be ? *b : done;
+    if (x < y && x < z) {
+      *out++ = x;
+      ++t;
+    } else if (y < z) {
+      *out++ = y;
+      ++a;
+    } else if (z != done) {
+      *out++ = z;
+      ++b;
+    } else {
+      return out;
+    }
+  }
+}
+#pragma GCC diagnostic pop
+// The same for the fused step's 32-bit keys (every id below 2^32): id and old index packed
+// into one 64-bit word, id << 32 | index, so that a compare of words is a compare of ids
+// (distinct; the index is below 2^32 - 1, so no word is UINT64_MAX) and a merge moves 8
+// bytes per element instead of 16. Reads keys[b0, b1) (id ^ 2^31) and stable[b0, b1); writes
+// perm and id_out in id order. AVX-512F where Philox4x32Lanes::have_avx512 (the same order).
+// Up to kSmallestFirst runs are merged two smallest first (Huffman's order: any order of
+// merges gives the one sorted result, ids being distinct): a cell's runs are its grains
+// that stay (the largest run, 70 % of a hot-walls cell) and the arrivals from each side, so
+// the arrivals are merged among themselves before the one merge with the stayers, and the
+// stayers are moved once instead of once per pairwise pass (hot-walls: runs of 1, 182, 839,
+// 187 grains; 1.3 instead of 1.85 words merged per grain).
+inline constexpr std::size_t kSmallestFirst = 16;
+inline void merge_runs_by_key32(const std::uint32_t* __restrict stable, const std::int32_t* __restrict keys,
+                                std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0,
+                                std::size_t b1) {
+  thread_local std::vector<std::uint64_t> scratch;
+  thread_local std::vector<std::size_t> runs;
+  const std::size_t m = b1 - b0;
+  if (scratch.size() < 2 * m) scratch.resize(2 * m);
   runs.clear();
   runs.push_back(0);
-  for (std::size_t a = 0; a < m; ++a) {
-    from[a] = IdSlot{id_out[b0 + a], perm[b0 + a]};  // id_out holds the ids of perm (contiguous)
-    if (a > 0 && from[a].id < from[a - 1].id) runs.push_back(a);
+  {
+    std::uint64_t* words = scratch.data();
+    std::uint64_t previous = 0;
+    for (std::size_t a = 0; a < m; ++a) {
+      const std::uint64_t w = (std::uint64_t{static_cast<std::uint32_t>(keys[b0 + a]) ^ 0x80000000u} << 32) | stable[b0 + a];
+      if (w < previous) runs.push_back(a);  // (a = 0: no word is below 0)
+      words[a] = previous = w;
+    }
   }
   runs.push_back(m);
-  const auto by_id = [](const IdSlot& x, const IdSlot& y) { return x.id < y.id; };
-  while (runs.size() > 2) {  // runs holds r + 1 boundaries
-    std::size_t kept = 1;
-    for (std::size_t r = 0; r + 1 < runs.size(); r += 2) {
-      const std::size_t lo = runs[r], mid = runs[r + 1];
-      const std::size_t hi = r + 2 < runs.size() ? runs[r + 2] : mid;  // an odd last run is copied
-      std::merge(from + lo, from + mid, from + mid, from + hi, to + lo, by_id);
-      runs[kept++] = hi;
+  const bool avx512 = Philox4x32Lanes::have_avx512();
+  const auto merge = [avx512](const std::uint64_t* a, const std::uint64_t* ae, const std::uint64_t* b,
+                              const std::uint64_t* be, std::uint64_t* out) {
+    if (avx512)
+      merge_words_avx512(a, ae, b, be, out);
+    else
+      merge_runs(a, ae, b, be, out, [](std::uint64_t w) { return w; });
+  };
+  const std::size_t r = runs.size() - 1;
+  const std::uint64_t* sorted = scratch.data();
+  if (r > kSmallestFirst) {  // many runs (a disordered cell): the pairwise passes
+    std::uint64_t* from = scratch.data();
+    while (runs.size() > 2) {
+      std::size_t kept = 1;
+      for (std::size_t q = 0; q + 1 < runs.size(); q += 2) {
+        const std::size_t lo = runs[q], mid = runs[q + 1];
+        const std::size_t hi = q + 2 < runs.size() ? runs[q + 2] : mid;  // an odd last run is copied
+        merge(from + lo, from + mid, from + mid, from + hi, from == scratch.data() ? from + m + lo : scratch.data() + lo);
+        runs[kept++] = hi;
+      }
+      runs.resize(kept);
+      from = from == scratch.data() ? scratch.data() + m : scratch.data();
     }
-    runs.resize(kept);
-    std::swap(from, to);
+    sorted = from;
+  } else if (r > 1) {
+    // the words merged in all: every merge's output, placed one after the other past the m
+    // words of the cell
+    std::size_t size[kSmallestFirst], count = r, total = 0;
+    for (std::size_t q = 0; q < r; ++q) size[q] = runs[q + 1] - runs[q];
+    auto two_smallest = [&](const std::size_t* n, std::size_t c, std::size_t& i, std::size_t& j) {
+      i = n[0] < n[1] ? 0 : 1;
+      j = 1 - i;
+      for (std::size_t q = 2; q < c; ++q)
+        if (n[q] < n[i]) {
+          j = i;
+          i = q;
+        } else if (n[q] < n[j]) {
+          j = q;
+        }
+    };
+    while (count > 1) {
+      std::size_t i, j;
+      two_smallest(size, count, i, j);
+      size[i] += size[j];
+      total += size[i];
+      size[j] = size[--count];
+    }
+    if (scratch.size() < m + total) scratch.resize(m + total);
+    std::uint64_t* words = scratch.data();
+    const std::uint64_t* begin[kSmallestFirst];
+    for (std::size_t q = 0; q < r; ++q) {
+      begin[q] = words + runs[q];
+      size[q] = runs[q + 1] - runs[q];
+    }
+    std::uint64_t* free = words + m;
+    count = r;
+    while (count > 1) {
+      std::size_t i, j;
+      two_smallest(size, count, i, j);
+      merge(begin[i], begin[i] + size[i], begin[j], begin[j] + size[j], free);
+      begin[i] = free;
+      size[i] += size[j];
+      free += size[i];
+      begin[j] = begin[--count];
+      size[j] = size[count];
+    }
+    sorted = begin[0];
   }
   for (std::size_t a = 0; a < m; ++a) {
-    perm[b0 + a] = from[a].slot;
-    id_out[b0 + a] = from[a].id;
+    perm[b0 + a] = static_cast<std::uint32_t>(sorted[a]);
+    id_out[b0 + a] = sorted[a] >> 32;
   }
 }
 }  // namespace detail
@@ -172,7 +380,8 @@ inline constexpr std::size_t kKey32Padding = 8;
 // padded by kKey32Padding past the last slot; read-only while the cells are ordered, so the
 // reads past a cell race with no writer) up to three slots past b1, and saves the copy of
 // every key and index into local arrays that order_cell_by_id makes. The same order: cells
-// above 32 particles are handed to order_cell_by_id (`id`: the ids in the old order).
+// of 33-64 particles are handed to order_cell_by_id (`id`: the ids in the old order), larger
+// ones to the natural merge sort on packed words (detail::merge_runs_by_key32).
 inline void order_cell_by_key32(const std::uint32_t* __restrict stable, const std::int32_t* __restrict keys,
                                 std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out,
                                 const std::uint64_t* __restrict id, std::size_t b0, std::size_t b1) {
@@ -195,6 +404,10 @@ inline void order_cell_by_key32(const std::uint32_t* __restrict stable, const st
     case 7: detail::rank_keys32<7>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
     case 8: detail::rank_keys32<8>(keys + b0, stable + b0, m, perm + b0, id_out + b0); return;
     default:
+      if (m > 64) {  // large cells: the natural merge sort on packed words
+        detail::merge_runs_by_key32(stable, keys, perm, id_out, b0, b1);
+        return;
+      }
       for (std::size_t j = b0; j < b1; ++j) {
         perm[j] = stable[j];
         id_out[j] = static_cast<std::uint32_t>(keys[j]) ^ 0x80000000u;

@@ -177,6 +177,131 @@ TEST(DsmcCellOrder, LargeCellsOfAscendingRuns) {
       for (std::uint64_t offset : {0ull, 0x1'0000'0000ull}) check_runs_cell(m, std::min(runs, m), offset, ++seed);
 }
 
+// The fused step's large cells (order_cell_by_key32 above 64 particles: the packed words'
+// merge sort, smallest runs first up to 16 runs, pairwise passes above): cells made of
+// ascending runs as a step leaves them — one run, a few of very different sizes (the stayers
+// and the arrivals from each side, 1 / 182 / 839 / 187 as in hot-walls), 16 and 17 runs (both
+// sides of the switch), every slot a run of its own — read in place with other cells'
+// entries around them; against std::sort by id, nothing written outside the cell, and the
+// SIMD entry points (AVX2, AVX-512F) with the same slots.
+void check_key32_runs_cell(const std::vector<std::size_t>& run_sizes, std::uint32_t seed) {
+  using grainbath::dsmc::kKey32Padding;
+  using grainbath::dsmc::order_cell_by_key32;
+  std::mt19937_64 gen(seed);
+  std::size_t m = 0;
+  for (std::size_t r : run_sizes) m += r;
+  const std::size_t b0 = 6, b1 = b0 + m, n = b1 + 9;
+  std::vector<std::uint64_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) id[i] = 4 * i + gen() % 4;  // distinct, below 2^32
+  if (n > 2) id[n - 1] = 0xffffffffull;  // the largest 32-bit id in play
+  std::shuffle(id.begin(), id.end(), gen);
+  std::vector<std::uint32_t> old(n);
+  std::iota(old.begin(), old.end(), 0u);
+  std::shuffle(old.begin(), old.end(), gen);
+  // the cell's slots: runs of the given sizes, each ascending in id (a stable scatter of
+  // id-ordered source cells); a run of one is also ascending
+  std::size_t at = b0;
+  const auto by_id = [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; };
+  for (std::size_t r : run_sizes) {
+    std::sort(old.begin() + static_cast<long>(at), old.begin() + static_cast<long>(at + r), by_id);
+    at += r;
+  }
+  std::vector<std::uint32_t> stable(n + kKey32Padding, 0x12345u);
+  std::vector<std::int32_t> keys(n + kKey32Padding, 77);
+  for (std::size_t j = 0; j < n; ++j) {
+    stable[j] = old[j] | (j % 5 == 0 ? 0x80000000u : 0u);  // kStreamedBit on some: carried, not compared
+    keys[j] = static_cast<std::int32_t>(static_cast<std::uint32_t>(id[old[j]]) ^ 0x80000000u);
+  }
+  std::vector<std::size_t> expected_j(m);
+  std::iota(expected_j.begin(), expected_j.end(), b0);
+  std::sort(expected_j.begin(), expected_j.end(), [&](std::size_t a, std::size_t b) { return id[old[a]] < id[old[b]]; });
+  using Ranking = void (*)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*,
+                           const std::uint64_t*, std::size_t, std::size_t);
+  __builtin_cpu_init();
+  const struct {
+    const char* isa;
+    bool supported;
+    Ranking rank;
+  } variants[] = {{"plain", true, order_cell_by_key32},
+                  {"avx2", __builtin_cpu_supports("avx2") != 0, grainbath::dsmc::order_cell_by_key32_avx2},
+                  {"avx512f", __builtin_cpu_supports("avx512f") != 0, grainbath::dsmc::order_cell_by_key32_avx512}};
+  for (const auto& v : variants) {
+    if (!v.supported) continue;
+    std::vector<std::uint32_t> perm(n, 0xdeadbeefu);
+    std::vector<std::uint64_t> id_out(n, 0xdeadbeefull);
+    v.rank(stable.data(), keys.data(), perm.data(), id_out.data(), id.data(), b0, b1);
+    for (std::size_t q = 0; q < m; ++q) {
+      ASSERT_EQ(perm[b0 + q], stable[expected_j[q]]) << v.isa << " m " << m << " runs " << run_sizes.size() << " slot " << q;
+      ASSERT_EQ(id_out[b0 + q], id[old[expected_j[q]]]) << v.isa << " m " << m << " slot " << q;
+    }
+    for (std::size_t j = 0; j < n; ++j)
+      if (j < b0 || j >= b1) {
+        EXPECT_EQ(perm[j], 0xdeadbeefu) << v.isa << " slot " << j;
+        EXPECT_EQ(id_out[j], 0xdeadbeefull) << v.isa << " slot " << j;
+      }
+  }
+}
+
+TEST(DsmcCellOrder, Key32LargeCellsOfAscendingRuns) {
+  std::uint32_t seed = 100;
+  const std::vector<std::vector<std::size_t>> shapes = {
+      {65}, {200}, {1, 182, 839, 187}, {3, 196, 858, 187, 2}, {216, 879, 203}, {40, 40}, {7, 8, 9, 60},
+      std::vector<std::size_t>(16, 9), std::vector<std::size_t>(17, 9), std::vector<std::size_t>(16, 1),
+      std::vector<std::size_t>(65, 1), std::vector<std::size_t>(300, 1), {1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 500}};
+  for (const auto& shape : shapes)
+    for (std::uint32_t rep = 0; rep < 4; ++rep) check_key32_runs_cell(shape, ++seed);
+  // random shapes: 2 to 40 runs of 1 to 120
+  std::mt19937 gen(7);
+  for (int rep = 0; rep < 200; ++rep) {
+    std::vector<std::size_t> shape(2 + gen() % 39);
+    for (auto& r : shape) r = 1 + gen() % 120;
+    std::size_t m = 0;
+    for (std::size_t r : shape) m += r;
+    if (m > 64) check_key32_runs_cell(shape, ++seed);
+  }
+}
+
+// The AVX-512 merge of two ascending runs of packed words (detail::merge_words_avx512)
+// against std::merge: every pair of lengths 0-40 (its vector loop needs eight of each; the
+// rest and the eight largest are finished one by one), runs that interleave at random, one
+// entirely below the other, and blocks of eight taken from one side in turn.
+TEST(DsmcCellOrder, MergeOfTwoRunsInAvx512LanesIsStdMerge) {
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512f") == 0) GTEST_SKIP() << "no AVX-512F on this CPU";
+  std::mt19937_64 gen(3);
+  for (std::size_t na = 0; na <= 40; ++na)
+    for (std::size_t nb = 0; nb <= 40; ++nb)
+      for (int shape = 0; shape < 3; ++shape) {
+        std::vector<std::uint64_t> all(na + nb);
+        for (std::size_t i = 0; i < all.size(); ++i) all[i] = (std::uint64_t{gen() % 0xffffffffull} << 32) | i;
+        std::vector<std::uint64_t> a, b;
+        std::sort(all.begin(), all.end());
+        if (shape == 0) {  // at random
+          std::shuffle(all.begin(), all.end(), gen);
+          a.assign(all.begin(), all.begin() + static_cast<long>(na));
+          b.assign(all.begin() + static_cast<long>(na), all.end());
+        } else if (shape == 1) {  // a below b
+          a.assign(all.begin(), all.begin() + static_cast<long>(na));
+          b.assign(all.begin() + static_cast<long>(na), all.end());
+        } else {  // blocks of eight, alternately a's and b's while both need more
+          for (std::size_t i = 0; i < all.size(); ++i) {
+            const bool to_a = (a.size() < na && ((i / 8) % 2 == 0 || b.size() >= nb));
+            (to_a ? a : b).push_back(all[i]);
+          }
+        }
+        std::sort(a.begin(), a.end());
+        std::sort(b.begin(), b.end());
+        std::vector<std::uint64_t> expected(na + nb), got(na + nb + 1, 0xabcdull);
+        std::merge(a.begin(), a.end(), b.begin(), b.end(), expected.begin());
+        std::uint64_t* end = grainbath::dsmc::detail::merge_words_avx512(a.data(), a.data() + a.size(), b.data(),
+                                                                         b.data() + b.size(), got.data());
+        ASSERT_EQ(end, got.data() + na + nb) << "na " << na << " nb " << nb << " shape " << shape;
+        ASSERT_EQ(got.back(), 0xabcdull) << "written past the end: na " << na << " nb " << nb;
+        got.pop_back();
+        ASSERT_EQ(got, expected) << "na " << na << " nb " << nb << " shape " << shape;
+      }
+}
+
 TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {
   // 0 and 2^32 - 1 (the key that equals the pad) in one cell
   std::vector<std::uint64_t> id = {0xffffffffull, 0, 0x80000000ull, 0x7fffffffull, 1};
