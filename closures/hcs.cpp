@@ -216,6 +216,8 @@ double hcs_a2_first_sonine(double e) {
 }
 
 HcsSonine hcs_sonine2_linear(double e) {
+  check_e(e);
+  if (e == 1.0) return {0.0, 0.0};  // elastic: the Maxwellian (without building the table)
   const HcsCollisionMoments m = hcs_collision_moments(e);
   // docs eq. H8: E4 and E6 to first order in (a2, a3)
   const double A = m.mu4[1] - 5.0 * (m.mu2[0] + m.mu2[1]), B = m.mu4[2] - 5.0 * m.mu2[2];
@@ -227,8 +229,9 @@ HcsSonine hcs_sonine2_linear(double e) {
 }
 
 HcsSonine hcs_sonine2_nonlinear(double e) {
-  const HcsCollisionMoments m = hcs_collision_moments(e);
+  check_e(e);
   if (e == 1.0) return {0.0, 0.0};
+  const HcsCollisionMoments m = hcs_collision_moments(e);
   // docs eq. H9: Newton on (E4, E6) with the full quadratic mu_p and the analytic Jacobian.
   // Divided by mu_2(0,0) ~ (1 - e^2) so the tolerance is relative.
   const double scale = m.mu2[0];
@@ -257,6 +260,9 @@ HcsSonine hcs_sonine2_nonlinear(double e) {
 std::vector<double> hcs_sonine_linear(double e, int K) {
   check_e(e);
   if (K < 2 || K > kMaxOrder) throw ClosureError("hcs_sonine_linear: K must be 2 ... 6");
+  // elastic: the Maxwellian, before the tables (their first build takes ~0.1 s, which every
+  // elastic DSMC run paid for nothing in its theory values)
+  if (e == 1.0) return std::vector<double>(K - 1, 0.0);
   static const LinearTable lin = build_linear_table();
   const double lambda = 0.5 * (1.0 + e);
   auto C = [&](int k, int t) {  // coefficient of mu_{2k} for weight t at this e
@@ -287,7 +293,6 @@ std::vector<double> hcs_sonine_linear(double e, int K) {
     }
     return v;
   };
-  if (e == 1.0) return std::vector<double>(K - 1, 0.0);
   // E_k = mu_{2k} - (2k/3) mu_2 <x^k> to first order in the a_j (docs eq. H4 for every k)
   const int n = K - 1;
   std::vector<double> A(n * n), rhs(n);

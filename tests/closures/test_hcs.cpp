@@ -217,6 +217,15 @@ TEST(HcsSoninePredictions, LinearSeriesMatchesTheIndependentScript) {
     }
   EXPECT_THROW(hcs_sonine_linear(0.5, 7), ClosureError);
   EXPECT_THROW(hcs_sonine_linear(0.5, 1), ClosureError);
+  // elastic grains: the Maxwellian (every a_k = 0), answered before the tables are built, with
+  // the same checks of K and e as any other restitution
+  for (int K = 2; K <= 6; ++K) EXPECT_EQ(hcs_sonine_linear(1.0, K), std::vector<double>(K - 1, 0.0)) << K;
+  EXPECT_THROW(hcs_sonine_linear(1.0, 7), ClosureError);
+  EXPECT_THROW(hcs_sonine_linear(1.5, 4), ClosureError);
+  EXPECT_THROW(hcs_sonine2_linear(1.5), ClosureError);
+  EXPECT_THROW(hcs_sonine2_nonlinear(-0.1), ClosureError);
+  EXPECT_EQ(hcs_sonine2_nonlinear(1.0).a2, 0.0);
+  EXPECT_EQ(hcs_sonine2_nonlinear(1.0).a3, 0.0);
 }
 
 TEST(HcsSoninePredictions, CoolingRateRatio) {
