@@ -54,8 +54,9 @@ inline void rank_keys32(const std::int32_t* __restrict keys, const std::uint32_t
 // Which run gives the next element is a coin toss where two runs interleave (grains from the
 // neighbouring cells), so the merge's branch is mispredicted about once per element of the
 // smaller run: in hot-walls (1250 grains a cell) the merge held 19 % of a 1-thread run. The
-// fused step's cells (32-bit ids) therefore merge packed words, in AVX-512 where the CPU has
-// it, smallest runs first (merge_runs_by_key32; 12 % faster there, docs/performance/dsmc1.md).
+// fused step's cells (32-bit ids) therefore merge packed words, smallest runs first, in
+// AVX-512 or AVX2 lanes where the CPU has them (merge_runs_by_key32; hot-walls 11 % and 4 %
+// faster, docs/performance/dsmc1.md).
 // A branch-free scalar merge (a select per element) was slower still: its loop-carried
 // dependency costs more than the mispredictions of the runs' unequal sizes.
 // The scratch is per thread and only grows (no allocation per cell or step).
@@ -190,11 +191,85 @@ inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   }
 }
 #pragma GCC diagnostic pop
+// The same in AVX2 lanes, four words at a time (CPUs without AVX-512). AVX2 has no unsigned
+// 64-bit min/max, only a signed compare: the words are loaded with their top bit flipped (the
+// signed order of the flipped words is the unsigned order of the words), min and max are blends
+// on that compare, and the bit is flipped back on the store. The network: min/max of a and b
+// reversed, then half-cleaners at distances 2 and 1.
+[[gnu::target("avx2"), gnu::always_inline]] inline void min_max4(__m256i a, __m256i b, __m256i& lo, __m256i& hi) {
+  const __m256i a_above = _mm256_cmpgt_epi64(a, b);
+  lo = _mm256_blendv_epi8(a, b, a_above);
+  hi = _mm256_blendv_epi8(b, a, a_above);
+}
+[[gnu::target("avx2"), gnu::always_inline]] inline void bitonic_merge4(__m256i& a, __m256i& b) {
+  __m256i lo, hi, mn, mx;
+  min_max4(a, _mm256_permute4x64_epi64(b, 0x1B), lo, hi);  // b reversed: lanes 3, 2, 1, 0
+  // distance 2 (partner lanes 2, 3, 0, 1): the min in lanes 0-1, the max in lanes 2-3
+  min_max4(lo, _mm256_permute4x64_epi64(lo, 0x4E), mn, mx);
+  lo = _mm256_blend_epi32(mn, mx, 0xF0);
+  min_max4(hi, _mm256_permute4x64_epi64(hi, 0x4E), mn, mx);
+  hi = _mm256_blend_epi32(mn, mx, 0xF0);
+  // distance 1 (partner lanes 1, 0, 3, 2): the min in lanes 0 and 2, the max in 1 and 3
+  min_max4(lo, _mm256_permute4x64_epi64(lo, 0xB1), mn, mx);
+  lo = _mm256_blend_epi32(mn, mx, 0xCC);
+  min_max4(hi, _mm256_permute4x64_epi64(hi, 0xB1), mn, mx);
+  hi = _mm256_blend_epi32(mn, mx, 0xCC);
+  a = lo;
+  b = hi;
+}
+[[gnu::target("avx2"), gnu::always_inline]] inline __m256i load_flipped(const std::uint64_t* p, __m256i top) {
+  return _mm256_xor_si256(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)), top);
+}
+[[gnu::target("avx2")]] inline std::uint64_t* merge_words_avx2(const std::uint64_t* a, const std::uint64_t* ae,
+                                                               const std::uint64_t* b, const std::uint64_t* be,
+                                                               std::uint64_t* out) {
+  const auto identity = [](std::uint64_t w) { return w; };
+  if (ae - a < 4 || be - b < 4) return merge_runs(a, ae, b, be, out, identity);
+  const __m256i top = _mm256_set1_epi64x(static_cast<long long>(0x8000000000000000ull));
+  __m256i low = load_flipped(a, top), high = load_flipped(b, top);
+  a += 4;
+  b += 4;
+  for (;;) {
+    bitonic_merge4(low, high);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out), _mm256_xor_si256(low, top));
+    out += 4;
+    if (a != ae && (b == be || *a < *b)) {
+      if (ae - a < 4) break;
+      low = load_flipped(a, top);
+      a += 4;
+    } else {
+      if (b == be || be - b < 4) break;
+      low = load_flipped(b, top);
+      b += 4;
+    }
+  }
+  // the four largest so far and what is left of both runs (one of them under four words)
+  alignas(32) std::uint64_t rest[4];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(rest), _mm256_xor_si256(high, top));
+  const std::uint64_t* t = rest;
+  constexpr std::uint64_t done = std::numeric_limits<std::uint64_t>::max();
+  for (;;) {
+    const std::uint64_t x = t != rest + 4 ? *t : done, y = a != ae ? *a : done, z = b != be ? *b : done;
+    if (x < y && x < z) {
+      *out++ = x;
+      ++t;
+    } else if (y < z) {
+      *out++ = y;
+      ++a;
+    } else if (z != done) {
+      *out++ = z;
+      ++b;
+    } else {
+      return out;
+    }
+  }
+}
 // The same for the fused step's 32-bit keys (every id below 2^32): id and old index packed
 // into one 64-bit word, id << 32 | index, so that a compare of words is a compare of ids
 // (distinct; the index is below 2^32 - 1, so no word is UINT64_MAX) and a merge moves 8
 // bytes per element instead of 16. Reads keys[b0, b1) (id ^ 2^31) and stable[b0, b1); writes
-// perm and id_out in id order. AVX-512F where Philox4x32Lanes::have_avx512 (the same order).
+// perm and id_out in id order. The merges in AVX-512 where Philox4x32Lanes::have_avx512, else
+// in AVX2 where have_avx2, else scalar (the same order).
 // Up to kSmallestFirst runs are merged two smallest first (Huffman's order: any order of
 // merges gives the one sorted result, ids being distinct): a cell's runs are its grains
 // that stay (the largest run, 70 % of a hot-walls cell) and the arrivals from each side, so
@@ -221,11 +296,13 @@ inline void merge_runs_by_key32(const std::uint32_t* __restrict stable, const st
     }
   }
   runs.push_back(m);
-  const bool avx512 = Philox4x32Lanes::have_avx512();
-  const auto merge = [avx512](const std::uint64_t* a, const std::uint64_t* ae, const std::uint64_t* b,
-                              const std::uint64_t* be, std::uint64_t* out) {
+  const bool avx512 = Philox4x32Lanes::have_avx512(), avx2 = Philox4x32Lanes::have_avx2();
+  const auto merge = [avx512, avx2](const std::uint64_t* a, const std::uint64_t* ae, const std::uint64_t* b,
+                                    const std::uint64_t* be, std::uint64_t* out) {
     if (avx512)
       merge_words_avx512(a, ae, b, be, out);
+    else if (avx2)
+      merge_words_avx2(a, ae, b, be, out);
     else
       merge_runs(a, ae, b, be, out, [](std::uint64_t w) { return w; });
   };

@@ -261,18 +261,21 @@ TEST(DsmcCellOrder, Key32LargeCellsOfAscendingRuns) {
   }
 }
 
-// The AVX-512 merge of two ascending runs of packed words (detail::merge_words_avx512)
-// against std::merge: every pair of lengths 0-40 (its vector loop needs eight of each; the
-// rest and the eight largest are finished one by one), runs that interleave at random, one
-// entirely below the other, and blocks of eight taken from one side in turn.
-TEST(DsmcCellOrder, MergeOfTwoRunsInAvx512LanesIsStdMerge) {
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx512f") == 0) GTEST_SKIP() << "no AVX-512F on this CPU";
+// The SIMD merges of two ascending runs of packed words (detail::merge_words_avx512, eight
+// words a register; detail::merge_words_avx2, four, on words with the top bit flipped for the
+// signed compare) against std::merge: every pair of lengths 0-40 (the vector loops need a
+// register's worth of each; the rest and the largest register are finished one by one),
+// words with and without the top bit, runs that interleave at random, one entirely below the
+// other, and blocks of eight taken from one side in turn.
+using WordMerge = std::uint64_t* (*)(const std::uint64_t*, const std::uint64_t*, const std::uint64_t*,
+                                     const std::uint64_t*, std::uint64_t*);
+void check_word_merge(const char* isa, WordMerge merge) {
   std::mt19937_64 gen(3);
   for (std::size_t na = 0; na <= 40; ++na)
     for (std::size_t nb = 0; nb <= 40; ++nb)
       for (int shape = 0; shape < 3; ++shape) {
         std::vector<std::uint64_t> all(na + nb);
+        // ids across 2^31 (the top bit of the word) and the index in the low half
         for (std::size_t i = 0; i < all.size(); ++i) all[i] = (std::uint64_t{gen() % 0xffffffffull} << 32) | i;
         std::vector<std::uint64_t> a, b;
         std::sort(all.begin(), all.end());
@@ -293,13 +296,20 @@ TEST(DsmcCellOrder, MergeOfTwoRunsInAvx512LanesIsStdMerge) {
         std::sort(b.begin(), b.end());
         std::vector<std::uint64_t> expected(na + nb), got(na + nb + 1, 0xabcdull);
         std::merge(a.begin(), a.end(), b.begin(), b.end(), expected.begin());
-        std::uint64_t* end = grainbath::dsmc::detail::merge_words_avx512(a.data(), a.data() + a.size(), b.data(),
-                                                                         b.data() + b.size(), got.data());
-        ASSERT_EQ(end, got.data() + na + nb) << "na " << na << " nb " << nb << " shape " << shape;
-        ASSERT_EQ(got.back(), 0xabcdull) << "written past the end: na " << na << " nb " << nb;
+        std::uint64_t* end = merge(a.data(), a.data() + a.size(), b.data(), b.data() + b.size(), got.data());
+        ASSERT_EQ(end, got.data() + na + nb) << isa << " na " << na << " nb " << nb << " shape " << shape;
+        ASSERT_EQ(got.back(), 0xabcdull) << isa << " written past the end: na " << na << " nb " << nb;
         got.pop_back();
-        ASSERT_EQ(got, expected) << "na " << na << " nb " << nb << " shape " << shape;
+        ASSERT_EQ(got, expected) << isa << " na " << na << " nb " << nb << " shape " << shape;
       }
+}
+
+TEST(DsmcCellOrder, MergeOfTwoRunsInSimdLanesIsStdMerge) {
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") == 0) GTEST_SKIP() << "no AVX2 on this CPU";
+  check_word_merge("avx2", grainbath::dsmc::detail::merge_words_avx2);
+  if (__builtin_cpu_supports("avx512f") == 0) GTEST_SKIP() << "no AVX-512F on this CPU: the AVX2 merge only";
+  check_word_merge("avx512f", grainbath::dsmc::detail::merge_words_avx512);
 }
 
 TEST(DsmcCellOrder, ExtremeThirtyTwoBitIds) {
