@@ -633,4 +633,19 @@ inline void bath_evolve_batch(std::size_t n, const std::uint64_t* id, double* vx
     detail::bath_sse2::evolve_batch(n, id, vx, vy, vz, hazard, b, grain_mass, duration, key, counters);
 }
 
+// The same for grains each in its own medium: grain i of [0, n) in media[i] (a background
+// that varies in space, DSMC's local_background at the grain's position): bitwise the
+// results of bath_evolve_keyed per grain with media[i] (a grain whose medium has rate_scale
+// <= 0 keeps its velocity and residual). The grains enter the chunk one by one (each with its
+// own rate), the tests run in lanes as above with each lane's medium compacted beside its
+// grain.
+inline void bath_evolve_batch_local(std::size_t n, const std::uint64_t* id, double* vx, double* vy, double* vz,
+                                    double* hazard, const BackgroundState* media, double grain_mass, double duration,
+                                    const BathKey& key, BackgroundCounters& counters) {
+  if (Philox4x32Lanes::have_avx2())
+    detail::bath_avx2::evolve_batch_local(n, id, vx, vy, vz, hazard, media, grain_mass, duration, key, counters);
+  else
+    detail::bath_sse2::evolve_batch_local(n, id, vx, vy, vz, hazard, media, grain_mass, duration, key, counters);
+}
+
 }  // namespace grainbath

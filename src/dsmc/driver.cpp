@@ -149,29 +149,32 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
   const bool second_half = stream == Stream::background_second_half;
   const bool cached = local && !second_half && cache.step == s.step && cache.at.size() == p.size();
   if (local && second_half) cache.at.resize(p.size());
-  // The fixed random budget per test (operators/background.hpp, bath_evolve_batch): a
-  // uniform medium takes the interleaved kernel over the block, a local one the per-grain
-  // kernel with the same draws (bitwise the same results for the same medium).
+  // The fixed random budget per test (operators/background.hpp, bath_evolve_batch): the
+  // interleaved kernel over the block, with one medium (uniform) or each grain's own (local:
+  // bath_evolve_batch_local); bitwise the per-grain kernel's results either way.
 #pragma omp parallel for schedule(dynamic, 4)
   for (std::size_t blk = 0; blk < blocks; ++blk) {
     BackgroundCounters cnt;
     const std::size_t lo = bounds[blk], hi = bounds[blk + 1];
     if (local) {
-      for (std::size_t i = lo; i < hi; ++i) {
-        Vec3 v = p.velocity(i);
-        BackgroundState b;
-        if (cached) {
-          b = cache.at[i];
-        } else {
-          const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
-          b = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
-          if (second_half) cache.at[i] = b;
+      // each grain's medium at its position (the second half's are kept for the next step's
+      // first, the grains not having moved), then the batch kernel with a medium per grain
+      const BackgroundState* media = cached ? cache.at.data() + lo : nullptr;
+      if (!cached) {
+        thread_local std::vector<BackgroundState> block_media;
+        BackgroundState* at = second_half ? cache.at.data() + lo : nullptr;
+        if (at == nullptr) {
+          if (block_media.size() < hi - lo) block_media.resize(hi - lo);
+          at = block_media.data();
         }
-        double gain;
-        bath_evolve_keyed(v, p.bath_hazard[i], b, m, duration, key, p.id[i], cnt, gain);
-        cnt.energy_gain += gain;
-        p.set_velocity(i, v);
+        for (std::size_t i = lo; i < hi; ++i) {
+          const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
+          at[i - lo] = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
+        }
+        media = at;
       }
+      bath_evolve_batch_local(hi - lo, p.id.data() + lo, p.vx.data() + lo, p.vy.data() + lo, p.vz.data() + lo,
+                              p.bath_hazard.data() + lo, media, m, duration, key, cnt);
     } else {
       bath_evolve_batch(hi - lo, p.id.data() + lo, p.vx.data() + lo, p.vy.data() + lo, p.vz.data() + lo,
                         p.bath_hazard.data() + lo, uniform_bath, m, duration, key, cnt);

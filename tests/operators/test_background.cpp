@@ -454,6 +454,66 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
+// Grains each in its own medium (bath_evolve_batch_local, a background varying in space) are
+// the per-grain kernel with each grain's BackgroundState: bitwise the same velocities,
+// residuals and counters, on every instruction-set path. The media differ in every field
+// (density and Knudsen number, drift, temperature, mass ratio), one in ten has no background
+// (rate_scale 0: the grain keeps its velocity and residual), neighbours are very hot and
+// very cold media (different numbers of tests, so the compaction moves each lane's medium),
+// and a grain at rest in its medium's frame. Fails if a lane takes another grain's medium
+// (the compaction or the padding of the medium arrays) or a uniform field.
+using LocalBatchPath = void (*)(std::size_t, const std::uint64_t*, double*, double*, double*, double*,
+                                const BackgroundState*, double, double, const BathKey&, BackgroundCounters&);
+TEST(BathKernel, LocalMediaEqualPerGrainBitwise) {
+  std::vector<std::pair<const char*, LocalBatchPath>> paths{{"sse2", detail::bath_sse2::evolve_batch_local}};
+  if (__builtin_cpu_supports("avx2")) paths.emplace_back("avx2", detail::bath_avx2::evolve_batch_local);
+  paths.emplace_back("dispatched", bath_evolve_batch_local);
+  for (const auto& [name, run] : paths)
+    for (const std::size_t n : {1u, 2u, 3u, 5u, 7u, 255u, 257u, 1031u}) {
+      SCOPED_TRACE(name);
+      SCOPED_TRACE(n);
+      std::vector<double> vx(n), vy(n), vz(n), hz(n);
+      std::vector<std::uint64_t> id(n);
+      std::vector<BackgroundState> media(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        CounterRng r(17, Stream::initial_velocities, i, 0);
+        const double hot = i % 2 == 0 ? 3.0 : 0.2;  // neighbours in very different media
+        media[i] = BackgroundState::make(i % 10 == 4 ? 0.0 : 0.5 + r.uniform(), 0.02 + 0.1 * r.uniform(),
+                                         {0.5 * r.normal(), 0.5 * r.normal(), 0.5 * r.normal()}, hot * (0.5 + r.uniform()),
+                                         0.2 + 0.6 * r.uniform(), 1.3);
+        vx[i] = 2 * r.normal();
+        vy[i] = r.normal();
+        vz[i] = r.normal();
+        hz[i] = i % 7 == 3 ? 1e3 : r.exponential();
+        id[i] = 1000003 * i + (std::uint64_t{1} << 40);
+      }
+      vx[n / 2] = media[n / 2].velocity.x, vy[n / 2] = media[n / 2].velocity.y, vz[n / 2] = media[n / 2].velocity.z;
+      auto kx = vx, ky = vy, kz = vz, kh = hz;
+      BackgroundCounters batch, keyed;
+      for (int s = 0; s < 3; ++s) {
+        const BathKey key{17, Stream::background_first_half, static_cast<std::uint64_t>(s)};
+        run(n, id.data(), vx.data(), vy.data(), vz.data(), hz.data(), media.data(), 1.3, 0.2, key, batch);
+        for (std::size_t i = 0; i < n; ++i) {
+          Vec3 v{kx[i], ky[i], kz[i]};
+          double gain;
+          bath_evolve_keyed(v, kh[i], media[i], 1.3, 0.2, key, id[i], keyed, gain);
+          keyed.energy_gain += gain;
+          kx[i] = v.x, ky[i] = v.y, kz[i] = v.z;
+        }
+      }
+      EXPECT_GT(keyed.candidates, 10 * n);
+      EXPECT_EQ(batch.candidates, keyed.candidates);
+      EXPECT_EQ(batch.collisions, keyed.collisions);
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(batch.energy_gain), std::bit_cast<std::uint64_t>(keyed.energy_gain));
+      for (std::size_t i = 0; i < n; ++i) {
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(vx[i]), std::bit_cast<std::uint64_t>(kx[i])) << i;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(vy[i]), std::bit_cast<std::uint64_t>(ky[i])) << i;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(vz[i]), std::bit_cast<std::uint64_t>(kz[i])) << i;
+        ASSERT_EQ(std::bit_cast<std::uint64_t>(hz[i]), std::bit_cast<std::uint64_t>(kh[i])) << i;
+      }
+    }
+}
+
 // The lane compaction of the batch kernel's active grains (compact, compact_ints): for
 // every mask, the marked lanes come first, in order, bitwise (doubles and int32), on both
 // paths.
