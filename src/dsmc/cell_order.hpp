@@ -119,6 +119,29 @@ inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
     id_out[b0 + a] = sorted[a].id;
   }
 }
+// The end of the SIMD merges: the largest register's words [t, te) and what is left of the
+// two runs, merged one word at a time (packed words are never UINT64_MAX, which marks a run
+// that is used up).
+inline std::uint64_t* merge_three_runs(const std::uint64_t* t, const std::uint64_t* te, const std::uint64_t* a,
+                                       const std::uint64_t* ae, const std::uint64_t* b, const std::uint64_t* be,
+                                       std::uint64_t* out) {
+  constexpr std::uint64_t done = std::numeric_limits<std::uint64_t>::max();
+  for (;;) {
+    const std::uint64_t x = t != te ? *t : done, y = a != ae ? *a : done, z = b != be ? *b : done;
+    if (x < y && x < z) {
+      *out++ = x;
+      ++t;
+    } else if (y < z) {
+      *out++ = y;
+      ++a;
+    } else if (z != done) {
+      *out++ = z;
+      ++b;
+    } else {
+      return out;
+    }
+  }
+}
 // Merging in AVX-512 (packed 64-bit words, never equal, never UINT64_MAX): eight words of
 // each run in a register, a bitonic network leaves the eight smallest in one and the eight
 // largest in the other; the smallest are stored, and the next eight come from the run whose
@@ -172,23 +195,7 @@ inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   // the eight largest so far and what is left of both runs (one of them under eight words)
   alignas(64) std::uint64_t rest[8];
   _mm512_store_si512(rest, high);
-  const std::uint64_t* t = rest;
-  constexpr std::uint64_t done = std::numeric_limits<std::uint64_t>::max();
-  for (;;) {
-    const std::uint64_t x = t != rest + 8 ? *t : done, y = a != ae ? *a : done, z = b != be ? *b : done;
-    if (x < y && x < z) {
-      *out++ = x;
-      ++t;
-    } else if (y < z) {
-      *out++ = y;
-      ++a;
-    } else if (z != done) {
-      *out++ = z;
-      ++b;
-    } else {
-      return out;
-    }
-  }
+  return merge_three_runs(rest, rest + 8, a, ae, b, be, out);
 }
 #pragma GCC diagnostic pop
 // The same in AVX2 lanes, four words at a time (CPUs without AVX-512). AVX2 has no unsigned
@@ -246,23 +253,7 @@ inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __re
   // the four largest so far and what is left of both runs (one of them under four words)
   alignas(32) std::uint64_t rest[4];
   _mm256_store_si256(reinterpret_cast<__m256i*>(rest), _mm256_xor_si256(high, top));
-  const std::uint64_t* t = rest;
-  constexpr std::uint64_t done = std::numeric_limits<std::uint64_t>::max();
-  for (;;) {
-    const std::uint64_t x = t != rest + 4 ? *t : done, y = a != ae ? *a : done, z = b != be ? *b : done;
-    if (x < y && x < z) {
-      *out++ = x;
-      ++t;
-    } else if (y < z) {
-      *out++ = y;
-      ++a;
-    } else if (z != done) {
-      *out++ = z;
-      ++b;
-    } else {
-      return out;
-    }
-  }
+  return merge_three_runs(rest, rest + 4, a, ae, b, be, out);
 }
 // The same for the fused step's 32-bit keys (every id below 2^32): id and old index packed
 // into one 64-bit word, id << 32 | index, so that a compare of words is a compare of ids

@@ -58,6 +58,22 @@ TEST(DsmcCellOrder, OrdersByIdInEveryBranch) {
   }
 }
 
+// The fused step's entry points for the order of a cell by 32-bit keys that this CPU can run:
+// the plain one (if asked for), the AVX2 and the AVX-512F ones.
+struct Key32EntryPoint {
+  const char* isa;
+  void (*rank)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*, const std::uint64_t*,
+               std::size_t, std::size_t);
+};
+std::vector<Key32EntryPoint> key32_entry_points(bool with_plain) {
+  __builtin_cpu_init();
+  std::vector<Key32EntryPoint> out;
+  if (with_plain) out.push_back({"plain", grainbath::dsmc::order_cell_by_key32});
+  if (__builtin_cpu_supports("avx2")) out.push_back({"avx2", grainbath::dsmc::order_cell_by_key32_avx2});
+  if (__builtin_cpu_supports("avx512f")) out.push_back({"avx512f", grainbath::dsmc::order_cell_by_key32_avx512});
+  return out;
+}
+
 // The fused step's variant (order_cell_by_key32): the cell's old indices in `stable` and its
 // 32-bit keys id ^ 2^31 in `keys`, read in place with other cells' entries (random junk)
 // before and after it, up to the padding at the array end; the same order and ids as
@@ -103,17 +119,7 @@ void check_key32_cell(std::size_t m, std::size_t after, std::uint32_t seed) {
     }
   // the SIMD rankings (the fused step's paths on AVX2 and AVX-512F CPUs): the same slots,
   // nothing else written
-  using Ranking = void (*)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*,
-                           const std::uint64_t*, std::size_t, std::size_t);
-  __builtin_cpu_init();
-  const struct {
-    const char* isa;
-    bool supported;
-    Ranking rank;
-  } variants[] = {{"avx2", __builtin_cpu_supports("avx2") != 0, grainbath::dsmc::order_cell_by_key32_avx2},
-                  {"avx512f", __builtin_cpu_supports("avx512f") != 0, grainbath::dsmc::order_cell_by_key32_avx512}};
-  for (const auto& v : variants) {
-    if (!v.supported) continue;
+  for (const auto& v : key32_entry_points(false)) {
     std::vector<std::uint32_t> perm2(n, 0xdeadbeefu);
     std::vector<std::uint64_t> id_out2(n, 0xdeadbeefull);
     v.rank(stable.data(), keys.data(), perm2.data(), id_out2.data(), id.data(), b0, b1);
@@ -186,7 +192,6 @@ TEST(DsmcCellOrder, LargeCellsOfAscendingRuns) {
 // SIMD entry points (AVX2, AVX-512F) with the same slots.
 void check_key32_runs_cell(const std::vector<std::size_t>& run_sizes, std::uint32_t seed) {
   using grainbath::dsmc::kKey32Padding;
-  using grainbath::dsmc::order_cell_by_key32;
   std::mt19937_64 gen(seed);
   std::size_t m = 0;
   for (std::size_t r : run_sizes) m += r;
@@ -215,18 +220,7 @@ void check_key32_runs_cell(const std::vector<std::size_t>& run_sizes, std::uint3
   std::vector<std::size_t> expected_j(m);
   std::iota(expected_j.begin(), expected_j.end(), b0);
   std::sort(expected_j.begin(), expected_j.end(), [&](std::size_t a, std::size_t b) { return id[old[a]] < id[old[b]]; });
-  using Ranking = void (*)(const std::uint32_t*, const std::int32_t*, std::uint32_t*, std::uint64_t*,
-                           const std::uint64_t*, std::size_t, std::size_t);
-  __builtin_cpu_init();
-  const struct {
-    const char* isa;
-    bool supported;
-    Ranking rank;
-  } variants[] = {{"plain", true, order_cell_by_key32},
-                  {"avx2", __builtin_cpu_supports("avx2") != 0, grainbath::dsmc::order_cell_by_key32_avx2},
-                  {"avx512f", __builtin_cpu_supports("avx512f") != 0, grainbath::dsmc::order_cell_by_key32_avx512}};
-  for (const auto& v : variants) {
-    if (!v.supported) continue;
+  for (const auto& v : key32_entry_points(true)) {
     std::vector<std::uint32_t> perm(n, 0xdeadbeefu);
     std::vector<std::uint64_t> id_out(n, 0xdeadbeefull);
     v.rank(stable.data(), keys.data(), perm.data(), id_out.data(), id.data(), b0, b1);
