@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <functional>
@@ -454,6 +455,21 @@ TEST(BathKernel, InterleavedEqualsPerGrainBitwise) {
   }
 }
 
+// Two runs of the bath kernels ended bitwise alike: the same counters (the energy sum to the
+// last bit) and, grain by grain, the same vx, vy, vz and residual.
+using GrainArrays = std::array<const std::vector<double>*, 4>;
+void expect_same_bits(const BackgroundCounters& got, const GrainArrays& got_grains, const BackgroundCounters& want,
+                      const GrainArrays& want_grains) {
+  EXPECT_EQ(got.candidates, want.candidates);
+  EXPECT_EQ(got.collisions, want.collisions);
+  EXPECT_EQ(std::bit_cast<std::uint64_t>(got.energy_gain), std::bit_cast<std::uint64_t>(want.energy_gain));
+  const char* names[4] = {"vx", "vy", "vz", "residual"};
+  for (std::size_t a = 0; a < 4; ++a)
+    for (std::size_t i = 0; i < want_grains[a]->size(); ++i)
+      ASSERT_EQ(std::bit_cast<std::uint64_t>((*got_grains[a])[i]), std::bit_cast<std::uint64_t>((*want_grains[a])[i]))
+          << names[a] << " of grain " << i;
+}
+
 // Grains each in its own medium (bath_evolve_batch_local, a background varying in space) are
 // the per-grain kernel with each grain's BackgroundState: bitwise the same velocities,
 // residuals and counters, on every instruction-set path. The media differ in every field
@@ -502,15 +518,7 @@ TEST(BathKernel, LocalMediaEqualPerGrainBitwise) {
         }
       }
       EXPECT_GT(keyed.candidates, 10 * n);
-      EXPECT_EQ(batch.candidates, keyed.candidates);
-      EXPECT_EQ(batch.collisions, keyed.collisions);
-      EXPECT_EQ(std::bit_cast<std::uint64_t>(batch.energy_gain), std::bit_cast<std::uint64_t>(keyed.energy_gain));
-      for (std::size_t i = 0; i < n; ++i) {
-        ASSERT_EQ(std::bit_cast<std::uint64_t>(vx[i]), std::bit_cast<std::uint64_t>(kx[i])) << i;
-        ASSERT_EQ(std::bit_cast<std::uint64_t>(vy[i]), std::bit_cast<std::uint64_t>(ky[i])) << i;
-        ASSERT_EQ(std::bit_cast<std::uint64_t>(vz[i]), std::bit_cast<std::uint64_t>(kz[i])) << i;
-        ASSERT_EQ(std::bit_cast<std::uint64_t>(hz[i]), std::bit_cast<std::uint64_t>(kh[i])) << i;
-      }
+      expect_same_bits(batch, {&vx, &vy, &vz, &hz}, keyed, {&kx, &ky, &kz, &kh});
     }
 }
 
@@ -637,15 +645,7 @@ TEST(BathKernel, AvxAndSse2PathsEqualBitwise) {
     detail::bath_avx2::evolve_batch(n, id.data(), ax.data(), ay.data(), az.data(), ah.data(), b, 1.0, 0.005, key, avx2);
   }
   EXPECT_GT(sse2.candidates, 5 * n);
-  EXPECT_EQ(avx2.candidates, sse2.candidates);
-  EXPECT_EQ(avx2.collisions, sse2.collisions);
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(avx2.energy_gain), std::bit_cast<std::uint64_t>(sse2.energy_gain));
-  for (std::size_t i = 0; i < n; ++i) {
-    ASSERT_EQ(std::bit_cast<std::uint64_t>(ax[i]), std::bit_cast<std::uint64_t>(vx[i])) << i;
-    ASSERT_EQ(std::bit_cast<std::uint64_t>(ay[i]), std::bit_cast<std::uint64_t>(vy[i])) << i;
-    ASSERT_EQ(std::bit_cast<std::uint64_t>(az[i]), std::bit_cast<std::uint64_t>(vz[i])) << i;
-    ASSERT_EQ(std::bit_cast<std::uint64_t>(ah[i]), std::bit_cast<std::uint64_t>(hz[i])) << i;
-  }
+  expect_same_bits(avx2, {&ax, &ay, &az, &ah}, sse2, {&vx, &vy, &vz, &hz});
 }
 
 // The bath kernel's own ziggurat tables (2^B layers) close: every layer has the base
