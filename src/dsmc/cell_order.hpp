@@ -77,17 +77,12 @@ inline T* merge_runs(const T* a, const T* ae, const T* b, const T* be, T* out, K
   out = std::copy(a, ae, out);
   return std::copy(b, be, out);
 }
-// The natural merge sort of `from[0, m)` (with `to` the same size as scratch): the runs'
-// boundaries are found, neighbouring runs merged pairwise until one is left. Returns the
-// array that holds the result (from or to).
-template <class T, class Key, class Merge>
-inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::size_t>& runs, Key key, Merge merge) {
-  runs.clear();
-  runs.push_back(0);
-  for (std::size_t a = 1; a < m; ++a)
-    if (key(from[a]) < key(from[a - 1])) runs.push_back(a);
-  runs.push_back(m);
-  while (runs.size() > 2) {  // runs holds r + 1 boundaries
+// Neighbouring runs of `from` merged pairwise until one is left, `runs` holding the runs'
+// r + 1 boundaries (`to`: scratch of the same size; `merge` as merge_runs). Returns the array
+// that holds the result (from or to).
+template <class T, class Merge>
+inline T* merge_pairwise(T* from, T* to, std::vector<std::size_t>& runs, Merge merge) {
+  while (runs.size() > 2) {
     std::size_t kept = 1;
     for (std::size_t r = 0; r + 1 < runs.size(); r += 2) {
       const std::size_t lo = runs[r], mid = runs[r + 1];
@@ -100,10 +95,17 @@ inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::siz
   }
   return from;
 }
+// The natural merge sort of `from[0, m)` (with `to` the same size as scratch): the runs'
+// boundaries are found, then merged pairwise. Returns the array that holds the result.
 template <class T, class Key>
 inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::size_t>& runs, Key key) {
-  return natural_merge_sort(from, to, m, runs, key,
-                            [key](const T* a, const T* ae, const T* b, const T* be, T* out) { merge_runs(a, ae, b, be, out, key); });
+  runs.clear();
+  runs.push_back(0);
+  for (std::size_t a = 1; a < m; ++a)
+    if (key(from[a]) < key(from[a - 1])) runs.push_back(a);
+  runs.push_back(m);
+  return merge_pairwise(from, to, runs,
+                        [key](const T* a, const T* ae, const T* b, const T* be, T* out) { merge_runs(a, ae, b, be, out, key); });
 }
 inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0,
                              std::size_t b1) {
@@ -300,19 +302,7 @@ inline void merge_runs_by_key32(const std::uint32_t* __restrict stable, const st
   const std::size_t r = runs.size() - 1;
   const std::uint64_t* sorted = scratch.data();
   if (r > kSmallestFirst) {  // many runs (a disordered cell): the pairwise passes
-    std::uint64_t* from = scratch.data();
-    while (runs.size() > 2) {
-      std::size_t kept = 1;
-      for (std::size_t q = 0; q + 1 < runs.size(); q += 2) {
-        const std::size_t lo = runs[q], mid = runs[q + 1];
-        const std::size_t hi = q + 2 < runs.size() ? runs[q + 2] : mid;  // an odd last run is copied
-        merge(from + lo, from + mid, from + mid, from + hi, from == scratch.data() ? from + m + lo : scratch.data() + lo);
-        runs[kept++] = hi;
-      }
-      runs.resize(kept);
-      from = from == scratch.data() ? scratch.data() + m : scratch.data();
-    }
-    sorted = from;
+    sorted = merge_pairwise(scratch.data(), scratch.data() + m, runs, merge);
   } else if (r > 1) {
     // the words merged in all: every merge's output, placed one after the other past the m
     // words of the cell
