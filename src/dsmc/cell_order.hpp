@@ -64,21 +64,9 @@ struct IdSlot {
   std::uint64_t id;
   std::uint32_t slot;
 };
-// Merges the ascending runs [a, ae) and [b, be) into `out`; `key` gives an element's sort
-// key. Equal keys (never two equal ids here) would take a's first.
-template <class T, class Key>
-inline T* merge_runs(const T* a, const T* ae, const T* b, const T* be, T* out, Key key) {
-  while (a != ae && b != be) {
-    if (key(*b) < key(*a))
-      *out++ = *b++;
-    else
-      *out++ = *a++;
-  }
-  out = std::copy(a, ae, out);
-  return std::copy(b, be, out);
-}
 // Neighbouring runs of `from` merged pairwise until one is left, `runs` holding the runs'
-// r + 1 boundaries (`to`: scratch of the same size; `merge` as merge_runs). Returns the array
+// r + 1 boundaries (`to`: scratch of the same size; `merge(a, ae, b, be, out)` merges two
+// ascending runs, as std::merge). Returns the array
 // that holds the result (from or to).
 template <class T, class Merge>
 inline T* merge_pairwise(T* from, T* to, std::vector<std::size_t>& runs, Merge merge) {
@@ -104,8 +92,9 @@ inline T* natural_merge_sort(T* from, T* to, std::size_t m, std::vector<std::siz
   for (std::size_t a = 1; a < m; ++a)
     if (key(from[a]) < key(from[a - 1])) runs.push_back(a);
   runs.push_back(m);
+  const auto by_key = [key](const T& x, const T& y) { return key(x) < key(y); };
   return merge_pairwise(from, to, runs,
-                        [key](const T* a, const T* ae, const T* b, const T* be, T* out) { merge_runs(a, ae, b, be, out, key); });
+                        [by_key](const T* a, const T* ae, const T* b, const T* be, T* out) { std::merge(a, ae, b, be, out, by_key); });
 }
 inline void merge_runs_by_id(std::uint32_t* __restrict perm, std::uint64_t* __restrict id_out, std::size_t b0,
                              std::size_t b1) {
@@ -164,19 +153,17 @@ inline std::uint64_t* merge_three_runs(const std::uint64_t* t, const std::uint64
 [[gnu::target("avx512f"), gnu::always_inline]] inline void bitonic_merge8(__m512i& a, __m512i& b) {
   b = _mm512_permutexvar_epi64(_mm512_set_epi64(0, 1, 2, 3, 4, 5, 6, 7), b);
   __m512i lo = _mm512_min_epu64(a, b), hi = _mm512_max_epu64(a, b);
-  const auto clean = half_clean;
   const __m512i d4 = _mm512_set_epi64(3, 2, 1, 0, 7, 6, 5, 4), d2 = _mm512_set_epi64(5, 4, 7, 6, 1, 0, 3, 2),
                 d1 = _mm512_set_epi64(6, 7, 4, 5, 2, 3, 0, 1);
-  lo = clean(clean(clean(lo, d4, 0xF0), d2, 0xCC), d1, 0xAA);
-  hi = clean(clean(clean(hi, d4, 0xF0), d2, 0xCC), d1, 0xAA);
+  lo = half_clean(half_clean(half_clean(lo, d4, 0xF0), d2, 0xCC), d1, 0xAA);
+  hi = half_clean(half_clean(half_clean(hi, d4, 0xF0), d2, 0xCC), d1, 0xAA);
   a = lo;
   b = hi;
 }
 [[gnu::target("avx512f")]] inline std::uint64_t* merge_words_avx512(const std::uint64_t* a, const std::uint64_t* ae,
                                                                     const std::uint64_t* b, const std::uint64_t* be,
                                                                     std::uint64_t* out) {
-  const auto identity = [](std::uint64_t w) { return w; };
-  if (ae - a < 8 || be - b < 8) return merge_runs(a, ae, b, be, out, identity);
+  if (ae - a < 8 || be - b < 8) return std::merge(a, ae, b, be, out);
   __m512i low = _mm512_loadu_si512(a), high = _mm512_loadu_si512(b);
   a += 8;
   b += 8;
@@ -232,8 +219,7 @@ inline std::uint64_t* merge_three_runs(const std::uint64_t* t, const std::uint64
 [[gnu::target("avx2")]] inline std::uint64_t* merge_words_avx2(const std::uint64_t* a, const std::uint64_t* ae,
                                                                const std::uint64_t* b, const std::uint64_t* be,
                                                                std::uint64_t* out) {
-  const auto identity = [](std::uint64_t w) { return w; };
-  if (ae - a < 4 || be - b < 4) return merge_runs(a, ae, b, be, out, identity);
+  if (ae - a < 4 || be - b < 4) return std::merge(a, ae, b, be, out);
   const __m256i top = _mm256_set1_epi64x(static_cast<long long>(0x8000000000000000ull));
   __m256i low = load_flipped(a, top), high = load_flipped(b, top);
   a += 4;
@@ -297,7 +283,7 @@ inline void merge_runs_by_key32(const std::uint32_t* __restrict stable, const st
     else if (avx2)
       merge_words_avx2(a, ae, b, be, out);
     else
-      merge_runs(a, ae, b, be, out, [](std::uint64_t w) { return w; });
+      std::merge(a, ae, b, be, out);
   };
   const std::size_t r = runs.size() - 1;
   const std::uint64_t* sorted = scratch.data();
