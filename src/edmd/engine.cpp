@@ -1,5 +1,6 @@
 #include "edmd/engine.hpp"
 
+#include "core/permute.hpp"
 #include "edmd/contact_time.hpp"
 
 #include <algorithm>
@@ -1112,17 +1113,11 @@ void Engine::sort_by_cell() {
             [](const Key& a, const Key& b) { return a.morton < b.morton || (a.morton == b.morton && a.id < b.id); });
   std::vector<std::uint32_t> order(n_);  // new slot -> old slot
   for (std::uint32_t k = 0; k < n_; ++k) order[k] = key[k].slot;
-  auto permute = [&](auto& vec) {
-    auto copy = vec;
-    for (std::size_t k = 0; k < n_; ++k) vec[k] = copy[order[k]];
-  };
-  permute(k_);
-  permute(a_);
-  permute(omega_);
-  permute(sc_);
-  permute(bg_time_);
-  if (!bg_win_.empty()) permute(bg_win_);  // redrawn after every sort, kept in step all the same
-  permute(id_);
+  key = {};
+  // in place, cycle by cycle: copies of these arrays were fresh pages (zeroed by the kernel)
+  // at every re-sort (src/core/permute.hpp). bg_win_ (empty without an air-table medium) is
+  // redrawn after every sort, kept in step all the same.
+  permute_in_place(order, k_, a_, omega_, sc_, bg_time_, bg_win_, id_);
   for (std::uint32_t k = 0; k < n_; ++k) slot_of_[id_[k]] = k;
 }
 
