@@ -167,9 +167,13 @@ void bath_substep(State& s, const Config& c, const BackgroundState& uniform_bath
           if (block_media.size() < hi - lo) block_media.resize(hi - lo);
           at = block_media.data();
         }
+        // the cell only for a medium given per cell (profile "file"); the analytic profiles
+        // read the position alone
+        const bool per_cell = c.field.profile == BackgroundProfile::file;
+        const CellGrid grid(c.domain);
         for (std::size_t i = lo; i < hi; ++i) {
           const double x = p.x[i], y = p.y.empty() ? 0.0 : p.y[i], z = p.z.empty() ? 0.0 : p.z[i];
-          at[i - lo] = local_background(c, x, y, z, cell_index(c.domain, x, y, z));
+          at[i - lo] = local_background(c, x, y, z, per_cell ? grid(x, y, z) : 0u);
         }
         media = at;
       }

@@ -150,7 +150,8 @@ void stream(State& s, const Config& c, std::uint64_t seed, std::vector<std::uint
 void sort_by_cell(State& s, const Config& c, std::vector<std::uint8_t>& removed);
 
 // The medium as seen by a grain at (x, y, z) in cell `cell` (Bisi-Spiga: background
-// collisions use the local nB, uB, TB).
+// collisions use the local nB, uB, TB). `cell` is read only for a medium given per cell
+// ([field] profile = "file"); the analytic profiles use the position.
 BackgroundState local_background(const Config& c, double x, double y, double z, std::uint32_t cell);
 
 // <ln TB> over cell k's extent along x (the midpoint rule on 64 sub-intervals), for a
