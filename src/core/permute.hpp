@@ -2,14 +2,15 @@
 // Reordering several parallel arrays by one permutation, in place.
 //
 // Why not `copy = a; a[k] = copy[order[k]]`: at 10^6 EDMD disks the copies of the per-slot
-// arrays are ~170 MB of fresh pages at every re-sort, each page zeroed by the kernel on first
-// touch; on the project's VMs that zeroing was a third of a short run's time
-// (docs/performance/edmd.md, "the re-sort without copies"). Following the permutation's
-// cycles needs one saved element per array instead.
+// arrays (188 bytes per disk) are ≈ 190 MB of fresh pages at every re-sort, each page zeroed
+// by the kernel on first touch; on the project's VMs that zeroing was a third of a short
+// run's time (docs/performance/edmd.md, "the re-sort without copies"). Following the
+// permutation's cycles needs one saved element per array instead.
 #include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 namespace grainbath {
@@ -17,7 +18,9 @@ namespace grainbath {
 // After the call, for every non-empty array a: a_after[k] == a_before[order[k]] (new slot k
 // takes old slot order[k]). Every array must have order.size() elements or none (an array
 // with none is left alone: an optional per-particle field that this run does not carry).
-// `order` must be a permutation of 0..n-1; it is consumed (left as the identity).
+// `order` must be a permutation of 0..n-1; it is consumed (left as the identity). One that is
+// not throws std::invalid_argument when the walk finds it out, the arrays then part-reordered
+// (a caller's logic error, not an input error).
 template <class... Arrays>
 void permute_in_place(std::vector<std::uint32_t>& order, Arrays&... arrays) {
   const std::size_t n = order.size();
