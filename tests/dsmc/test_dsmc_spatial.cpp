@@ -271,10 +271,11 @@ steady_from = 0.2
   fs::remove_all(dir);
 }
 
-// Steady shear background uB = (U0 sin(k y), 0, 0): at small eps the grains' mean velocity
-// follows it cell by cell (momentum relaxation rate ~ 1/eps beats the grains' own viscosity).
-TEST(DsmcSpatial, GrainsFollowTheShearBackground) {
-  const auto run = run_dsmc(R"(
+namespace {
+// The shear cases below: a 2D box of 16 cells along y, elastic grains, a strong coupling
+// (eps = 0.05); `medium` is the [background] lines that give uB.
+std::string shear_case(const std::string& medium) {
+  return R"(
 [domain]
 dimensions = 2
 length = [0.5, 2.0]
@@ -283,12 +284,8 @@ cells = [1, 16]
 temperature = 1.0
 [background]
 mass_ratio = 0.5
-density = 1.0
-temperature = 1.0
 knudsen = 0.05
-profile = "shear"
-amplitude = 0.5
-wavenumber_index = 1
+)" + medium + R"(
 [restitution]
 law = "elastic"
 [dsmc]
@@ -299,17 +296,29 @@ t_end = 2.0
 every = 0.02
 steady_from = 0.5
 field_batches = 8
-)",
-                            41, 0, "shear");
-  const auto u = run.series("/fields/velocity");  // [z][y][x][3] = 16 cells x 3
+)";
+}
+
+// The amplitude of sin(2 pi y / L) in the grains' mean x velocity of the 16 cells (least
+// squares at the cell centres; /fields/velocity is [z][y][x][3]).
+double fitted_shear_amplitude(const std::vector<double>& u) {
   double proj = 0, norm2 = 0;
   for (int j = 0; j < 16; ++j) {
-    const double y = (j + 0.5) * 2.0 / 16;
-    const double s = std::sin(2 * std::numbers::pi * y / 2.0);
+    const double s = std::sin(2 * std::numbers::pi * (j + 0.5) / 16);
     proj += u[3 * j] * s;
     norm2 += s * s;
   }
-  const double amplitude = proj / norm2;
+  return proj / norm2;
+}
+}  // namespace
+
+// Steady shear background uB = (U0 sin(k y), 0, 0): at small eps the grains' mean velocity
+// follows it cell by cell (momentum relaxation rate ~ 1/eps beats the grains' own viscosity).
+TEST(DsmcSpatial, GrainsFollowTheShearBackground) {
+  const auto run = run_dsmc(shear_case("density = 1.0\ntemperature = 1.0\nprofile = \"shear\"\namplitude = 0.5\n"
+                                       "wavenumber_index = 1"),
+                            41, 0, "shear");
+  const double amplitude = fitted_shear_amplitude(run.series("/fields/velocity"));
   std::printf("shear: fitted grain amplitude %.4f (background 0.5)\n", amplitude);
   // noise per cell ~ sqrt(T/(m * 2000 grains * 75 samples)) / sqrt(8 batches) ~ 3e-3
   EXPECT_NEAR(amplitude, 0.5, 0.025);
@@ -322,38 +331,15 @@ TEST(DsmcSpatial, GrainsFollowTheShearOfAFileMediumCellByCell) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("grainbath-bgshear-" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  constexpr int kCells = 16;
   {
     grainbath::H5File f((dir / "shear.h5").string(), grainbath::H5File::Mode::create);
-    f.write("density", std::vector<double>(kCells, 1.0));
-    f.write("temperature", std::vector<double>(kCells, 1.0));
-    std::vector<double> v(3 * kCells, 0.0);
-    for (int j = 0; j < kCells; ++j) v[3 * j] = 0.5 * std::sin(2 * std::numbers::pi * (j + 0.5) / kCells);
+    f.write("density", std::vector<double>(16, 1.0));
+    f.write("temperature", std::vector<double>(16, 1.0));
+    std::vector<double> v(3 * 16, 0.0);
+    for (int j = 0; j < 16; ++j) v[3 * j] = 0.5 * std::sin(2 * std::numbers::pi * (j + 0.5) / 16);
     f.write("velocity", v);
   }
-  std::ofstream(dir / "case.toml") << R"(
-[domain]
-dimensions = 2
-length = [0.5, 2.0]
-cells = [1, 16]
-[grains]
-temperature = 1.0
-[background]
-mass_ratio = 0.5
-knudsen = 0.05
-profile = "file"
-file = "shear.h5"
-[restitution]
-law = "elastic"
-[dsmc]
-particles = 32000
-dt = 0.005
-t_end = 2.0
-[sampling]
-every = 0.02
-steady_from = 0.5
-field_batches = 8
-)";
+  std::ofstream(dir / "case.toml") << shear_case("profile = \"file\"\nfile = \"shear.h5\"");
   grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
   auto cfg = grainbath::dsmc::read_config(reader);
   reader.finish();
@@ -365,14 +351,7 @@ field_batches = 8
   ctx.seed = 41;
   ctx.quiet = true;
   grainbath::dsmc::run(cfg, ctx, run.summary);
-  const auto u = run.series("/fields/velocity");
-  double proj = 0, norm2 = 0;
-  for (int j = 0; j < kCells; ++j) {
-    const double s = std::sin(2 * std::numbers::pi * (j + 0.5) / kCells);
-    proj += u[3 * j] * s;
-    norm2 += s * s;
-  }
-  const double amplitude = proj / norm2;
+  const double amplitude = fitted_shear_amplitude(run.series("/fields/velocity"));
   std::printf("file shear: fitted grain amplitude %.4f (background 0.5 at the cell centres)\n", amplitude);
   // the noise as in GrainsFollowTheShearBackground (~3e-3); the medium constant over a cell
   // (against the sine of the analytic profile) moves the amplitude by less than 1 %
