@@ -191,6 +191,27 @@ fields = false
   EXPECT_NEAR(mean, D * k * k, 4 * err);
 }
 
+namespace {
+// Writes `text` to dir/case.toml and runs it from there (so that a relative file name in it
+// resolves in dir), the output in dir/tag.
+grainbath::testing::CaseRun run_case_in(const std::filesystem::path& dir, const std::string& text,
+                                        const std::string& tag, std::uint64_t seed) {
+  std::ofstream(dir / "case.toml") << text;
+  grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
+  auto cfg = grainbath::dsmc::read_config(reader);
+  reader.finish();
+  grainbath::testing::CaseRun out;
+  out.dir = dir / tag;
+  std::filesystem::create_directories(out.dir);
+  grainbath::RunContext ctx;
+  ctx.out_dir = out.dir;
+  ctx.seed = seed;
+  ctx.quiet = true;
+  grainbath::dsmc::run(cfg, ctx, out.summary);
+  return out;
+}
+}  // namespace
+
 // Background fields from an HDF5 grid: a grid holding the uniform values reproduces the
 // uniform run bitwise; a grid of the wrong shape or without a dataset is a case error
 // naming [background] file.
@@ -236,22 +257,7 @@ every = 0.1
 steady_from = 0.2
 )";
   };
-  // the case file lives in `dir`, so a relative file name resolves there
-  auto run_in_dir = [&](const std::string& text, const std::string& tag) {
-    std::ofstream(dir / "case.toml") << text;
-    grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
-    auto cfg = grainbath::dsmc::read_config(reader);
-    reader.finish();
-    grainbath::testing::CaseRun out;
-    out.dir = dir / tag;
-    fs::create_directories(out.dir);
-    grainbath::RunContext ctx;
-    ctx.out_dir = out.dir;
-    ctx.seed = 3;
-    ctx.quiet = true;
-    grainbath::dsmc::run(cfg, ctx, out.summary);
-    return out;
-  };
+  auto run_in_dir = [&](const std::string& text, const std::string& tag) { return run_case_in(dir, text, tag, 3); };
   const auto uniform =
       run_in_dir(toml("density = 1.5\ntemperature = 0.8\nvelocity = [0.25, 0.125, -0.0625]"), "uniform");
   const auto from_file = run_in_dir(toml("profile = \"file\"\nfile = \"good.h5\""), "file");
@@ -339,18 +345,7 @@ TEST(DsmcSpatial, GrainsFollowTheShearOfAFileMediumCellByCell) {
     for (int j = 0; j < 16; ++j) v[3 * j] = 0.5 * std::sin(2 * std::numbers::pi * (j + 0.5) / 16);
     f.write("velocity", v);
   }
-  std::ofstream(dir / "case.toml") << shear_case("profile = \"file\"\nfile = \"shear.h5\"");
-  grainbath::CaseReader reader = grainbath::CaseReader::from_directory(dir.string());
-  auto cfg = grainbath::dsmc::read_config(reader);
-  reader.finish();
-  grainbath::testing::CaseRun run;
-  run.dir = dir / "out";
-  fs::create_directories(run.dir);
-  grainbath::RunContext ctx;
-  ctx.out_dir = run.dir;
-  ctx.seed = 41;
-  ctx.quiet = true;
-  grainbath::dsmc::run(cfg, ctx, run.summary);
+  const auto run = run_case_in(dir, shear_case("profile = \"file\"\nfile = \"shear.h5\""), "out", 41);
   const double amplitude = fitted_shear_amplitude(run.series("/fields/velocity"));
   std::printf("file shear: fitted grain amplitude %.4f (background 0.5 at the cell centres)\n", amplitude);
   // the noise as in GrainsFollowTheShearBackground (~3e-3); the medium constant over a cell
